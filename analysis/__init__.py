@@ -1,0 +1,1 @@
+"""Analysis of probing results: reads Parquet only, draws figures and tables."""
