@@ -1,0 +1,106 @@
+"""The ``probing`` command line: ``run``, ``truth``, ``fig4``.
+
+Errors a user can fix (a wrong scenario, a failed trim, a divergence) are
+printed as one line on stderr, with exit code 2 for bad input and 1 for a run
+that failed; no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _error(message: str, code: int) -> int:
+    print(f"probing: error: {message}", file=sys.stderr)
+    return code
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from probing.plant import DivergenceError, TrimError
+    from probing.run import run_scenario
+    from probing.scenario import ScenarioError, load_scenario
+
+    try:
+        scn = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        return _error(str(exc), 2)
+    try:
+        result = run_scenario(scn, args.out, progress=None)
+        if args.truth:
+            from probing.truth import compute_truth
+
+            compute_truth(scn, args.out)
+    except (TrimError, DivergenceError) as exc:
+        return _error(f"{args.scenario}: {exc}", 1)
+    print(
+        f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
+        f"{result.wall_s:.2f} s -> {result.out_dir}"
+    )
+    return 0
+
+
+def _cmd_truth(args: argparse.Namespace) -> int:
+    from probing.plant import DivergenceError, TrimError
+    from probing.scenario import ScenarioError, load_scenario
+    from probing.truth import compute_truth
+
+    try:
+        scn = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        return _error(str(exc), 2)
+    try:
+        path = compute_truth(scn, args.out)
+    except (TrimError, DivergenceError) as exc:
+        return _error(f"{args.scenario}: {exc}", 1)
+    print(f"{scn.name}: ground truth -> {path}")
+    return 0
+
+
+def _cmd_fig4(args: argparse.Namespace) -> int:
+    try:
+        from analysis.fig4 import main as fig4_main
+    except ImportError:
+        print(
+            "probing fig4: not yet: the Fig. 4 reproduction lands with issue [3/6]", file=sys.stderr
+        )
+        return 3
+    return fig4_main(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (exposed for documentation and tests)."""
+    parser = argparse.ArgumentParser(prog="probing", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="simulate a scenario and write Parquet")
+    run.add_argument("scenario", type=Path, help="scenario TOML file")
+    run.add_argument("--out", type=Path, default=Path("results"), help="output folder")
+    run.add_argument("--truth", action="store_true", help="also compute the ground truth")
+    run.set_defaults(func=_cmd_run)
+
+    truth = sub.add_parser(
+        "truth", help="small-signal pulse response by single pulse and linearisation"
+    )
+    truth.add_argument("scenario", type=Path)
+    truth.add_argument("--out", type=Path, default=Path("results"))
+    truth.set_defaults(func=_cmd_truth)
+
+    fig4 = sub.add_parser("fig4", help="reproduce the paper's Fig. 4")
+    fig4.add_argument("--out", type=Path, default=Path("results/fig4"))
+    fig4.set_defaults(func=_cmd_fig4)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``probing`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        return _error("interrupted", 130)

@@ -1,0 +1,98 @@
+"""Parquet output: atomic files, row groups as periods complete, provenance metadata."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+__all__ = ["AtomicParquetWriter", "git_revision", "provenance", "versions"]
+
+_PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and of the packages that shape the numbers."""
+    out = {"python": platform.python_version()}
+    for name in ("probing", "jsbsim", "numpy", "scipy", "pandas", "pyarrow"):
+        try:
+            out[name] = importlib_metadata.version(name)
+        except importlib_metadata.PackageNotFoundError:
+            out[name] = "unknown"
+    return out
+
+
+def git_revision() -> str:
+    """The project's git revision (with ``-dirty`` for uncommitted changes), or ``unknown``."""
+    try:
+        rev = subprocess.run(
+            ["git", "-C", str(_PROJECT_ROOT), "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(_PROJECT_ROOT), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return f"{rev}-dirty" if dirty else rev
+
+
+def provenance(**items: Any) -> dict[bytes, bytes]:
+    """Parquet key-value metadata: ``probing.<key>`` -> text (JSON for non-strings)."""
+    meta = {"versions": versions(), "git_revision": git_revision(), **items}
+    return {
+        f"probing.{k}".encode(): (
+            v if isinstance(v, str) else json.dumps(v, sort_keys=True)
+        ).encode()
+        for k, v in meta.items()
+    }
+
+
+class AtomicParquetWriter:
+    """Write a Parquet file in row groups under a temporary name; rename on :meth:`close`.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Final file name.
+    schema : pyarrow.Schema
+        Columns of the file.
+    metadata : dict
+        Key-value metadata stored in the file's schema.
+    """
+
+    def __init__(self, path: Path, schema: pa.Schema, metadata: dict[bytes, bytes]) -> None:
+        self.path = Path(path)
+        self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        self.schema = schema.with_metadata(metadata)
+        self._writer = pq.ParquetWriter(self.tmp, self.schema, compression="zstd")
+
+    def write(self, columns: dict[str, Any]) -> None:
+        """Append one row group."""
+        self._writer.write_table(pa.table(columns, schema=self.schema))
+
+    def close(self) -> None:
+        """Finish the file and move it to its final name."""
+        self._writer.close()
+        os.replace(self.tmp, self.path)
+
+    def abort(self) -> None:
+        """Drop the partial file."""
+        try:
+            self._writer.close()
+        finally:
+            self.tmp.unlink(missing_ok=True)
