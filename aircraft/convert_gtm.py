@@ -1,0 +1,985 @@
+#!/usr/bin/env python3
+"""Convert NASA's GTM T2 aerodynamic database into a JSBSim aircraft model.
+
+Usage::
+
+    python aircraft/convert_gtm.py PATH/TO/T2_polynomial_aerodatabase.mat [--out aircraft/gtm_t2]
+
+The input is the "Polynomial Fit Aero database (unlimited distribution), Version 0.2 with
+damage" shipped with NASA's GTM_DesignSim (LAR-17625-1, NASA Open Source Agreement 1.3). The
+output folder receives ``gtm_t2.xml`` and the engine/thruster files it includes
+(``Engines/gtm_jet.xml``, ``Engines/gtm_direct.xml``). The output is a pure function of the
+.mat file: numbers are written with a fixed format, nothing depends on the clock or the
+platform, so regenerating gives the committed files byte for byte.
+
+The converter itself is project code (MIT). The files it writes are derived from NASA's
+release and carry NOSA 1.3 (see ``aircraft/gtm_t2/README.md``).
+
+Modelling decisions (all documented in the generated XML and in ``docs/gtm.md``):
+
+* Database axes are body axes, CX forward, CY right, CZ down, Cl/Cm/Cn right-handed about the
+  aero reference point (25 % MAC). JSBSim's ``X``/``Y``/``Z`` axis system uses the same
+  directions, so the coefficients enter with sign +1 (no AXIAL/NORMAL flip).
+* Every table is linearly interpolated and clamped at its end breakpoints (JSBSim's FGTable
+  behaviour).
+* The 4-D elevator table (alpha, beta, stab, elev) is written as one 3-D table (alpha, beta,
+  elev) per stabilizer breakpoint, blended with piecewise-linear "hat" weights in the
+  stabilizer deflection: this is exactly the 4-D multilinear interpolation.
+* The four elevator panels are driven together (one symmetric deflection): 4 x 0.25 x table.
+* Left aileron / left spoiler and positive rudder are the mirror images (y -> -y) of the
+  tabulated right aileron / right spoiler / negative rudder: evaluated at -beta (and -delta
+  for the rudder) with CY, Cl and Cn negated.
+* Rates: the rotary table dC6_w is indexed by omega-hat = Omega b / 2V, Omega being the
+  projection of the body rate on the velocity vector; the forced-oscillation tables use the
+  remaining (oscillatory) rates, phat = p_osc b/2V, qhat = q_osc cbar/2V, rhat = r_osc b/2V.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+# --------------------------------------------------------------------------------------------
+# Geometry and mass (NASA GTM T2, gear up; FACTS.md)
+# --------------------------------------------------------------------------------------------
+S_FT2 = 5.9018
+CBAR_FT = 0.9153
+SPAN_FT = 6.8488
+MAC_LE_FT = 4.5462
+AERO_REF_FRAC = 0.25
+CG_FRAC = 0.2199
+WEIGHT_LBS = 57.75
+INERTIA_SLUGFT2 = {"ixx": 1.221, "iyy": 4.655, "izz": 5.587, "ixz": 0.274, "ixy": 0.006}
+THRUST_PER_ENGINE_LBF = 17.0
+
+# Servo (NASA: first-order 5 Hz loop, rate limit inside the loop)
+SERVO_BANDWIDTH_HZ = 5.0
+SERVO_RATE_LIMIT_DPS = 300.0
+ELEVATOR_LIMITS_DEG = (-30.0, 20.0)
+AILERON_LIMITS_DEG = (-30.0, 30.0)
+RUDDER_LIMITS_DEG = (-30.0, 30.0)
+SPOILER_LIMITS_DEG = (0.0, 65.0)
+DEG_PER_NORM = 30.0
+GEAR_RATE_PER_S = 0.2  # full extension / retraction in 5 s
+
+COEFFS6 = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+LONG3 = ("CX", "CZ", "Cm")
+LAT3 = ("CY", "Cl", "Cn")
+# Mirror image in the x-z plane: lateral coefficients change sign.
+MIRROR_SIGN = {"CX": 1, "CY": -1, "CZ": 1, "Cl": -1, "Cm": 1, "Cn": -1}
+
+ALPHA = "aero/alpha-deg"
+BETA = "aero/beta-deg"
+BETA_MIRROR = "aero/gtm/beta-mirror-deg"
+IND = "  "
+
+NOTICE = (
+    "Copyright 2009 United States Government as represented by the Administrator of the "
+    "National Aeronautics and Space Administration. No copyright is claimed in the United "
+    "States under Title 17, U.S. Code. All Other Rights Reserved."
+)
+
+
+# --------------------------------------------------------------------------------------------
+# Formatting helpers
+# --------------------------------------------------------------------------------------------
+def fmt(x: float) -> str:
+    """Format a number deterministically: 10 significant digits, no negative zero."""
+    x = float(x)
+    if x == 0.0:
+        return "0"
+    s = format(x, ".10g")
+    return s
+
+
+def fmt_fixed(x: float, digits: int = 6) -> str:
+    """Format a geometric constant with a fixed number of decimals."""
+    return f"{x:.{digits}f}"
+
+
+def indent(lines: Sequence[str], level: int) -> list[str]:
+    """Indent every line by ``level`` steps of two spaces."""
+    pad = IND * level
+    return [pad + line if line else line for line in lines]
+
+
+def prop(name: str) -> str:
+    """A ``<property>`` element."""
+    return f"<property>{name}</property>"
+
+
+def value(x: float) -> str:
+    """A ``<value>`` element."""
+    return f"<value>{fmt(x)}</value>"
+
+
+# --------------------------------------------------------------------------------------------
+# Table writers (JSBSim FGTable: row / column / table lookups, linear, clamped)
+# --------------------------------------------------------------------------------------------
+def _grid_2d(rows: np.ndarray, cols: np.ndarray, data: np.ndarray) -> list[str]:
+    """Lines of a 2-D tableData body: first line the column keys, then key + row values."""
+    lines = ["      " + " ".join(fmt(c) for c in cols)]
+    for i, r in enumerate(rows):
+        lines.append(fmt(r) + " " + " ".join(fmt(v) for v in data[i, :]))
+    return lines
+
+
+def table_1d(var: str, keys: np.ndarray, vals: np.ndarray) -> list[str]:
+    """A 1-D table element."""
+    lines = ["<table>", f'{IND}<independentVar lookup="row">{var}</independentVar>']
+    lines.append(f"{IND}<tableData>")
+    lines += indent([f"{fmt(k)} {fmt(v)}" for k, v in zip(keys, vals, strict=True)], 2)
+    lines += [f"{IND}</tableData>", "</table>"]
+    return lines
+
+
+def table_2d(row_var: str, rows: np.ndarray, col_var: str, cols: np.ndarray, data: np.ndarray):
+    """A 2-D table element; ``data`` has shape (len(rows), len(cols))."""
+    assert data.shape == (len(rows), len(cols))
+    lines = [
+        "<table>",
+        f'{IND}<independentVar lookup="row">{row_var}</independentVar>',
+        f'{IND}<independentVar lookup="column">{col_var}</independentVar>',
+        f"{IND}<tableData>",
+    ]
+    lines += indent(_grid_2d(rows, cols, data), 2)
+    lines += [f"{IND}</tableData>", "</table>"]
+    return lines
+
+
+def table_3d(
+    row_var: str,
+    rows: np.ndarray,
+    col_var: str,
+    cols: np.ndarray,
+    tab_var: str,
+    tabs: np.ndarray,
+    data: np.ndarray,
+) -> list[str]:
+    """A 3-D table element; ``data`` has shape (len(rows), len(cols), len(tabs))."""
+    assert data.shape == (len(rows), len(cols), len(tabs))
+    lines = [
+        "<table>",
+        f'{IND}<independentVar lookup="row">{row_var}</independentVar>',
+        f'{IND}<independentVar lookup="column">{col_var}</independentVar>',
+        f'{IND}<independentVar lookup="table">{tab_var}</independentVar>',
+    ]
+    for k, t in enumerate(tabs):
+        lines.append(f'{IND}<tableData breakPoint="{fmt(t)}">')
+        lines += indent(_grid_2d(rows, cols, data[:, :, k]), 2)
+        lines.append(f"{IND}</tableData>")
+    lines.append("</table>")
+    return lines
+
+
+def function(name: str, body: list[str], description: str | None = None) -> list[str]:
+    """A named ``<function>`` wrapping ``body``."""
+    lines = [f'<function name="{name}">']
+    if description:
+        lines.append(f"{IND}<description>{description}</description>")
+    lines += indent(body, 1)
+    lines.append("</function>")
+    return lines
+
+
+def signed(sign: int, body: list[str]) -> list[str]:
+    """Multiply an expression by -1 when ``sign`` is negative."""
+    if sign > 0:
+        return body
+    return ["<product>", f"{IND}{value(-1)}", *indent(body, 1), "</product>"]
+
+
+# --------------------------------------------------------------------------------------------
+# Database access
+# --------------------------------------------------------------------------------------------
+def load_database(path: Path) -> dict[str, object]:
+    """Read the .mat database (MATLAB 5 structs) into a dict of scipy mat_structs."""
+    return scipy.io.loadmat(str(path), squeeze_me=True, struct_as_record=False)
+
+
+def arr(x: object) -> np.ndarray:
+    """A float64 copy of a database array."""
+    return np.asarray(x, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------------------
+# Aerodynamics: one function per table group
+# --------------------------------------------------------------------------------------------
+def aero_inputs() -> list[str]:
+    """Derived inputs: mirrored sideslip, rotary / oscillatory normalised rates."""
+    ca_cb = [
+        "<product>",
+        "  <cos><property>aero/alpha-rad</property></cos>",
+        "  <cos><property>aero/beta-rad</property></cos>",
+        "</product>",
+    ]
+    sb = ["<sin><property>aero/beta-rad</property></sin>"]
+    sa_cb = [
+        "<product>",
+        "  <sin><property>aero/alpha-rad</property></sin>",
+        "  <cos><property>aero/beta-rad</property></cos>",
+        "</product>",
+    ]
+    half_over_v = "aero/gtm/half-over-vt-sec_ft"
+    lines: list[str] = []
+    lines += function(BETA_MIRROR, ["<product>", f"  {value(-1)}", f"  {prop(BETA)}", "</product>"])
+    lines += function(
+        half_over_v,
+        [
+            "<quotient>",
+            f"  {value(0.5)}",
+            "  <max>",
+            f"    {prop('velocities/vt-fps')}",
+            f"    {value(1)}",
+            "  </max>",
+            "</quotient>",
+        ],
+        "1/(2V) with V = true airspeed (floored at 1 ft/s)",
+    )
+    omega = "aero/gtm/omega-rad_sec"
+    lines += function(
+        omega,
+        [
+            "<sum>",
+            "  <product>",
+            f"    {prop('velocities/p-aero-rad_sec')}",
+            *indent(ca_cb, 2),
+            "  </product>",
+            "  <product>",
+            f"    {prop('velocities/q-aero-rad_sec')}",
+            *indent(sb, 2),
+            "  </product>",
+            "  <product>",
+            f"    {prop('velocities/r-aero-rad_sec')}",
+            *indent(sa_cb, 2),
+            "  </product>",
+            "</sum>",
+        ],
+        "body rate projected on the velocity vector (rotary-balance rate Omega)",
+    )
+    lines += function(
+        "aero/gtm/omega-hat",
+        [
+            "<product>",
+            f"  {prop(omega)}",
+            f"  {prop('metrics/bw-ft')}",
+            f"  {prop(half_over_v)}",
+            "</product>",
+        ],
+        "Omega b / 2V",
+    )
+    osc = (
+        ("p", "aero/gtm/p-hat", "metrics/bw-ft", ca_cb),
+        ("q", "aero/gtm/q-hat", "metrics/cbarw-ft", sb),
+        ("r", "aero/gtm/r-hat", "metrics/bw-ft", sa_cb),
+    )
+    for axis, name, length, direction in osc:
+        lines += function(
+            name,
+            [
+                "<product>",
+                "  <difference>",
+                f"    {prop(f'velocities/{axis}-aero-rad_sec')}",
+                "    <product>",
+                f"      {prop(omega)}",
+                *indent(direction, 3),
+                "    </product>",
+                "  </difference>",
+                f"  {prop(length)}",
+                f"  {prop(half_over_v)}",
+                "</product>",
+            ],
+            f"oscillatory {axis} rate, normalised ({axis}-Omega component) * ref length / 2V",
+        )
+    return lines
+
+
+def basic(db: dict) -> list[str]:
+    """C6_bas(alpha, beta): the basic airframe."""
+    t = db["C6_bas"]
+    a, b, d = arr(t.alpha), arr(t.beta), arr(t.data)
+    lines: list[str] = []
+    for i, c in enumerate(COEFFS6):
+        lines += function(f"aero/gtm/bas/{c}", table_2d(ALPHA, a, BETA, b, d[:, :, i]))
+    return lines
+
+
+def stab_weights(db: dict) -> list[str]:
+    """Piecewise-linear weights of the stabilizer breakpoints (exact 1-D interpolation)."""
+    stab = arr(db["dC3_ele"].stab)
+    lines: list[str] = []
+    for k, s in enumerate(stab):
+        w = np.zeros(len(stab))
+        w[k] = 1.0
+        lines += function(
+            f"aero/gtm/ele/w-stab{k}",
+            table_1d("fcs/stabilizer-pos-deg", stab, w),
+            f"interpolation weight of the stab = {fmt(s)} deg slice",
+        )
+    return lines
+
+
+def elevator(db: dict) -> list[str]:
+    """dC3_ele(alpha, beta, stab, elev): four panels deflected together, weight 4 x 0.25."""
+    t = db["dC3_ele"]
+    a, b, stab, elev, d = arr(t.alpha), arr(t.beta), arr(t.stab), arr(t.elev), arr(t.data)
+    lines: list[str] = []
+    for i, c in enumerate(LONG3):
+        terms: list[str] = ["<sum>"]
+        for k in range(len(stab)):
+            body = table_3d(ALPHA, a, BETA, b, "fcs/elevator-pos-deg", elev, d[:, :, k, :, i])
+            terms += indent(["<product>", f"{IND}{prop(f'aero/gtm/ele/w-stab{k}')}"], 1)
+            terms += indent(body, 2)
+            terms += indent(["</product>"], 1)
+        terms.append("</sum>")
+        lines += function(f"aero/gtm/ele/{c}", terms)
+    return lines
+
+
+def aileron(db: dict) -> list[str]:
+    """dC6_ail: right aileron as tabulated, left aileron as its mirror image."""
+    t = db["dC6_ail"]
+    a, b, ail, d = arr(t.alpha), arr(t.beta), arr(t.ail), arr(t.data)
+    lines: list[str] = []
+    for i, c in enumerate(COEFFS6):
+        body = table_3d(ALPHA, a, BETA, b, "fcs/right-aileron-pos-deg", ail, d[:, :, :, i])
+        lines += function(f"aero/gtm/ail-right/{c}", body)
+    for i, c in enumerate(COEFFS6):
+        body = table_3d(ALPHA, a, BETA_MIRROR, b, "fcs/left-aileron-pos-deg", ail, d[:, :, :, i])
+        lines += function(f"aero/gtm/ail-left/{c}", signed(MIRROR_SIGN[c], body))
+    return lines
+
+
+def rudder(db: dict) -> list[str]:
+    """dC6_rud: tabulated for negative deflection; positive deflection is the mirror image."""
+    t = db["dC6_rud"]
+    a, b, rud, d = arr(t.alpha), arr(t.beta), arr(t.rud), arr(t.data)
+    neg, mir = "aero/gtm/rudder-neg-deg", "aero/gtm/rudder-mirror-deg"
+    lines: list[str] = []
+    lines += function(
+        neg,
+        ["<min>", f"  {prop('fcs/rudder-pos-deg')}", f"  {value(0)}", "</min>"],
+        "min(rudder, 0): the tabulated (trailing edge right) side",
+    )
+    lines += function(
+        mir,
+        [
+            "<min>",
+            "  <product>",
+            f"    {value(-1)}",
+            f"    {prop('fcs/rudder-pos-deg')}",
+            "  </product>",
+            f"  {value(0)}",
+            "</min>",
+        ],
+        "min(-rudder, 0): a positive deflection looked up as its mirror image",
+    )
+    for i, c in enumerate(COEFFS6):
+        direct = table_3d(ALPHA, a, BETA, b, neg, rud, d[:, :, :, i])
+        mirrored = table_3d(ALPHA, a, BETA_MIRROR, b, mir, rud, d[:, :, :, i])
+        body = ["<sum>", *indent(direct, 1), *indent(signed(MIRROR_SIGN[c], mirrored), 1), "</sum>"]
+        lines += function(f"aero/gtm/rud/{c}", body)
+    return lines
+
+
+def spoiler(db: dict) -> list[str]:
+    """dC6_spo: right spoiler as tabulated, left spoiler as its mirror image."""
+    t = db["dC6_spo"]
+    a, b, spo, d = arr(t.alpha), arr(t.beta), arr(t.spo), arr(t.data)
+    lines: list[str] = []
+    for i, c in enumerate(COEFFS6):
+        body = table_3d(ALPHA, a, BETA, b, "fcs/right-spoiler-pos-deg", spo, d[:, :, :, i])
+        lines += function(f"aero/gtm/spo-right/{c}", body)
+    for i, c in enumerate(COEFFS6):
+        body = table_3d(ALPHA, a, BETA_MIRROR, b, "fcs/left-spoiler-pos-deg", spo, d[:, :, :, i])
+        lines += function(f"aero/gtm/spo-left/{c}", signed(MIRROR_SIGN[c], body))
+    return lines
+
+
+def rate_damping(db: dict) -> list[str]:
+    """dC3_q(alpha, qhat), dC3_p(alpha, phat), dC3_r(alpha, rhat): forced-oscillation data."""
+    lines: list[str] = []
+    groups = (
+        ("dC3_q", "qhat", "aero/gtm/q-hat", "q", LONG3),
+        ("dC3_p", "phat", "aero/gtm/p-hat", "p", LAT3),
+        ("dC3_r", "rhat", "aero/gtm/r-hat", "r", LAT3),
+    )
+    for key, field, var, short, coeffs in groups:
+        t = db[key]
+        a, h, d = arr(t.alpha), arr(getattr(t, field)), arr(t.data)
+        for i, c in enumerate(coeffs):
+            lines += function(f"aero/gtm/{short}/{c}", table_2d(ALPHA, a, var, h, d[:, :, i]))
+    return lines
+
+
+def rotary(db: dict) -> list[str]:
+    """dC6_w(alpha, omegahat, beta): rotary-balance increments."""
+    t = db["dC6_w"]
+    a, w, b, d = arr(t.alpha), arr(t.what), arr(t.beta), arr(t.data)
+    lines: list[str] = []
+    for i, c in enumerate(COEFFS6):
+        body = table_3d(ALPHA, a, "aero/gtm/omega-hat", w, BETA, b, d[:, :, :, i])
+        lines += function(f"aero/gtm/w/{c}", body)
+    return lines
+
+
+def landing_gear(db: dict) -> list[str]:
+    """dC3_lgr(alpha, gear): gear up (0) to gear down (1), linear in gear/gear-pos-norm."""
+    t = db["dC3_lgr"]
+    a, d = arr(t.alpha), arr(t.data)
+    gear = np.array([0.0, 1.0])
+    lines: list[str] = []
+    for i, c in enumerate(LONG3):
+        lines += function(
+            f"aero/gtm/lgr/{c}", table_2d(ALPHA, a, "gear/gear-pos-norm", gear, d[:, :, i])
+        )
+    return lines
+
+
+def flaps(db: dict) -> list[str]:
+    """Flap derivatives (per degree): the four panels deflected together by fcs/flap-pos-deg."""
+    t = db["flaps"]
+    total = sum(arr(getattr(t, f)) for f in ("flaplob", "flaplib", "flaprib", "flaprob"))
+    lines: list[str] = []
+    for i, c in enumerate(COEFFS6):
+        body = ["<product>", f"  {value(total[i])}", f"  {prop('fcs/flap-pos-deg')}", "</product>"]
+        lines += function(f"aero/gtm/flp/{c}", body)
+    return lines
+
+
+GROUPS: dict[str, tuple[str, ...]] = {
+    "CX": (
+        "bas",
+        "ele",
+        "ail-right",
+        "ail-left",
+        "rud",
+        "spo-right",
+        "spo-left",
+        "q",
+        "w",
+        "lgr",
+        "flp",
+    ),
+    "CY": ("bas", "ail-right", "ail-left", "rud", "spo-right", "spo-left", "p", "r", "w", "flp"),
+}
+GROUPS["CZ"] = GROUPS["CX"]
+GROUPS["Cm"] = GROUPS["CX"]
+GROUPS["Cl"] = GROUPS["CY"]
+GROUPS["Cn"] = GROUPS["CY"]
+
+
+def totals() -> list[str]:
+    """Total body-axis coefficients aero/coefficient/<C> (sum of all increments)."""
+    lines: list[str] = []
+    for c in COEFFS6:
+        body = ["<sum>"] + [f"  {prop(f'aero/gtm/{g}/{c}')}" for g in GROUPS[c]] + ["</sum>"]
+        lines += function(f"aero/coefficient/{c}", body, f"total {c} (database axes)")
+    return lines
+
+
+def axes() -> list[str]:
+    """JSBSim axis functions: forces qbar S C, moments qbar S {b, cbar} C, about AERORP."""
+    spec = (
+        ("X", "CX", None),
+        ("Y", "CY", None),
+        ("Z", "CZ", None),
+        ("ROLL", "Cl", "metrics/bw-ft"),
+        ("PITCH", "Cm", "metrics/cbarw-ft"),
+        ("YAW", "Cn", "metrics/bw-ft"),
+    )
+    lines: list[str] = []
+    for axis, c, length in spec:
+        factors = [prop("aero/qbar-psf"), prop("metrics/Sw-sqft")]
+        if length:
+            factors.append(prop(length))
+        factors.append(prop(f"aero/coefficient/{c}"))
+        body = ["<product>", *indent(factors, 1), "</product>"]
+        kind = "moment" if length else "force"
+        lines.append(f'<axis name="{axis}">')
+        lines += indent(function(f"aero/{kind}/gtm-{axis}", body, f"+1 * {c}"), 1)
+        lines.append("</axis>")
+    return lines
+
+
+def aerodynamics(db: dict) -> list[str]:
+    """The whole <aerodynamics> element."""
+    comment = [
+        "<!-- Axis mapping: the database gives body-axis coefficients with CX positive FORWARD,",
+        "     CY positive RIGHT, CZ positive DOWN and Cl, Cm, Cn right-handed about the aero",
+        "     reference point (25 % MAC). JSBSim's X/Y/Z axis system is the same body frame",
+        "     (X forward, Y right, Z down), so each force is +qbar*S*C (no sign flip; an",
+        "     AXIAL/NORMAL model would have needed -CX and -CZ). Moments are +qbar*S*{b,cbar}*C",
+        "     about AERORP; JSBSim transfers them to the CG. -->",
+    ]
+    body: list[str] = list(comment)
+    sections = (
+        ("derived inputs (mirrored sideslip, normalised rates)", aero_inputs()),
+        ("C6_bas: basic airframe", basic(db)),
+        ("dC3_ele: stabilizer interpolation weights", stab_weights(db)),
+        ("dC3_ele: elevator, 4 panels x 0.25 with one symmetric deflection", elevator(db)),
+        ("dC6_ail: ailerons (right tabulated, left mirrored)", aileron(db)),
+        ("dC6_rud: rudder (negative tabulated, positive mirrored)", rudder(db)),
+        ("dC6_spo: spoilers (right tabulated, left mirrored)", spoiler(db)),
+        ("dC3_q, dC3_p, dC3_r: forced-oscillation rate terms", rate_damping(db)),
+        ("dC6_w: rotary-balance terms", rotary(db)),
+        ("dC3_lgr: landing gear", landing_gear(db)),
+        ("flaps: per-degree derivatives, 4 panels together", flaps(db)),
+        ("totals", totals()),
+    )
+    for title, lines in sections:
+        body.append(f"<!-- {title} -->")
+        body += lines
+    body += axes()
+    return ["<aerodynamics>", *indent(body, 1), "</aerodynamics>"]
+
+
+# --------------------------------------------------------------------------------------------
+# Flight control system
+# --------------------------------------------------------------------------------------------
+def fcs_function(name: str, output: str | None, body: list[str]) -> list[str]:
+    """An <fcs_function> component."""
+    lines = [f'<fcs_function name="{name}">', f"{IND}<function>"]
+    lines += indent(body, 2)
+    lines.append(f"{IND}</function>")
+    if output:
+        lines.append(f"{IND}<output>{output}</output>")
+    lines.append("</fcs_function>")
+    return lines
+
+
+def clip(body: list[str], lo: float, hi: float) -> list[str]:
+    """max(lo, min(hi, body))."""
+    return [
+        "<max>",
+        f"  {value(lo)}",
+        "  <min>",
+        f"    {value(hi)}",
+        *indent(body, 2),
+        "  </min>",
+        "</max>",
+    ]
+
+
+def servo(
+    surface: str,
+    command: list[str],
+    pos: str,
+    limits: tuple[float, float],
+    rate_limit: float,
+    bandwidth_hz: float,
+    bypass: str | None,
+) -> list[str]:
+    """NASA surface servo: y' = sat(2 pi f (u - y), +-rate), y limited, Euler at the frame rate.
+
+    With simulation/dt = 0 (trim, run_ic, linearisation) the servo sits at its steady state,
+    the position-limited command. ``bypass`` (if given) names a 0/1 property: when 1 the
+    surface equals the unlimited command exactly.
+    """
+    lo, hi = limits
+    total = f"fcs/{surface}-cmd-total"
+    lim = f"fcs/{surface}-cmd-limited"
+    rate = f"fcs/{surface}-servo-rate"
+    lines: list[str] = []
+    lines += fcs_function(f"{surface} cmd total", total, command)
+    lines += fcs_function(f"{surface} cmd limited", lim, clip([prop(total)], lo, hi))
+    gain = 2.0 * math.pi * bandwidth_hz
+    err = [
+        "<product>",
+        f"  {value(gain)}",
+        "  <difference>",
+        f"    {prop(lim)}",
+        f"    {prop(pos)}",
+        "  </difference>",
+        "</product>",
+    ]
+    lines += fcs_function(f"{surface} servo rate", rate, clip(err, -rate_limit, rate_limit))
+    step = [
+        "<sum>",
+        f"  {prop(pos)}",
+        "  <product>",
+        f"    {prop('simulation/dt')}",
+        f"    {prop(rate)}",
+        "  </product>",
+        "</sum>",
+    ]
+    integ = [
+        "<ifthen>",
+        f"  <gt>{prop('simulation/dt')}{value(0)}</gt>",
+        *indent(clip(step, lo, hi), 1),
+        f"  {prop(lim)}",
+        "</ifthen>",
+    ]
+    if bypass:
+        integ = [
+            "<ifthen>",
+            f"  <gt>{prop(bypass)}{value(0.5)}</gt>",
+            f"  {prop(total)}",
+            *indent(integ, 1),
+            "</ifthen>",
+        ]
+    lines += fcs_function(f"{surface} servo", pos, integ)
+    return lines
+
+
+def command_sum(deg_prop: str, *norm_props: str) -> list[str]:
+    """deg command + 30 deg * (sum of the normalised commands)."""
+    norms = [f"    {prop(p)}" for p in norm_props]
+    if len(norms) > 1:
+        norms = ["    <sum>", *indent(norms, 1), "    </sum>"]
+    return [
+        "<sum>",
+        f"  {prop(deg_prop)}",
+        "  <product>",
+        f"    {value(DEG_PER_NORM)}",
+        *norms,
+        "  </product>",
+        "</sum>",
+    ]
+
+
+def flight_control() -> list[str]:
+    """The <flight_control> element: servos for every surface and the gear."""
+    rate, bw = SERVO_RATE_LIMIT_DPS, SERVO_BANDWIDTH_HZ
+    interface = [
+        '<property value="0">fcs/elevator-cmd-deg</property>',
+        '<property value="0">fcs/elevator-servo-bypass</property>',
+        '<property value="0">fcs/aileron-cmd-deg</property>',
+        '<property value="0">fcs/rudder-cmd-deg</property>',
+        '<property value="0">fcs/left-spoiler-cmd-deg</property>',
+        '<property value="0">fcs/right-spoiler-cmd-deg</property>',
+        '<property value="0">fcs/left-spoiler-pos-deg</property>',
+        '<property value="0">fcs/right-spoiler-pos-deg</property>',
+        '<property value="0">fcs/stabilizer-pos-deg</property>',
+        '<property value="0">fcs/flap-cmd-deg</property>',
+    ]
+    pitch = servo(
+        "elevator",
+        command_sum("fcs/elevator-cmd-deg", "fcs/elevator-cmd-norm", "fcs/pitch-trim-cmd-norm"),
+        "fcs/elevator-pos-deg",
+        ELEVATOR_LIMITS_DEG,
+        rate,
+        bw,
+        "fcs/elevator-servo-bypass",
+    )
+    aileron_cmd = command_sum("fcs/aileron-cmd-deg", "fcs/aileron-cmd-norm")
+    right = servo(
+        "right-aileron",
+        aileron_cmd,
+        "fcs/right-aileron-pos-deg",
+        AILERON_LIMITS_DEG,
+        rate,
+        bw,
+        None,
+    )
+    left_cmd = ["<product>", f"  {value(-1)}", *indent(aileron_cmd, 1), "</product>"]
+    left = servo(
+        "left-aileron", left_cmd, "fcs/left-aileron-pos-deg", AILERON_LIMITS_DEG, rate, bw, None
+    )
+    yaw = servo(
+        "rudder",
+        command_sum("fcs/rudder-cmd-deg", "fcs/rudder-cmd-norm"),
+        "fcs/rudder-pos-deg",
+        RUDDER_LIMITS_DEG,
+        rate,
+        bw,
+        None,
+    )
+    spo_r = servo(
+        "right-spoiler",
+        [prop("fcs/right-spoiler-cmd-deg")],
+        "fcs/right-spoiler-pos-deg",
+        SPOILER_LIMITS_DEG,
+        rate,
+        bw,
+        None,
+    )
+    spo_l = servo(
+        "left-spoiler",
+        [prop("fcs/left-spoiler-cmd-deg")],
+        "fcs/left-spoiler-pos-deg",
+        SPOILER_LIMITS_DEG,
+        rate,
+        bw,
+        None,
+    )
+    flap = fcs_function("flap position", "fcs/flap-pos-deg", [prop("fcs/flap-cmd-deg")])
+    gear = servo(
+        "gear",
+        [prop("gear/gear-cmd-norm")],
+        "gear/gear-pos-norm",
+        (0.0, 1.0),
+        GEAR_RATE_PER_S,
+        10.0,
+        None,
+    )
+    rad = fcs_function(
+        "elevator position rad",
+        "fcs/elevator-pos-rad",
+        ["<toradians>", f"  {prop('fcs/elevator-pos-deg')}", "</toradians>"],
+    )
+    channels = (
+        ("pitch", pitch + rad),
+        ("roll", right + left),
+        ("yaw", yaw),
+        ("spoilers and flaps", spo_r + spo_l + flap),
+        ("landing gear", gear),
+    )
+    body: list[str] = [
+        "<!-- Servo, as in NASA's GTM_DesignSim: y' = sat(2 pi 5 Hz (u - y), +-300 deg/s),",
+        "     position limited; forward Euler at the frame rate. With simulation/dt = 0 (trim,",
+        "     run_ic, linearisation) every servo sits at its limited command (its steady",
+        "     state). Commands: <surface>-cmd-deg + 30 deg * <surface>-cmd-norm; the elevator",
+        "     also adds 30 deg * fcs/pitch-trim-cmd-norm, which JSBSim's trim sets.",
+        "     Elevator: positive trailing edge down (nose down); fcs/elevator-servo-bypass = 1",
+        "     makes the surface equal the (unlimited) command exactly.",
+        "     Aileron (NASA sign): positive = right trailing edge down, left trailing edge up",
+        "     (rolls LEFT). Rudder (NASA sign): positive = trailing edge left (nose left). -->",
+        *interface,
+    ]
+    for name, comps in channels:
+        body.append(f'<channel name="{name}">')
+        body += indent(comps, 1)
+        body.append("</channel>")
+    return ['<flight_control name="GTM T2 servos">', *indent(body, 1), "</flight_control>"]
+
+
+# --------------------------------------------------------------------------------------------
+# Header, metrics, mass, gear, propulsion
+# --------------------------------------------------------------------------------------------
+def x_station_in(frac: float) -> float:
+    """Structural x (inches, aft positive, from the fuselage datum) of a fraction of the MAC."""
+    return (MAC_LE_FT + frac * CBAR_FT) * 12.0
+
+
+def location(name: str | None, x: float, y: float, z: float) -> list[str]:
+    """A <location> element in inches."""
+    attr = f' name="{name}"' if name else ""
+    return [
+        f'<location{attr} unit="IN">',
+        f"{IND}<x> {fmt_fixed(x, 6)} </x>",
+        f"{IND}<y> {fmt_fixed(y, 6)} </y>",
+        f"{IND}<z> {fmt_fixed(z, 6)} </z>",
+        "</location>",
+    ]
+
+
+def header(version: str) -> list[str]:
+    """<fileheader> with licence and provenance."""
+    return [
+        "<fileheader>",
+        f"{IND}<author>probing project (converter aircraft/convert_gtm.py)</author>",
+        f"{IND}<description>NASA Generic Transport Model, tail T2 (5.5 % twin-jet transport)"
+        "</description>",
+        f'{IND}<reference refID="LAR-17625-1" author="NASA Langley Research Center"'
+        f' title="GTM_DesignSim: Flight Dynamics Simulation of a Generic Transport Model"'
+        f' date="2009"/>',
+        f"{IND}<license>",
+        f"{IND}{IND}<licenseName>NASA Open Source Agreement 1.3</licenseName>",
+        f"{IND}{IND}<licenseURL>NOSA-1.3.txt</licenseURL>",
+        f"{IND}</license>",
+        f"{IND}<note>{NOTICE}</note>",
+        f"{IND}<note>Derived from NASA's GTM_DesignSim aero database ({version}). Modification"
+        " by the probing project; see CHANGELOG.md and README.md in this folder.</note>",
+        f"{IND}<note>Generated file: do not edit, run aircraft/convert_gtm.py.</note>",
+        "</fileheader>",
+    ]
+
+
+def metrics() -> list[str]:
+    """<metrics>: reference geometry, AERORP at 25 % MAC."""
+    x_ac = x_station_in(AERO_REF_FRAC)
+    return [
+        "<metrics>",
+        f'{IND}<wingarea unit="FT2"> {fmt_fixed(S_FT2, 4)} </wingarea>',
+        f'{IND}<wingspan unit="FT"> {fmt_fixed(SPAN_FT, 4)} </wingspan>',
+        f'{IND}<chord unit="FT"> {fmt_fixed(CBAR_FT, 4)} </chord>',
+        f"{IND}<!-- structural frame: x aft from the fuselage datum, inches; MAC leading edge"
+        f" at {fmt_fixed(MAC_LE_FT, 4)} ft; AERORP at 25 % MAC -->",
+        *indent(location("AERORP", x_ac, 0.0, 0.0), 1),
+        *indent(location("EYEPOINT", 12.0, 0.0, 2.0), 1),
+        *indent(location("VRP", x_station_in(CG_FRAC), 0.0, 0.0), 1),
+        "</metrics>",
+    ]
+
+
+def mass_balance() -> list[str]:
+    """<mass_balance>: 57.75 lb (fuel lumped), CG at 21.99 % MAC."""
+    i = INERTIA_SLUGFT2
+    return [
+        "<mass_balance>",
+        f"{IND}<!-- NASA T2, gear up, 2 x 5.74 lb fuel included in the empty weight. Products",
+        f"{IND}     of inertia are the integrals (Ixz = +int xz dm in body axes); JSBSim puts",
+        f"{IND}     -Ixz, -Ixy off the diagonal. CG at 21.99 % MAC. -->",
+        f'{IND}<ixx unit="SLUG*FT2"> {fmt_fixed(i["ixx"], 4)} </ixx>',
+        f'{IND}<iyy unit="SLUG*FT2"> {fmt_fixed(i["iyy"], 4)} </iyy>',
+        f'{IND}<izz unit="SLUG*FT2"> {fmt_fixed(i["izz"], 4)} </izz>',
+        f'{IND}<ixy unit="SLUG*FT2"> {fmt_fixed(i["ixy"], 4)} </ixy>',
+        f'{IND}<ixz unit="SLUG*FT2"> {fmt_fixed(i["ixz"], 4)} </ixz>',
+        f'{IND}<iyz unit="SLUG*FT2"> {fmt_fixed(0.0, 4)} </iyz>',
+        f'{IND}<emptywt unit="LBS"> {fmt_fixed(WEIGHT_LBS, 4)} </emptywt>',
+        *indent(location("CG", x_station_in(CG_FRAC), 0.0, 0.0), 1),
+        "</mass_balance>",
+    ]
+
+
+def ground_reactions() -> list[str]:
+    """Retractable tricycle gear (approximate geometry, for ground handling only)."""
+    gears = (
+        ("NOSE", 20.0, 0.0, 300.0),
+        ("LEFT_MAIN", 60.0, -9.0, 600.0),
+        ("RIGHT_MAIN", 60.0, 9.0, 600.0),
+    )
+    lines = [
+        "<ground_reactions>",
+        f"{IND}<!-- approximate positions (not from NASA); retracted when"
+        " gear/gear-pos-norm = 0 -->",
+    ]
+    for name, x, y, k in gears:
+        brake = "NONE" if name == "NOSE" else name.split("_")[0]
+        lines += indent(
+            [
+                f'<contact type="BOGEY" name="{name}">',
+                *indent(location(None, x, y, -8.0), 1),
+                f"{IND}<static_friction> 0.8 </static_friction>",
+                f"{IND}<dynamic_friction> 0.5 </dynamic_friction>",
+                f"{IND}<rolling_friction> 0.02 </rolling_friction>",
+                f'{IND}<spring_coeff unit="LBS/FT"> {fmt_fixed(k, 1)} </spring_coeff>',
+                f'{IND}<damping_coeff unit="LBS/FT/SEC"> {fmt_fixed(k / 20.0, 1)} </damping_coeff>',
+                f'{IND}<max_steer unit="DEG"> {"10" if name == "NOSE" else "0"} </max_steer>',
+                f"{IND}<brake_group> {brake} </brake_group>",
+                f"{IND}<retractable>1</retractable>",
+                "</contact>",
+            ],
+            1,
+        )
+    lines.append("</ground_reactions>")
+    return lines
+
+
+def propulsion() -> list[str]:
+    """Two 'electric' engines with direct thrusters: thrust = throttle x 17 lbf each."""
+    lines = [
+        "<propulsion>",
+        f"{IND}<!-- Thrust model (not from NASA: the design sim carries no engine model it",
+        f"{IND}     uses): each engine gives thrust = fcs/throttle-cmd-norm x"
+        f" {fmt(THRUST_PER_ENGINE_LBF)} lbf",
+        f"{IND}     instantly, along body x through the CG height (no thrust pitching moment).",
+        f"{IND}     Implemented as a JSBSim electric engine driving a direct thruster (thrust in",
+        f"{IND}     lbf = power in ft*lbf/s); trim sets fcs/throttle-cmd-norm. -->",
+    ]
+    for side, y in (("left", -15.0), ("right", 15.0)):
+        lines += indent(
+            [
+                f'<engine file="gtm_jet"> <!-- {side} -->',
+                f'{IND}<thruster file="gtm_direct">',
+                *indent(location(None, x_station_in(CG_FRAC), y, 0.0), 2),
+                f'{IND}{IND}<orient unit="DEG"> <roll> 0 </roll> <pitch> 0 </pitch> <yaw> 0 </yaw>'
+                " </orient>",
+                f"{IND}</thruster>",
+                "</engine>",
+            ],
+            1,
+        )
+    lines.append("</propulsion>")
+    return lines
+
+
+def engine_file() -> str:
+    """Engines/gtm_jet.xml: power chosen so that direct thrust (lbf) = throttle x 17."""
+    watts = THRUST_PER_ENGINE_LBF * 745.7 / 550.0
+    return "\n".join(
+        [
+            '<?xml version="1.0"?>',
+            "<!-- GTM T2 jet stand-in: JSBSim electric engine whose 'power' in ft*lbf/s becomes",
+            f"     the thrust in lbf of a direct thruster: {fmt(THRUST_PER_ENGINE_LBF)} lbf at full"
+            " throttle.",
+            f"     {NOTICE}",
+            "     Derived from NASA's GTM_DesignSim by the probing project (see CHANGELOG.md). -->",
+            '<electric_engine name="gtm_jet">',
+            f'{IND}<power unit="WATTS"> {fmt(watts)} </power>',
+            "</electric_engine>",
+            "",
+        ]
+    )
+
+
+def thruster_file() -> str:
+    """Engines/gtm_direct.xml: a direct thruster."""
+    return "\n".join(
+        [
+            '<?xml version="1.0"?>',
+            "<!-- Thrust is computed directly by the engine (lbf). -->",
+            '<direct name="gtm_direct">',
+            "</direct>",
+            "",
+        ]
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Assembly
+# --------------------------------------------------------------------------------------------
+def build_model(db: dict) -> str:
+    """The complete gtm_t2.xml text."""
+    version = str(db.get("ver", "unknown version")).strip()
+    parts = [
+        header(version),
+        metrics(),
+        mass_balance(),
+        ground_reactions(),
+        propulsion(),
+        flight_control(),
+        aerodynamics(db),
+    ]
+    lines = [
+        '<?xml version="1.0"?>',
+        "<!-- GTM T2 for JSBSim, generated by aircraft/convert_gtm.py from NASA's",
+        "     T2_polynomial_aerodatabase.mat. Do not edit by hand.",
+        f"     {NOTICE}",
+        "     Distributed under the NASA Open Source Agreement 1.3 (NOSA-1.3.txt). -->",
+        '<fdm_config name="gtm_t2" version="2.0" release="ALPHA">',
+    ]
+    for part in parts:
+        lines += indent(part, 1)
+    lines.append("</fdm_config>")
+    return "\n".join(lines) + "\n"
+
+
+def write_outputs(db: dict, out: Path) -> list[Path]:
+    """Write the model and its engine files into ``out``; return the paths written."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "Engines").mkdir(exist_ok=True)
+    files = {
+        out / "gtm_t2.xml": build_model(db),
+        out / "Engines" / "gtm_jet.xml": engine_file(),
+        out / "Engines" / "gtm_direct.xml": thruster_file(),
+    }
+    for path, text in files.items():
+        path.write_bytes(text.encode("utf-8"))
+    return list(files)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command-line entry point."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("mat", type=Path, help="T2_polynomial_aerodatabase.mat")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(__file__).parent / "gtm_t2",
+        help="output folder (default: aircraft/gtm_t2)",
+    )
+    args = parser.parse_args(argv)
+    for path in write_outputs(load_database(args.mat), args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,185 @@
+#!/usr/bin/env python3
+"""Generate ``tests/data/gtm_reference.npz``: GTM T2 coefficients evaluated from NASA's tables.
+
+Usage::
+
+    python tests/data/make_gtm_reference.py PATH/TO/T2_polynomial_aerodatabase.mat
+
+This is an independent evaluation of NASA's aero database, written without the converter
+(``aircraft/convert_gtm.py``): each table is interpolated directly with
+``scipy.interpolate.RegularGridInterpolator`` (multilinear; query points clamped to the grid,
+as JSBSim clamps its tables). The fixture holds a few hundred random flight states and the six
+total body-axis coefficients, so ``tests/test_gtm.py`` can check the JSBSim model against it
+without the .mat file.
+
+Build-up (same conventions as documented in docs/gtm.md):
+
+* C = C6_bas(a, b) + dC3_ele(a, b, stab, de) + dC6_ail(a, b, dR) + M dC6_ail(a, -b, dL)
+  + dC6_rud(a, b, min(dr, 0)) + M dC6_rud(a, -b, min(-dr, 0)) + dC6_spo(a, b, sR)
+  + M dC6_spo(a, -b, sL) + dC3_q/p/r(a, hat) + dC6_w(a, omegahat, b) + dC3_lgr(a, gear)
+  + flaps * df, with M = diag(1, -1, 1, -1, 1, -1) (mirror image: CY, Cl, Cn change sign).
+* Aileron command da: right surface dR = +da, left surface dL = -da (NASA sign).
+* Omega = p cos a cos b + q sin b + r sin a cos b; omegahat = Omega b / 2V;
+  phat = (p - Omega cos a cos b) b / 2V, qhat = (q - Omega sin b) cbar / 2V,
+  rhat = (r - Omega sin a cos b) b / 2V.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+from scipy.interpolate import RegularGridInterpolator
+
+SPAN_FT = 6.8488
+CBAR_FT = 0.9153
+N_STATES = 300
+SEED = 20091209
+MIRROR = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+STATE_NAMES = (
+    "alpha_deg",
+    "beta_deg",
+    "vt_fps",
+    "p_rad_sec",
+    "q_rad_sec",
+    "r_rad_sec",
+    "elevator_deg",
+    "stabilizer_deg",
+    "aileron_deg",
+    "rudder_deg",
+    "left_spoiler_deg",
+    "right_spoiler_deg",
+    "gear_pos",
+    "flap_deg",
+)
+COEFF_NAMES = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+
+
+class Table:
+    """A gridded table with clamped multilinear interpolation over its leading axes."""
+
+    def __init__(self, axes: list[np.ndarray], values: np.ndarray) -> None:
+        self.axes = [np.asarray(a, dtype=float) for a in axes]
+        self.interp = RegularGridInterpolator(self.axes, np.asarray(values, dtype=float))
+
+    def __call__(self, *coords: np.ndarray) -> np.ndarray:
+        """Evaluate at points (one array per axis); returns (n, outputs)."""
+        pts = np.stack(
+            [
+                np.clip(np.asarray(c, dtype=float), a[0], a[-1])
+                for c, a in zip(coords, self.axes, strict=True)
+            ],
+            axis=-1,
+        )
+        return self.interp(pts)
+
+
+def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
+    """Total coefficients (n, 6) [CX CY CZ Cl Cm Cn] for the states ``s``."""
+    n = len(s["alpha_deg"])
+    a, b = s["alpha_deg"], s["beta_deg"]
+    out = np.zeros((n, 6))
+
+    bas = mat["C6_bas"]
+    out += Table([bas.alpha, bas.beta], bas.data)(a, b)
+
+    ele = mat["dC3_ele"]
+    d_ele = Table([ele.alpha, ele.beta, ele.stab, ele.elev], ele.data)(
+        a, b, s["stabilizer_deg"], s["elevator_deg"]
+    )
+    out[:, [0, 2, 4]] += 4 * 0.25 * d_ele
+
+    ail = mat["dC6_ail"]
+    t_ail = Table([ail.alpha, ail.beta, ail.ail], ail.data)
+    out += t_ail(a, b, s["aileron_deg"])
+    out += MIRROR * t_ail(a, -b, -s["aileron_deg"])
+
+    rud = mat["dC6_rud"]
+    t_rud = Table([rud.alpha, rud.beta, rud.rud], rud.data)
+    dr = s["rudder_deg"]
+    out += t_rud(a, b, np.minimum(dr, 0.0))
+    out += MIRROR * t_rud(a, -b, np.minimum(-dr, 0.0))
+
+    spo = mat["dC6_spo"]
+    t_spo = Table([spo.alpha, spo.beta, spo.spo], spo.data)
+    out += t_spo(a, b, s["right_spoiler_deg"])
+    out += MIRROR * t_spo(a, -b, s["left_spoiler_deg"])
+
+    ar, br = np.radians(a), np.radians(b)
+    p, q, r, v = s["p_rad_sec"], s["q_rad_sec"], s["r_rad_sec"], s["vt_fps"]
+    e_x, e_y, e_z = np.cos(ar) * np.cos(br), np.sin(br), np.sin(ar) * np.cos(br)
+    omega = p * e_x + q * e_y + r * e_z
+    omega_hat = omega * SPAN_FT / (2 * v)
+    p_hat = (p - omega * e_x) * SPAN_FT / (2 * v)
+    q_hat = (q - omega * e_y) * CBAR_FT / (2 * v)
+    r_hat = (r - omega * e_z) * SPAN_FT / (2 * v)
+
+    tq, tp, tr = mat["dC3_q"], mat["dC3_p"], mat["dC3_r"]
+    out[:, [0, 2, 4]] += Table([tq.alpha, tq.qhat], tq.data)(a, q_hat)
+    out[:, [1, 3, 5]] += Table([tp.alpha, tp.phat], tp.data)(a, p_hat)
+    out[:, [1, 3, 5]] += Table([tr.alpha, tr.rhat], tr.data)(a, r_hat)
+
+    w = mat["dC6_w"]
+    out += Table([w.alpha, w.what, w.beta], w.data)(a, omega_hat, b)
+
+    lgr = mat["dC3_lgr"]
+    out[:, [0, 2, 4]] += Table([lgr.alpha, np.array([0.0, 1.0])], lgr.data)(a, s["gear_pos"])
+
+    fl = mat["flaps"]
+    per_deg = fl.flaplob + fl.flaplib + fl.flaprib + fl.flaprob
+    out += np.outer(s["flap_deg"], per_deg)
+    return out
+
+
+def random_states(rng: np.random.Generator, n: int) -> dict[str, np.ndarray]:
+    """Random states inside (mostly) the tables' ranges, with some clamped corners."""
+    u = rng.uniform
+    stab = np.where(u(size=n) < 0.5, 0.0, u(-12.0, 4.0, n))
+    gear = rng.choice([0.0, 1.0, 0.5], size=n, p=[0.6, 0.2, 0.2]) * np.where(
+        u(size=n) < 0.8, 1.0, u(size=n)
+    )
+    return {
+        "alpha_deg": u(-5.0, 40.0, n),
+        "beta_deg": u(-20.0, 20.0, n),
+        "vt_fps": u(90.0, 220.0, n),
+        "p_rad_sec": u(-1.5, 1.5, n),
+        "q_rad_sec": u(-1.0, 1.0, n),
+        "r_rad_sec": u(-1.0, 1.0, n),
+        "elevator_deg": u(-30.0, 20.0, n),
+        "stabilizer_deg": stab,
+        "aileron_deg": u(-30.0, 30.0, n),
+        "rudder_deg": u(-30.0, 30.0, n),
+        "left_spoiler_deg": np.where(u(size=n) < 0.5, 0.0, u(0.0, 65.0, n)),
+        "right_spoiler_deg": np.where(u(size=n) < 0.5, 0.0, u(0.0, 65.0, n)),
+        "gear_pos": gear,
+        "flap_deg": np.where(u(size=n) < 0.7, 0.0, u(0.0, 30.0, n)),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command-line entry point."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("mat", type=Path, help="T2_polynomial_aerodatabase.mat")
+    parser.add_argument("--out", type=Path, default=Path(__file__).with_name("gtm_reference.npz"))
+    args = parser.parse_args(argv)
+    mat = scipy.io.loadmat(str(args.mat), squeeze_me=True, struct_as_record=False)
+    states = random_states(np.random.default_rng(SEED), N_STATES)
+    coeffs = evaluate(mat, states)
+    np.savez(
+        args.out,
+        states=np.stack([states[k] for k in STATE_NAMES], axis=1),
+        state_names=np.array(STATE_NAMES),
+        coefficients=coeffs,
+        coefficient_names=np.array(COEFF_NAMES),
+        mat_sha256=np.array(hashlib.sha256(args.mat.read_bytes()).hexdigest()),
+        database_version=np.array(str(mat["ver"])),
+    )
+    print(f"wrote {args.out}: {N_STATES} states")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

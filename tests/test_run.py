@@ -1,0 +1,322 @@
+"""The JSBSim testbed end to end: trim, exact elevator, Parquet output, ground truth, failures."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from probing.plant import DivergenceError, Plant, TrimError
+from probing.prbs import Probe
+from probing.run import run_scenario
+from probing.scenario import parse_scenario
+from probing.truth import compute_truth, linear_pulse_response, predicted_probing
+
+pytestmark = pytest.mark.jsbsim
+
+BASE = {
+    "name": "t",
+    "aircraft": {"model": "737"},
+    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
+    "simulation": {"dt_s": 0.01},
+    "probe": {
+        "order": 9,
+        "bit_duration_s": 0.01,
+        "amplitude_deg": 0.005,
+        "periods": 8,
+        "settle_periods": 2,
+    },
+    "nonlinearity": {"type": "none"},
+    "output": {"channels": ["theta_rad", "q_rad_s", "alpha_rad"], "drift": "reference"},
+}
+
+
+def scenario(**changes):
+    scn = parse_scenario(json.loads(json.dumps(BASE)))
+    return scn.replace(**changes) if changes else scn
+
+
+def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+@pytest.fixture(scope="module")
+def baseline(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("baseline")
+    scn = scenario()
+    run_scenario(scn, out, progress=False)
+    compute_truth(scn, out)
+    return out / scn.name
+
+
+# --------------------------------------------------------------- the plant
+@pytest.mark.parametrize("model", ["737", "A320"])
+def test_elevator_deflection_is_exact(model: str) -> None:
+    """trim + NL(probe) reaches the surface exactly, also through the A320's asymmetric map."""
+    plant = Plant(model, 0.01)
+    trim = plant.trim(15000, speed_kcas=280)
+    lo, hi = plant.elevator_range_deg
+    # The stock maps are piecewise linear and (for the A320) asymmetric about zero.
+    assert lo < trim.elevator_deg < hi
+    rng = np.random.default_rng(1)
+    surface = trim.elevator_deg + np.concatenate(
+        (0.005 * Probe(6, 0.01, 1.0).bits(2), rng.uniform(-3, 3, 50))
+    )
+    surface = np.concatenate((surface, [lo + 0.5, hi - 0.5, trim.elevator_deg]))
+    realised = np.empty(surface.size)
+    out = np.empty((surface.size, 1))
+    plant.step(plant.elevator_command(surface), plant.channel_nodes(["theta_rad"]), out, realised)
+    np.testing.assert_allclose(realised, surface, rtol=0, atol=1e-12)
+
+
+def test_a320_map_is_asymmetric() -> None:
+    plant = Plant("A320", 0.01)
+    plant.trim(15000, speed_kcas=280)
+    up = plant.elevator_command(np.array([10.0])) - plant.elevator_command(np.array([0.0]))
+    down = plant.elevator_command(np.array([0.0])) - plant.elevator_command(np.array([-10.0]))
+    assert abs(up[0] - down[0]) > 0.01 * abs(up[0])
+
+
+def test_elevator_outside_range_is_refused() -> None:
+    plant = Plant("737", 0.01)
+    plant.trim(15000, speed_kcas=280)
+    with pytest.raises(ValueError, match="outside the model's range"):
+        plant.elevator_command(np.array([plant.elevator_range_deg[1] + 1.0]))
+
+
+def test_trim_failure_names_the_condition() -> None:
+    plant = Plant("737", 0.01)
+    with pytest.raises(TrimError, match=r"737 at altitude_ft = 15000, speed_kcas = 40"):
+        plant.trim(15000, speed_kcas=40)
+
+
+def _inet_sockets_of(code: str) -> list[tuple[str, str]]:
+    """Run ``code`` in a child process and list the TCP/UDP sockets it holds open."""
+    code += "\nimport os, sys\nprint(os.getpid()); sys.stdout.flush(); sys.stdin.read()\n"
+    env = {**os.environ, "JSBSIM_DEBUG": "0"}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        pid = proc.stdout.readline().strip()
+        assert pid.isdigit(), "child failed before reporting its pid"
+        inodes = set()
+        for fd in Path(f"/proc/{pid}/fd").iterdir():
+            try:
+                target = os.readlink(fd)
+            except FileNotFoundError:
+                continue
+            if target.startswith("socket:["):
+                inodes.add(target[8:-1])
+        found = []
+        for table in ("/proc/net/tcp", "/proc/net/tcp6", "/proc/net/udp", "/proc/net/udp6"):
+            for line in Path(table).read_text().splitlines()[1:]:
+                fields = line.split()
+                if fields[9] in inodes:
+                    found.append((table, fields[1]))
+        return found
+    finally:
+        proc.communicate("", timeout=60)
+
+
+def test_no_listening_socket() -> None:
+    """The stock 737 declares <input port="5137"/>; the sanitised copy must not open it."""
+    sanitised = (
+        "from probing.plant import Plant\n"
+        "p = Plant('737', 0.01); p.trim(15000, speed_kcas=280)\n"
+        "p2 = Plant('c172x', 0.01); p2.fdm.run_ic(); p2.fdm.run()\n"  # input port, socket outputs
+    )
+    assert _inet_sockets_of(sanitised) == []
+    # The unsanitised stock model does listen, so the check above can fail.
+    stock = (
+        "import jsbsim\n"
+        "f = jsbsim.FGFDMExec(jsbsim.get_default_root_dir()); f.set_debug_level(0)\n"
+        "f.load_model('737'); f.run_ic()\n"  # FGInput opens its socket at run_ic
+    )
+    assert any(local.endswith(":1411") for _, local in _inet_sockets_of(stock))  # 5137 = 0x1411
+
+
+# ------------------------------------------------------------ the outputs
+def test_outputs_layout_and_metadata(baseline: Path) -> None:
+    probing = pq.read_table(baseline / "probing.parquet")
+    df = probing.to_pandas()
+    assert list(df.columns) == ["channel", "period", "tap", "lag_s", "z", "zeta", "h_est"]
+    assert set(df.channel) == {"theta_rad", "q_rad_s", "alpha_rad"}
+    assert sorted(df.period.unique()) == list(range(8))
+    assert len(df) == 3 * 8 * 511
+    one = df[(df.channel == "theta_rad") & (df.period == 3)]
+    np.testing.assert_array_equal(one.tap, np.arange(511))
+    np.testing.assert_allclose(one.lag_s, np.arange(511) * 0.01)
+    # eq. (9): zeta = z + sum over the period of z; h = zeta / (a (M+1))
+    np.testing.assert_allclose(one.zeta, one.z + one.z.sum(), rtol=1e-12)
+    np.testing.assert_allclose(one.h_est, one.zeta / (0.005 * 512), rtol=1e-12)
+    meta = probing.schema.metadata
+    for key in (b"scenario", b"scenario_toml", b"trim", b"versions", b"git_revision", b"drift"):
+        assert b"probing." + key in meta
+    versions = json.loads(meta[b"probing.versions"])
+    assert versions["jsbsim"] == "1.3.3"
+    trim = json.loads(meta[b"probing.trim"])
+    assert 0 < trim["alpha_deg"] < 10
+    ts = pd.read_parquet(baseline / "timeseries.parquet")
+    for col in ("time_s", "probe_deg", "nl_out_deg", "elevator_deg", "theta_rad"):
+        assert col in ts
+    assert len(ts) == 8 * 511
+    np.testing.assert_allclose(ts.elevator_deg - trim["elevator_deg"], ts.probe_deg, atol=1e-12)
+    assert not any(p.name.startswith(".") for p in baseline.iterdir())
+
+
+def test_same_scenario_same_numbers(tmp_path: Path, baseline: Path) -> None:
+    scn = scenario()
+    run_scenario(scn, tmp_path, progress=False)
+    a = pd.read_parquet(baseline / "probing.parquet")
+    b = pd.read_parquet(tmp_path / scn.name / "probing.parquet")
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
+def test_ground_truth_agreement(baseline: Path) -> None:
+    """The acceptance target of issue [2/6].
+
+    A settled period's z agrees with the superposition of the single-pulse response over
+    the actual probe history to 1 % relative L2; the DC-corrected estimate agrees with
+    JSBSim's linearised model (folded the same way, one-step delay) over the short-period
+    part (first 2 s).
+    """
+    pr = pd.read_parquet(baseline / "probing.parquet")
+    pred = pd.read_parquet(baseline / "prediction.parquet")
+    truth = pd.read_parquet(baseline / "truth.parquet")
+    for channel in ("theta_rad", "q_rad_s", "alpha_rad"):
+        for period in range(2, 8):
+            z = pr[(pr.channel == channel) & (pr.period == period)].z.to_numpy()
+            zp = pred[(pred.channel == channel) & (pred.period == period)].z.to_numpy()
+            assert rel_l2(z, zp) < 0.01, (channel, period, rel_l2(z, zp))
+    scn = scenario()
+    h_est = pr[pr.period >= 2].groupby(["channel", "tap"]).h_est.mean()
+    limits = {"theta_rad": 0.005, "q_rad_s": 0.02, "alpha_rad": 0.02}
+    for channel, limit in limits.items():
+        h_lin = truth[truth.channel == channel].h_lin.to_numpy()
+        delayed = np.concatenate(([0.0], h_lin[:-1]))  # JSBSim: pitch responds one step later
+        expected = predicted_probing(scn, {channel: delayed})[channel][2:, 2].mean(axis=0)
+        est = h_est[channel].to_numpy()
+        error = rel_l2(est[:200], expected[:200])
+        assert error < limit, (channel, error)
+        if channel != "theta_rad":  # theta's folded estimate is dominated by the phugoid tail
+            # Without the delay the agreement is clearly worse: the alignment matters.
+            undelayed = predicted_probing(scn, {channel: h_lin})[channel][2:, 2].mean(axis=0)
+            assert rel_l2(est[:200], undelayed[:200]) > 1.5 * error
+
+
+def test_single_pulse_matches_linearisation() -> None:
+    scn = scenario()
+    lin = linear_pulse_response(scn, 400)
+    from probing.truth import single_pulse_response
+
+    pulse = single_pulse_response(scn, 400)
+    q_lin = np.concatenate(([0.0], lin["q_rad_s"][:-1]))
+    assert pulse["q_rad_s"][0] == 0.0  # the one-step delay of JSBSim
+    assert rel_l2(pulse["q_rad_s"][:300], q_lin[:300]) < 0.02
+
+
+def test_drift_reference_vs_none(tmp_path: Path, baseline: Path) -> None:
+    """Without the reference twin the trimmed 737's drift swamps the probing output."""
+    scn = scenario(**{"output.drift": "none", "name": "nodrift"})
+    run_scenario(scn, tmp_path, progress=False)
+    ts = pd.read_parquet(tmp_path / "nodrift" / "timeseries.parquet")
+    ref = pd.read_parquet(baseline / "timeseries.parquet")
+    drift = ref.theta_rad_reference.to_numpy()
+    period = slice(2 * 511, 3 * 511)
+    assert abs(drift[period].max() - drift[period].min()) > 1e-4  # the unprobed pitch moves
+    np.testing.assert_allclose(ts.theta_rad, ref.theta_rad, rtol=0, atol=1e-15)
+    a = pd.read_parquet(tmp_path / "nodrift" / "probing.parquet")
+    b = pd.read_parquet(baseline / "probing.parquet")
+    za = a[(a.channel == "theta_rad") & (a.period == 4)].z.to_numpy()
+    zb = b[(b.channel == "theta_rad") & (b.period == 4)].z.to_numpy()
+    assert np.linalg.norm(za) / np.linalg.norm(zb) > 3
+
+
+def test_detrend_mode_beats_no_correction(tmp_path: Path, baseline: Path) -> None:
+    """Per-period detrending (the flight-data option) brings z closer to the twin-corrected z.
+
+    It cannot tell the slow part of the response from drift: theta keeps a large error
+    (measured 1.4 relative L2 against 5.8 without correction), while the short-period
+    channels keep their shape (mean removed: ~5 % for q, ~3 % for alpha).
+    """
+    for drift in ("detrend", "none"):
+        run_scenario(scenario(**{"output.drift": drift, "name": drift}), tmp_path, progress=False)
+    table = pq.read_table(tmp_path / "detrend" / "probing.parquet")
+    assert table.schema.metadata[b"probing.drift"] == b"detrend"
+    det, raw = table.to_pandas(), pd.read_parquet(tmp_path / "none" / "probing.parquet")
+    assert det.period.min() == 1  # period 0 has no previous period to detrend with
+    ref = pd.read_parquet(baseline / "probing.parquet")
+
+    def z_of(df, channel):
+        return df[(df.channel == channel) & (df.period == 5)].z.to_numpy()
+
+    for channel in ("theta_rad", "q_rad_s", "alpha_rad"):
+        zr = z_of(ref, channel)
+        assert rel_l2(z_of(det, channel), zr) < 0.5 * rel_l2(z_of(raw, channel), zr)
+    for channel in ("q_rad_s", "alpha_rad"):
+        zd, zr = z_of(det, channel), z_of(ref, channel)
+        assert rel_l2(zd - zd.mean(), zr - zr.mean()) < 0.1
+
+
+def test_divergence_stops_cleanly(tmp_path: Path) -> None:
+    """A relay stuck far nose-down dives the aircraft: clear error, nothing left behind."""
+    scn = scenario(
+        **{
+            "name": "dive",
+            "probe.order": 6,
+            "probe.periods": 400,
+            "nonlinearity.type": "relay",
+            "nonlinearity.threshold_deg": 1.0,
+            "nonlinearity.low_deg": 15.0,
+            "nonlinearity.high_deg": 15.0,
+        }
+    )
+    out = tmp_path / "out"
+    with pytest.raises(DivergenceError):
+        run_scenario(scn, out, progress=False)
+    assert not out.exists()
+
+
+def test_cli_run_and_exit_codes(tmp_path: Path) -> None:
+    path = tmp_path / "s.toml"
+    path.write_text(
+        'name = "cli"\n[aircraft]\nmodel = "737"\n[condition]\naltitude_ft = 15000\n'
+        "speed_kcas = 280\n[simulation]\ndt_s = 0.01\n[probe]\norder = 5\n"
+        "bit_duration_s = 0.02\namplitude_deg = 0.01\nperiods = 3\nsettle_periods = 1\n"
+        '[nonlinearity]\ntype = "backlash"\nwidth_deg = 0.005\n[output]\n'
+        'channels = ["theta_rad"]\n'
+    )
+    res = subprocess.run(
+        [sys.executable, "-m", "probing", "run", str(path), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""  # not a TTY: no progress bar, and no JSBSim banner
+    df = pd.read_parquet(tmp_path / "o" / "cli" / "probing.parquet")
+    assert len(df) == 3 * 31
+    bad = path.with_name("bad.toml")
+    bad.write_text(path.read_text().replace("speed_kcas = 280", "speed_kcas = 30"))
+    res = subprocess.run(
+        [sys.executable, "-m", "probing", "run", str(bad), "--out", str(tmp_path / "o2")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert res.returncode == 1
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert "trim failed" in res.stderr and "speed_kcas = 30" in res.stderr
+    assert not (tmp_path / "o2").exists()
