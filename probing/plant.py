@@ -229,6 +229,7 @@ class Plant:
         fdm.set_systems_path(str(stock / "systems"))
         fdm.disable_output()
         fdm["simulation/randomseed"] = self.seed
+        fdm["atmosphere/randomseed"] = self.seed  # the turbulence generator; set before loading
         fdm.set_dt(self.dt_s)  # before loading: FCS components keep the dt they were built with
         if not fdm.load_model(model):
             raise AircraftNotFoundError(f"JSBSim could not load aircraft {model!r}")
@@ -300,7 +301,7 @@ class Plant:
         )
         self._calibrate_elevator()
         if self.turbulence != "none":
-            fdm["atmosphere/turb-type"] = 4  # ttMilspec (Dryden form)
+            fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
             fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[self.turbulence]
             fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = 15.0
         return self.trim_result
