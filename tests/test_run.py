@@ -347,3 +347,14 @@ def test_turbulence_is_seeded_and_shared_with_the_twin(tmp_path: Path) -> None:
     gust = np.abs(a.theta_rad_reference - a.theta_rad_reference.iloc[0]).max()
     diff = np.abs(a.theta_rad - a.theta_rad_reference).max()
     assert gust > 1e-3 and diff < 0.05 * gust
+
+
+def test_progress_bar_only_when_asked_or_on_a_tty(tmp_path: Path) -> None:
+    import io
+
+    scn = scenario(**{"name": "bar", "probe.order": 5, "probe.periods": 3})
+    shown, hidden = io.StringIO(), io.StringIO()  # StringIO is not a TTY
+    run_scenario(scn, tmp_path, progress=True, stream=shown)
+    run_scenario(scn, tmp_path, stream=hidden)
+    assert "3/3 periods" in shown.getvalue() and "ETA" in shown.getvalue()
+    assert hidden.getvalue() == ""
