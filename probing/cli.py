@@ -1,4 +1,4 @@
-"""The ``probing`` command line: ``run``, ``truth``, ``fig4``.
+"""The ``probing`` command line: ``run``, ``truth``, ``fig4``, ``plot``, ``design``.
 
 Errors a user can fix (a wrong scenario, a failed trim, a divergence) are
 printed as one line on stderr, with exit code 2 for bad input and 1 for a run
@@ -21,14 +21,15 @@ def _error(message: str, code: int) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from probing.plant import DivergenceError, TrimError
-    from probing.run import run_scenario
     from probing.scenario import ScenarioError, load_scenario
 
     try:
         scn = load_scenario(args.scenario)
     except ScenarioError as exc:
         return _error(str(exc), 2)
+    from probing.plant import DivergenceError, TrimError  # heavy imports after validation
+    from probing.run import run_scenario
+
     try:
         result = run_scenario(scn, args.out, progress=None)
         if args.truth:
@@ -72,6 +73,18 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
     return fig4_main(args)
 
 
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from analysis.fig4 import plot_main
+
+    return plot_main(args)
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from probing.design import main as design_main
+
+    return design_main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for documentation and tests)."""
     parser = argparse.ArgumentParser(prog="probing", description=__doc__.splitlines()[0])
@@ -91,8 +104,31 @@ def build_parser() -> argparse.ArgumentParser:
     truth.set_defaults(func=_cmd_truth)
 
     fig4 = sub.add_parser("fig4", help="reproduce the paper's Fig. 4")
-    fig4.add_argument("--out", type=Path, default=Path("results/fig4"))
+    fig4.add_argument(
+        "--out", type=Path, default=None, help="results folder (default results/<set folder>)"
+    )
+    fig4.add_argument(
+        "--scenarios", type=Path, default=Path("scenarios/fig4"), help="scenario set folder"
+    )
+    fig4.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    fig4.add_argument("--force", action="store_true", help="simulate even if results are stored")
+    fig4.add_argument("--copy-summary", type=Path, default=None, help="also copy summary.md here")
     fig4.set_defaults(func=_cmd_fig4)
+
+    plot = sub.add_parser("plot", help="redraw figures from stored Parquet (no simulation)")
+    plot.add_argument("target", choices=["fig4"], help="which figure set")
+    plot.add_argument("results", type=Path, help="results folder written by `probing fig4`")
+    plot.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    plot.add_argument("--copy-summary", type=Path, default=None, help="also copy summary.md here")
+    plot.set_defaults(func=_cmd_plot)
+
+    from probing.design import add_arguments as add_design_arguments
+
+    design = sub.add_parser(
+        "design", help="recommend order, bit duration and amplitude for a probing experiment"
+    )
+    add_design_arguments(design)
+    design.set_defaults(func=_cmd_design)
     return parser
 
 

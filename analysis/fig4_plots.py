@@ -1,0 +1,250 @@
+"""Figures of the Fig. 4 reproduction, drawn from :class:`analysis.fig4.Fig4Data` (no simulation).
+
+Kept apart from :mod:`analysis.fig4` so that computing the numbers never imports matplotlib.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+if TYPE_CHECKING:
+    from analysis.fig4 import Fig4Data, PanelResult
+
+__all__ = ["draw"]
+
+RC = {
+    "font.size": 8,
+    "axes.titlesize": 8,
+    "axes.labelsize": 8,
+    "legend.fontsize": 7,
+    "xtick.labelsize": 7,
+    "ytick.labelsize": 7,
+    "lines.linewidth": 1.0,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+}
+MRAD = 1e3  # rad -> mrad
+C_BASE, C_NL, C_PRED, C_FIX = "0.55", "tab:red", "k", "tab:blue"
+
+
+def _title(p: PanelResult, remedy_gain: float | None = None) -> str:
+    head = f"({p.letter}) {p.nonlinearity}: {p.parameters}"
+    scn = p.run.scenario
+    if p.nonlinearity == "rate limit":
+        ratio = scn.nl_params["rate_deg_s"] / (2 * scn.amplitude_deg / scn.bit_duration_s)
+        verdict = "meets" if ratio >= 1 - 1e-12 else "below"
+        pred = f"r_l / (2a/t0) = {ratio:.2f}: {verdict} the bound (21)"
+    else:
+        a = scn.amplitude_deg
+        b = p.predicted_offset_deg / a
+        b_txt = "0" if b == 0 else f"{b:+.3g}a"
+        pred = f"a~ = {p.predicted_gain:.3g}a, b~ = {b_txt}; measured gain {p.measured_gain:.3g}"
+        if p.key == "b_saturation" and remedy_gain is not None:
+            pred += f" (b~ DC)\noffset twin subtracted: gain {remedy_gain:.3f}"
+    return f"{head}\n{pred}"
+
+
+def _predicted_z(p: PanelResult, z0: np.ndarray) -> np.ndarray:
+    """Eq. (11): z_bar = (a~/a) z0 + b~ S, with S = sum h0 = sum(z0) / a."""
+    a = p.run.scenario.amplitude_deg
+    s = z0.sum() / a
+    return p.predicted_gain * z0 + p.predicted_offset_deg * s
+
+
+def _panels(data: Fig4Data, path_stem: Path) -> list[Path]:
+    base = data.baseline
+    z0 = base.z.mean(axis=0)
+    lag = base.lag_s
+    scn = base.scenario
+    fig, axes = plt.subplots(4, 2, figsize=(7.0, 9.0), sharex=True, constrained_layout=True)
+    for ax, p in zip(axes.flat, data.panels, strict=False):
+        ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+        if p.key == "b_saturation":
+            ax.plot(
+                lag,
+                p.predicted_gain * z0 * MRAD,
+                color=C_PRED,
+                ls="--",
+                lw=0.8,
+                label="(a~/a) x no nonlinearity",
+            )
+            offset = (_predicted_z(p, z0) - p.predicted_gain * z0).mean()
+            ax.text(
+                0.98,
+                0.04,
+                f"steady-state offset b~·Σh of eq. (11):\n{offset * MRAD:+.2f} mrad (off scale)",
+                transform=ax.transAxes,
+                ha="right",
+                va="bottom",
+                fontsize=7,
+            )
+        elif p.nonlinearity != "rate limit":
+            ax.plot(
+                lag,
+                _predicted_z(p, z0) * MRAD,
+                color=C_PRED,
+                ls="--",
+                lw=0.8,
+                label="predicted, eq. (11)",
+            )
+        ax.plot(lag, p.run.z.mean(axis=0) * MRAD, color=C_NL, lw=0.8, label="with nonlinearity")
+        if p.key == "b_saturation" and data.remedy is not None:
+            ax.plot(
+                lag,
+                data.remedy.z.mean(axis=0) * MRAD,
+                color=C_FIX,
+                lw=0.8,
+                label="offset twin subtracted",
+            )
+        ax.set_title(
+            _title(p, data.remedy_row.measured_gain if data.remedy_row else None), loc="left"
+        )
+        ax.set_ylabel("z of pitch θ (mrad)")
+        if p.key == "b_saturation":
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(lo, hi + 0.7 * (hi - lo))
+            ax.legend(loc="upper center", ncol=2, frameon=False, fontsize=6.5)
+        else:
+            ax.legend(loc="best", frameon=False)
+    for ax in axes[-1]:
+        ax.set_xlabel("lag (s)")
+    info = axes.flat[-1]
+    info.axis("off")
+    info.text(
+        0.0,
+        1.0,
+        (
+            f"Fig. 4 reproduction, set '{data.set_name}'\n"
+            f"aircraft {scn.model}, {scn.altitude_ft:g} ft, {scn.speed:g} "
+            f"{scn.speed_kind.removeprefix('speed_')}\n"
+            f"PRBS order {scn.order} (M = {scn.bits_per_period}), t0 = {scn.bit_duration_s:g} s,\n"
+            f"dt = {scn.dt_s:g} s, a = {scn.amplitude_deg:g} deg elevator\n"
+            f"z: probing output (eq. 5) of pitch angle θ,\n"
+            f"mean over {len(base.z)} settled periods; unprobed twin\n"
+            f"subtracted (drift reference)."
+            + (
+                "\nElevator through the GTM's 5 Hz servo (kept).\n\n"
+                if scn.model == "gtm_t2"
+                else "\n\n"
+            )
+            + "(b) the offset b~ is a step input: its transient\n"
+            "leaks into z.  Blue: the same run minus a twin\n"
+            "that receives only the constant b~ (no probe):\n"
+            "the scaled pulse response (a~/a) z0 is recovered."
+        ),
+        va="top",
+        ha="left",
+        transform=info.transAxes,
+        fontsize=7.5,
+    )
+    out = []
+    for ext in ("png", "pdf"):
+        path = path_stem.with_suffix(f".{ext}")
+        fig.savefig(path, dpi=200)
+        out.append(path)
+    plt.close(fig)
+    return out
+
+
+def _compensated(data: Fig4Data, path: Path) -> Path:
+    z0 = data.baseline.z.mean(axis=0)
+    lag = data.baseline.lag_s
+    items = [p for p in data.panels if p.compensated_z is not None]
+    if data.remedy_row is not None:
+        items.append(data.remedy_row)
+    rows = (len(items) + 1) // 2
+    fig, axes = plt.subplots(
+        rows, 2, figsize=(7.0, 2.0 * rows + 0.4), sharex=True, constrained_layout=True
+    )
+    for ax, p in zip(axes.flat, items, strict=False):
+        ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+        ax.plot(lag, p.compensated_z * MRAD, color=C_FIX, lw=0.8, label="compensated")
+        if p.letter == "b'":
+            title = "(b') saturation: offset twin subtracted, divided by a~/a"
+        else:
+            title = f"({p.letter}) {p.nonlinearity}: {p.parameters}"
+        ax.set_title(f"{title}\n||z_c - z0|| / ||z0|| = {p.compensation_error:.2e}", loc="left")
+        ax.set_ylabel("z of θ (mrad)")
+        ax.legend(loc="best", frameon=False)
+    for ax in axes.flat[len(items) :]:
+        ax.axis("off")
+    for ax in axes[-1]:
+        ax.set_xlabel("lag (s)")
+    fig.suptitle(
+        f"Compensated probing output, eq. (11) undone per settled period ({data.set_name})",
+        fontsize=8,
+    )
+    fig.savefig(path, dpi=200)
+    plt.close(fig)
+    return path
+
+
+def _rate_limit(data: Fig4Data, path: Path) -> Path | None:
+    sweep = data.sweep
+    if sweep.empty:
+        return None
+    a = data.baseline.scenario.amplitude_deg
+    dt = data.baseline.scenario.dt_s
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7.0, 3.0), constrained_layout=True)
+    floor = 1e-7
+    for i, (t0, grp) in enumerate(sweep.groupby("bit_duration_s")):
+        color = f"C{i}"
+        label = f"t0 = {t0:g} s ({round(t0 / dt)} step/bit), 2a/t0 = {2 * a / t0:g} deg/s"
+        ax1.loglog(
+            grp["ratio"],
+            np.maximum(grp["shape_error_z"], floor),
+            "o-",
+            ms=3,
+            color=color,
+            label=f"{label}: z",
+        )
+        ax1.loglog(
+            grp["ratio"],
+            np.maximum(grp["shape_error"], floor),
+            "s--",
+            ms=2.5,
+            lw=0.7,
+            color=color,
+            label="     h_est",
+        )
+        ax2.semilogx(grp["ratio"], grp["gain_z"], "o-", ms=3, color=color, label=f"{label}: z")
+        ax2.semilogx(
+            grp["ratio"], grp["gain"], "s--", ms=2.5, lw=0.7, color=color, label="     h_est"
+        )
+    ticks = [0.25, 0.5, 1, 2, 4]
+    for ax in (ax1, ax2):
+        ax.axvline(1.0, color="k", ls=":", lw=0.8)
+        ax.set_xlabel("r_l / (2a/t0)")
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+        ax.set_xticks([], minor=True)
+    ax1.set_ylim(floor / 2, 1.0)
+    ax1.text(2.0, floor * 1.6, "at floor: error exactly 0", fontsize=6.5, ha="center")
+    ax1.set_ylabel("shape error ||x - g x0|| / ||g x0||")
+    ax2.set_ylabel("least-squares gain g")
+    ax2.legend(frameon=False, loc="upper right", fontsize=6.5)
+    fig.suptitle(
+        f"Rate limit against the bound of eq. (21), a = {a:g} deg ({data.set_name})", fontsize=8
+    )
+    fig.savefig(path, dpi=200)
+    plt.close(fig)
+    return path
+
+
+def draw(data: Fig4Data, figures: Path, stem: str) -> list[Path]:
+    """Draw ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``."""
+    figures = Path(figures)
+    figures.mkdir(parents=True, exist_ok=True)
+    with plt.rc_context(RC):
+        paths = _panels(data, figures / stem)
+        paths.append(_compensated(data, figures / f"{stem}_compensated.png"))
+        rl = _rate_limit(data, figures / f"{stem}_rate_limit.png")
+        if rl is not None:
+            paths.append(rl)
+    return paths
