@@ -13,7 +13,6 @@ Timing conventions (documented in ``docs/method.md``):
 from __future__ import annotations
 
 import math
-import shutil
 import sys
 import time
 from dataclasses import dataclass
@@ -36,9 +35,16 @@ from probing.nonlinearities import (
 from probing.plant import Plant, TrimResult
 from probing.prbs import Probe
 from probing.scenario import Scenario
-from probing.storage import AtomicParquetWriter, provenance
+from probing.storage import output_folder, provenance
 
-__all__ = ["RunResult", "build_nonlinearity", "make_plant", "run_scenario"]
+__all__ = [
+    "PROBING_SCHEMA",
+    "RunResult",
+    "build_nonlinearity",
+    "make_plant",
+    "probing_rows",
+    "run_scenario",
+]
 
 PROBING_SCHEMA = pa.schema(
     [
@@ -51,6 +57,22 @@ PROBING_SCHEMA = pa.schema(
         ("h_est", pa.float64()),
     ]
 )
+
+
+def probing_rows(
+    channel: str, period: int, lag_s: np.ndarray, z: np.ndarray, zeta: np.ndarray, h: np.ndarray
+) -> dict[str, object]:
+    """One period of one channel in the layout of :data:`PROBING_SCHEMA`."""
+    m = z.size
+    return {
+        "channel": [channel] * m,
+        "period": np.full(m, period, dtype=np.int32),
+        "tap": np.arange(m, dtype=np.int32),
+        "lag_s": lag_s,
+        "z": z,
+        "zeta": zeta,
+        "h_est": h,
+    }
 
 
 def build_nonlinearity(scn: Scenario) -> Nonlinearity | None:
@@ -183,8 +205,6 @@ def run_scenario(
     h_count = 0
 
     folder = Path(out) / scn.name
-    created = [p for p in (Path(out), folder) if not p.exists()]
-    folder.mkdir(parents=True, exist_ok=True)
     meta = provenance(
         scenario_toml=scn.text,
         scenario=scn.to_dict(),
@@ -201,12 +221,9 @@ def run_scenario(
     ] + [(c, pa.float64()) for c in channels]
     if twin:
         ts_fields += [(f"{c}_reference", pa.float64()) for c in channels]
-    writers: list[AtomicParquetWriter] = []
-    try:
-        w_probe = AtomicParquetWriter(folder / "probing.parquet", PROBING_SCHEMA, meta)
-        writers.append(w_probe)
-        w_ts = AtomicParquetWriter(folder / "timeseries.parquet", pa.schema(ts_fields), meta)
-        writers.append(w_ts)
+    with output_folder(folder, meta) as outputs:
+        w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA)
+        w_ts = outputs.writer("timeseries.parquet", pa.schema(ts_fields))
 
         bar = _Progress(scn.periods, scn.name, stream, progress)
         out_probed = np.empty((n_steps, n_ch))
@@ -245,17 +262,7 @@ def run_scenario(
             for j, (z, zeta, h) in enumerate(estimates):
                 if len(z) == 0:
                     continue
-                w_probe.write(
-                    {
-                        "channel": [channels[j]] * m,
-                        "period": np.full(m, period, dtype=np.int32),
-                        "tap": np.arange(m, dtype=np.int32),
-                        "lag_s": lag_s,
-                        "z": z[0],
-                        "zeta": zeta[0],
-                        "h_est": h[0],
-                    }
-                )
+                w_probe.write(probing_rows(channels[j], period, lag_s, z[0], zeta[0], h[0]))
                 if period >= scn.settle_periods and np.all(np.isfinite(h[0])):
                     h_sum[j] += h[0]
                     if j == 0:
@@ -272,14 +279,6 @@ def run_scenario(
                     cols[f"{c}_reference"] = out_ref[:, j]
             w_ts.write(cols)
             bar.update(period + 1)
-        for w in writers:
-            w.close()
-    except BaseException:
-        for w in writers:
-            w.abort()
-        for path in reversed(created):
-            shutil.rmtree(path, ignore_errors=True)
-        raise
     h_mean = {
         c: h_sum[j] / h_count if h_count else np.full(m, np.nan) for j, c in enumerate(channels)
     }

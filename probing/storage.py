@@ -5,7 +5,10 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shutil
 import subprocess
+from collections.abc import Iterator
+from contextlib import contextmanager
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import Any
@@ -13,7 +16,14 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-__all__ = ["AtomicParquetWriter", "git_revision", "provenance", "versions"]
+__all__ = [
+    "AtomicParquetWriter",
+    "OutputFolder",
+    "git_revision",
+    "output_folder",
+    "provenance",
+    "versions",
+]
 
 _PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
@@ -96,3 +106,42 @@ class AtomicParquetWriter:
             self._writer.close()
         finally:
             self.tmp.unlink(missing_ok=True)
+
+
+class OutputFolder:
+    """The Parquet files of one run's output folder, opened through :func:`output_folder`."""
+
+    def __init__(self, path: Path, metadata: dict[bytes, bytes]) -> None:
+        self.path = path
+        self.metadata = metadata
+        self.writers: list[AtomicParquetWriter] = []
+
+    def writer(self, name: str, schema: pa.Schema) -> AtomicParquetWriter:
+        """A new atomic writer for ``<folder>/<name>`` carrying the folder's metadata."""
+        w = AtomicParquetWriter(self.path / name, schema, self.metadata)
+        self.writers.append(w)
+        return w
+
+
+@contextmanager
+def output_folder(path: Path, metadata: dict[bytes, bytes]) -> Iterator[OutputFolder]:
+    """Create ``path`` (and parents) and hand out writers; all files appear together at the end.
+
+    On success every writer is closed (its file renamed into place).  On any
+    exception every partial file is dropped and the folders this call created
+    are removed, so a failed run leaves nothing behind.
+    """
+    path = Path(path)
+    created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    path.mkdir(parents=True, exist_ok=True)
+    folder = OutputFolder(path, metadata)
+    try:
+        yield folder
+        for w in folder.writers:
+            w.close()
+    except BaseException:
+        for w in folder.writers:
+            w.abort()
+        for p in reversed(created):
+            shutil.rmtree(p, ignore_errors=True)
+        raise

@@ -18,7 +18,6 @@ correlator (``prediction.parquet``, same layout as ``probing.parquet``).
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -27,9 +26,9 @@ from scipy.signal import cont2discrete, fftconvolve
 
 from probing.correlator import StreamingCorrelator
 from probing.prbs import Probe
-from probing.run import PROBING_SCHEMA, make_plant
+from probing.run import PROBING_SCHEMA, make_plant, probing_rows
 from probing.scenario import Scenario
-from probing.storage import AtomicParquetWriter, provenance
+from probing.storage import output_folder, provenance
 
 __all__ = ["LINEAR_OUTPUTS", "compute_truth", "linear_pulse_response", "single_pulse_response"]
 
@@ -110,8 +109,6 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
     h_lin = linear_pulse_response(scn, n_bits)
     pred = predicted_probing(scn, h_pulse)
     folder = Path(out) / scn.name
-    created = [p for p in (Path(out), folder) if not p.exists()]
-    folder.mkdir(parents=True, exist_ok=True)
     meta = provenance(
         scenario_toml=scn.text,
         scenario=scn.to_dict(),
@@ -127,13 +124,11 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
             ("h_lin", pa.float64()),
         ]
     )
-    writers = []
-    try:
-        w_truth = AtomicParquetWriter(folder / "truth.parquet", schema, meta)
-        writers.append(w_truth)
-        w_pred = AtomicParquetWriter(folder / "prediction.parquet", PROBING_SCHEMA, meta)
-        writers.append(w_pred)
+    with output_folder(folder, meta) as outputs:
+        w_truth = outputs.writer("truth.parquet", schema)
+        w_pred = outputs.writer("prediction.parquet", PROBING_SCHEMA)
         taps = np.arange(n_bits, dtype=np.int32)
+        lag_s = np.arange(m) * probe.bit_duration_s
         for channel in scn.channels:
             w_truth.write(
                 {
@@ -145,23 +140,5 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
                 }
             )
             for period, (z, zeta, h) in enumerate(pred[channel]):
-                w_pred.write(
-                    {
-                        "channel": [channel] * m,
-                        "period": np.full(m, period, dtype=np.int32),
-                        "tap": np.arange(m, dtype=np.int32),
-                        "lag_s": np.arange(m) * probe.bit_duration_s,
-                        "z": z,
-                        "zeta": zeta,
-                        "h_est": h,
-                    }
-                )
-        for w in writers:
-            w.close()
-    except BaseException:
-        for w in writers:
-            w.abort()
-        for path in reversed(created):
-            shutil.rmtree(path, ignore_errors=True)
-        raise
+                w_pred.write(probing_rows(channel, period, lag_s, z, zeta, h))
     return folder / "truth.parquet"
