@@ -25,12 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.design import LONG_STATES, longitudinal_modes
+
 ROOT = Path(__file__).resolve().parents[1]
 AIRCRAFT = ROOT / "aircraft"
 DT = 1.0 / 200.0
 ALTITUDE_FT = 800.0
 SPEEDS_KEAS = tuple(range(60, 131, 10))
-LONG_STATES = ("Vt", "Alpha", "Theta", "Q")
 
 
 @dataclass
@@ -93,24 +94,6 @@ def longitudinal_matrix(fdm) -> np.ndarray:
     return np.asarray(lin.system_matrix)[np.ix_(idx, idx)]
 
 
-def classify(eigs: np.ndarray) -> tuple[float, float, float, float]:
-    """(sp_wn, sp_zeta, ph_wn, ph_zeta) from four longitudinal eigenvalues.
-
-    The two eigenvalues of largest magnitude are the short period, the other two the
-    phugoid. For a pair of real roots the equivalent second-order values are returned
-    (wn = sqrt(l1 l2), zeta = -(l1 + l2) / (2 wn)).
-    """
-    order = np.argsort(np.abs(eigs))
-    pairs = (eigs[order[2:]], eigs[order[:2]])
-    out: list[float] = []
-    for pair in pairs:
-        prod = float(np.real(pair[0] * pair[1]))
-        wn = math.sqrt(abs(prod))
-        zeta = -float(np.real(pair[0] + pair[1])) / (2 * wn) if wn > 0 else math.nan
-        out += [wn, zeta]
-    return out[0], out[1], out[2], out[3]
-
-
 def sweep(speeds: tuple[int, ...] = SPEEDS_KEAS) -> list[ModePoint]:
     """Trim and linearise at each speed."""
     fdm = make_fdm()
@@ -127,7 +110,7 @@ def sweep(speeds: tuple[int, ...] = SPEEDS_KEAS) -> list[ModePoint]:
             throttle=fdm["fcs/throttle-cmd-norm"],
         )
         eigs = np.linalg.eigvals(longitudinal_matrix(fdm))
-        point.sp_wn, point.sp_zeta, point.ph_wn, point.ph_zeta = classify(eigs)
+        point.sp_wn, point.sp_zeta, point.ph_wn, point.ph_zeta = longitudinal_modes(eigs)
         point.eigenvalues = tuple(complex(e) for e in sorted(eigs, key=abs, reverse=True))
         points.append(point)
     return points

@@ -26,7 +26,18 @@ import math
 import sys
 from dataclasses import asdict, dataclass, field
 
-__all__ = ["Design", "DesignError", "add_arguments", "design", "main", "settling_times"]
+import numpy as np
+
+__all__ = [
+    "LONG_STATES",
+    "Design",
+    "DesignError",
+    "add_arguments",
+    "design",
+    "longitudinal_modes",
+    "main",
+    "settling_times",
+]
 
 LONG_STATES = ("Vt", "Alpha", "Theta", "Q")
 
@@ -53,19 +64,26 @@ class Design:
     warnings: list[str] = field(default_factory=list)
 
 
-def _pair(pair) -> tuple[float, float]:
-    prod = float((pair[0] * pair[1]).real)
-    wn = math.sqrt(abs(prod))
-    zeta = -float((pair[0] + pair[1]).real) / (2 * wn) if wn > 0 else math.nan
-    return wn, zeta
+def longitudinal_modes(eigs: np.ndarray) -> tuple[float, float, float, float]:
+    """(sp_wn, sp_zeta, ph_wn, ph_zeta) from the four longitudinal eigenvalues (rad/s).
+
+    The two eigenvalues of largest magnitude are the short period, the other two the
+    phugoid.  For a pair of real roots the equivalent second-order values are returned
+    (wn = sqrt(l1 l2), zeta = -(l1 + l2) / (2 wn)).
+    """
+    order = np.argsort(np.abs(eigs))
+    out: list[float] = []
+    for pair in (eigs[order[2:]], eigs[order[:2]]):
+        wn = math.sqrt(abs(float(np.real(pair[0] * pair[1]))))
+        zeta = -float(np.real(pair[0] + pair[1])) / (2 * wn) if wn > 0 else math.nan
+        out += [wn, zeta]
+    return out[0], out[1], out[2], out[3]
 
 
 def settling_times(
     aircraft: str, altitude_ft: float, speed_kcas: float, dt_s: float
 ) -> tuple[float, float, dict]:
     """(short-period, phugoid) settling times 4/(zeta wn) in s at the trim, and the modes."""
-    import numpy as np
-
     from probing.plant import Plant
 
     plant = Plant(aircraft, dt_s)
@@ -74,9 +92,7 @@ def settling_times(
     names = list(lin["x_names"])
     idx = [names.index(n) for n in LONG_STATES]
     eigs = np.linalg.eigvals(np.asarray(lin["A"])[np.ix_(idx, idx)])
-    order = np.argsort(np.abs(eigs))
-    sp_wn, sp_zeta = _pair(eigs[order[2:]])
-    ph_wn, ph_zeta = _pair(eigs[order[:2]])
+    sp_wn, sp_zeta, ph_wn, ph_zeta = longitudinal_modes(eigs)
 
     def ts(wn: float, zeta: float) -> float:
         return 4.0 / (zeta * wn) if zeta * wn > 0 else math.inf

@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from probing.design import longitudinal_modes
+
 ROOT = Path(__file__).resolve().parents[1]
 AIRCRAFT = ROOT / "aircraft"
 MODEL_DIR = AIRCRAFT / "gtm_t2"
@@ -345,6 +347,6 @@ def test_longitudinal_modes_at_75_kt_are_plausible() -> None:
     assert modes.trim_level(fdm, 75.0)
     a = modes.longitudinal_matrix(fdm)
     assert fdm["simulation/dt"] == pytest.approx(1.0 / 200.0)  # restored after linearising
-    sp_wn, sp_zeta, ph_wn, ph_zeta = modes.classify(np.linalg.eigvals(a))
+    sp_wn, sp_zeta, ph_wn, ph_zeta = longitudinal_modes(np.linalg.eigvals(a))
     assert 3.0 < sp_wn < 10.0 and 0.3 < sp_zeta < 0.7
     assert 0.25 < ph_wn < 0.45 and 0.0 < ph_zeta < 0.2
