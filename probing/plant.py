@@ -437,7 +437,7 @@ class Plant:
         """Local slope d(surface deg)/d(command norm) at the trimmed command."""
         assert self._map_deg is not None, "trim first"
         cmd0 = self.trim_result.elevator_cmd_norm
-        i = int(np.clip(np.searchsorted(self._map_cmd, cmd0), 1, self._map_cmd.size - 1))
-        return float(
-            (self._map_deg[i] - self._map_deg[i - 1]) / (self._map_cmd[i] - self._map_cmd[i - 1])
-        )
+        order = np.argsort(self._map_cmd)  # the map is kept sorted by surface, not command
+        cmd, deg = self._map_cmd[order], self._map_deg[order]
+        i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
+        return float((deg[i] - deg[i - 1]) / (cmd[i] - cmd[i - 1]))

@@ -358,3 +358,20 @@ def test_progress_bar_only_when_asked_or_on_a_tty(tmp_path: Path) -> None:
     run_scenario(scn, tmp_path, stream=hidden)
     assert "3/3 periods" in shown.getvalue() and "ETA" in shown.getvalue()
     assert hidden.getvalue() == ""
+
+
+def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> None:
+    """The slope used to scale FGLinearization's DeCmd column, checked on the FCS itself."""
+    plant = Plant("A320", 0.01)
+    trim = plant.trim(15000, speed_kcas=280)
+    plant.fdm.suspend_integration()
+    try:
+        plant.fdm["fcs/elevator-cmd-norm"] = trim.elevator_cmd_norm - 1e-4
+        plant.fdm.run()
+        below = plant.fdm["fcs/elevator-pos-deg"]
+    finally:
+        plant.fdm["fcs/elevator-cmd-norm"] = trim.elevator_cmd_norm
+        plant.fdm.run()
+        plant.fdm.resume_integration()
+    slope = (trim.elevator_deg - below) / 1e-4
+    assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)
