@@ -341,18 +341,25 @@ def elevator(db: dict) -> list[str]:
     return lines
 
 
-def aileron(db: dict) -> list[str]:
-    """dC6_ail: right aileron as tabulated, left aileron as its mirror image."""
-    t = db["dC6_ail"]
-    a, b, ail, d = arr(t.alpha), arr(t.beta), arr(t.ail), arr(t.data)
+def right_and_mirrored_left(db: dict, table: str, axis: str, surface: str, name: str) -> list[str]:
+    """A right-surface table as tabulated, and the left surface as its mirror image."""
+    t = db[table]
+    a, b, defl, d = arr(t.alpha), arr(t.beta), arr(getattr(t, axis)), arr(t.data)
     lines: list[str] = []
     for i, c in enumerate(COEFFS6):
-        body = table_3d(ALPHA, a, BETA, b, "fcs/right-aileron-pos-deg", ail, d[:, :, :, i])
-        lines += function(f"aero/gtm/ail-right/{c}", body)
+        body = table_3d(ALPHA, a, BETA, b, f"fcs/right-{surface}-pos-deg", defl, d[:, :, :, i])
+        lines += function(f"aero/gtm/{name}-right/{c}", body)
     for i, c in enumerate(COEFFS6):
-        body = table_3d(ALPHA, a, BETA_MIRROR, b, "fcs/left-aileron-pos-deg", ail, d[:, :, :, i])
-        lines += function(f"aero/gtm/ail-left/{c}", signed(MIRROR_SIGN[c], body))
+        body = table_3d(
+            ALPHA, a, BETA_MIRROR, b, f"fcs/left-{surface}-pos-deg", defl, d[:, :, :, i]
+        )
+        lines += function(f"aero/gtm/{name}-left/{c}", signed(MIRROR_SIGN[c], body))
     return lines
+
+
+def aileron(db: dict) -> list[str]:
+    """dC6_ail: right aileron as tabulated, left aileron as its mirror image."""
+    return right_and_mirrored_left(db, "dC6_ail", "ail", "aileron", "ail")
 
 
 def rudder(db: dict) -> list[str]:
@@ -389,16 +396,7 @@ def rudder(db: dict) -> list[str]:
 
 def spoiler(db: dict) -> list[str]:
     """dC6_spo: right spoiler as tabulated, left spoiler as its mirror image."""
-    t = db["dC6_spo"]
-    a, b, spo, d = arr(t.alpha), arr(t.beta), arr(t.spo), arr(t.data)
-    lines: list[str] = []
-    for i, c in enumerate(COEFFS6):
-        body = table_3d(ALPHA, a, BETA, b, "fcs/right-spoiler-pos-deg", spo, d[:, :, :, i])
-        lines += function(f"aero/gtm/spo-right/{c}", body)
-    for i, c in enumerate(COEFFS6):
-        body = table_3d(ALPHA, a, BETA_MIRROR, b, "fcs/left-spoiler-pos-deg", spo, d[:, :, :, i])
-        lines += function(f"aero/gtm/spo-left/{c}", signed(MIRROR_SIGN[c], body))
-    return lines
+    return right_and_mirrored_left(db, "dC6_spo", "spo", "spoiler", "spo")
 
 
 def rate_damping(db: dict) -> list[str]:
