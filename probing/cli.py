@@ -20,7 +20,9 @@ def _error(message: str, code: int) -> int:
     return code
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
+def _simulate(args: argparse.Namespace, job) -> int:
+    """Validate the scenario (exit 2), then run ``job(scn)`` (exit 1 on trim failure or
+    divergence); ``job`` returns the line to print."""
     from probing.scenario import ScenarioError, load_scenario
 
     try:
@@ -28,38 +30,38 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         return _error(str(exc), 2)
     from probing.plant import DivergenceError, TrimError  # heavy imports after validation
-    from probing.run import run_scenario
 
     try:
-        result = run_scenario(scn, args.out, progress=None)
-        if args.truth:
-            from probing.truth import compute_truth
-
-            compute_truth(scn, args.out)
+        print(job(scn))
     except (TrimError, DivergenceError) as exc:
         return _error(f"{args.scenario}: {exc}", 1)
-    print(
-        f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
-        f"{result.wall_s:.2f} s -> {result.out_dir}"
-    )
     return 0
+
+
+def _truth_line(scn, out: Path) -> str:
+    from probing.truth import compute_truth
+
+    return f"{scn.name}: ground truth -> {compute_truth(scn, out)}"
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    def job(scn) -> str:
+        from probing.run import run_scenario
+
+        result = run_scenario(scn, args.out, progress=None)
+        line = (
+            f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
+            f"{result.wall_s:.2f} s -> {result.out_dir}"
+        )
+        if args.truth:
+            _truth_line(scn, args.out)
+        return line
+
+    return _simulate(args, job)
 
 
 def _cmd_truth(args: argparse.Namespace) -> int:
-    from probing.plant import DivergenceError, TrimError
-    from probing.scenario import ScenarioError, load_scenario
-    from probing.truth import compute_truth
-
-    try:
-        scn = load_scenario(args.scenario)
-    except ScenarioError as exc:
-        return _error(str(exc), 2)
-    try:
-        path = compute_truth(scn, args.out)
-    except (TrimError, DivergenceError) as exc:
-        return _error(f"{args.scenario}: {exc}", 1)
-    print(f"{scn.name}: ground truth -> {path}")
-    return 0
+    return _simulate(args, lambda scn: _truth_line(scn, args.out))
 
 
 def _cmd_fig4(args: argparse.Namespace) -> int:
