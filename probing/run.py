@@ -155,6 +155,7 @@ def run_scenario(
     *,
     progress: bool | None = None,
     stream: TextIO | None = None,
+    folder: str | Path | None = None,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -168,6 +169,8 @@ def run_scenario(
         Force the progress bar on or off; default: on when ``stream`` is a TTY.
     stream : file, optional
         Where the progress bar goes (default stderr).
+    folder : path, optional
+        Write into exactly this folder instead of ``out/<scn.name>/`` (used by sweeps).
 
     Returns
     -------
@@ -204,7 +207,7 @@ def run_scenario(
     h_sum = np.zeros((n_ch, m))
     h_count = 0
 
-    folder = Path(out) / scn.name
+    folder = Path(folder) if folder is not None else Path(out) / scn.name
     meta = provenance(
         scenario_toml=scn.text,
         scenario=scn.to_dict(),
