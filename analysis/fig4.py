@@ -44,6 +44,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from probing.correlator import StreamingCorrelator
+from probing.metrics import gain_and_shape
 from probing.nonlinearities import RateLimit, compensate
 from probing.prbs import Probe
 from probing.run import build_nonlinearity, run_scenario
@@ -239,14 +240,6 @@ def offset_removed(sat_dir: Path, off_dir: Path, channel: str = CHANNEL) -> RunD
     est = corr.pop_periods()
     keep = est.period >= scn.settle_periods
     return RunData(scn, sat.lag_s, est.z[keep], est.h[keep], est.z)
-
-
-def gain_and_shape(h: np.ndarray, h0: np.ndarray) -> tuple[float, float]:
-    """Least-squares gain g = <h, h0>/<h0, h0> and shape error ||h - g h0|| / ||g h0||."""
-    g = float(np.dot(h, h0) / np.dot(h0, h0))
-    if g == 0.0:
-        return 0.0, math.inf
-    return g, float(np.linalg.norm(h - g * h0) / np.linalg.norm(g * h0))
 
 
 def describe(scn: Scenario) -> tuple[str, str]:

@@ -14,6 +14,7 @@ import pytest
 from analysis import fig4
 from probing.cli import main as cli_main
 from probing.design import DesignError, design
+from probing.metrics import gain_and_shape
 from probing.nonlinearities import RateLimit
 from probing.run import build_nonlinearity
 from probing.scenario import load_scenario
@@ -89,7 +90,7 @@ def test_measured_gain_matches_prediction(results, which):
         p = rows[key]
         assert p.measured_gain == pytest.approx(p.predicted_gain, rel=GAIN_TOL[which]), key
         # On the probing output z itself the scale holds much more tightly on both aircraft.
-        g_z, _ = fig4.gain_and_shape(p.run.z.mean(axis=0), data.baseline.z.mean(axis=0))
+        g_z, _ = gain_and_shape(p.run.z.mean(axis=0), data.baseline.z.mean(axis=0))
         assert g_z == pytest.approx(p.predicted_gain, rel=1e-3), key
     # Rate limit at the bound: the probe passes unchanged (one step per bit).
     assert rows["f_rate_limit"].shape_error < 1e-12
