@@ -1,4 +1,4 @@
-"""The ``probing`` command line: ``run``, ``truth``, ``fig4``, ``plot``, ``design``.
+"""The ``probing`` command line: ``run``, ``truth``, ``sweep``, ``fig4``, ``plot``, ``design``.
 
 Errors a user can fix (a wrong scenario, a failed trim, a divergence) are
 printed as one line on stderr, with exit code 2 for bad input and 1 for a run
@@ -64,6 +64,39 @@ def _cmd_truth(args: argparse.Namespace) -> int:
     return _simulate(args, lambda scn: _truth_line(scn, args.out))
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from probing.scenario import ScenarioError
+    from probing.sweep import load_sweep
+
+    if args.jobs is not None and args.jobs < 1:
+        return _error(f"-j/--jobs: must be an integer >= 1, got {args.jobs}", 2)
+    if args.scheduler and args.executor != "dask":
+        return _error("--scheduler: only with --executor dask", 2)
+    try:
+        sweep = load_sweep(args.sweep)
+    except ScenarioError as exc:
+        return _error(str(exc), 2)
+    from probing.sweep import SweepBusyError, run_sweep  # heavy imports after validation
+
+    try:
+        result = run_sweep(
+            sweep,
+            args.out,
+            jobs=args.jobs,
+            executor=args.executor,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+        )
+    except SweepBusyError as exc:
+        return _error(str(exc), 1)
+    except OSError as exc:  # e.g. no Dask scheduler at the address
+        return _error(f"{args.sweep}: {exc.__class__.__name__}: {exc}", 1)
+    for message in result.messages:
+        print(f"  {message}", file=sys.stderr)
+    print(result.line())
+    return 1 if result.errors else 0
+
+
 def _cmd_fig4(args: argparse.Namespace) -> int:
     try:
         from analysis.fig4 import main as fig4_main
@@ -76,6 +109,10 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    if args.target == "sweep":
+        from analysis.sweep_plots import plot_main as sweep_plot_main
+
+        return sweep_plot_main(args)
     from analysis.fig4 import plot_main
 
     return plot_main(args)
@@ -105,6 +142,30 @@ def build_parser() -> argparse.ArgumentParser:
     truth.add_argument("--out", type=Path, default=Path("results"))
     truth.set_defaults(func=_cmd_truth)
 
+    sweep = sub.add_parser(
+        "sweep", help="run a sweep file's points in parallel, resumably (see docs/sweeps.md)"
+    )
+    sweep.add_argument("sweep", type=Path, help="sweep TOML file (scenarios/sweeps/*.toml)")
+    sweep.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/sweeps"),
+        help="results root (default %(default)s)",
+    )
+    sweep.add_argument(
+        "-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)"
+    )
+    sweep.add_argument(
+        "--executor", choices=["local", "dask"], default="local", help="local pool or Dask"
+    )
+    sweep.add_argument(
+        "--scheduler", default=None, help="address of an existing Dask scheduler (tcp://...)"
+    )
+    sweep.add_argument(
+        "--retry-failed", action="store_true", help="run again the points recorded as failed"
+    )
+    sweep.set_defaults(func=_cmd_sweep)
+
     fig4 = sub.add_parser("fig4", help="reproduce the paper's Fig. 4")
     fig4.add_argument(
         "--out", type=Path, default=None, help="results folder (default results/<set folder>)"
@@ -118,8 +179,12 @@ def build_parser() -> argparse.ArgumentParser:
     fig4.set_defaults(func=_cmd_fig4)
 
     plot = sub.add_parser("plot", help="redraw figures from stored Parquet (no simulation)")
-    plot.add_argument("target", choices=["fig4"], help="which figure set")
-    plot.add_argument("results", type=Path, help="results folder written by `probing fig4`")
+    plot.add_argument("target", choices=["fig4", "sweep"], help="which figure set")
+    plot.add_argument(
+        "results",
+        type=Path,
+        help="results folder written by `probing fig4`, or a sweep folder (results/sweeps/NAME)",
+    )
     plot.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
     plot.add_argument("--copy-summary", type=Path, default=None, help="also copy summary.md here")
     plot.set_defaults(func=_cmd_plot)
