@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 bench clean
+.PHONY: setup test lint format fig4 sweeps sweep bench clean
 
 setup: $(STAMP)
 
@@ -27,6 +27,20 @@ test: setup lint
 
 fig4: setup
 	$(PY) -m probing fig4
+
+# Batch sweeps (docs/sweeps.md): every file in scenarios/sweeps, or one with SWEEP=<file>.
+# Resumable: rerun after an interruption and only the missing points are computed.
+SWEEPS   := $(sort $(wildcard scenarios/sweeps/*.toml))
+SWEEP_OUT ?= results/sweeps
+JOBS     ?=
+SWEEP_ARGS = --out $(SWEEP_OUT) $(if $(JOBS),-j $(JOBS))
+
+sweeps: setup
+	@for f in $(SWEEPS); do $(PY) -m probing sweep $$f $(SWEEP_ARGS) --plot || exit $$?; done
+
+sweep: setup
+	@test -n "$(SWEEP)" || { echo "usage: make sweep SWEEP=scenarios/sweeps/<file>.toml [JOBS=n]" >&2; exit 2; }
+	$(PY) -m probing sweep $(SWEEP) $(SWEEP_ARGS) --plot
 
 bench: setup
 	$(PY) -m bench

@@ -94,7 +94,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     for message in result.messages:
         print(f"  {message}", file=sys.stderr)
     print(result.line())
-    return 1 if result.errors else 0
+    code = 1 if result.errors else 0
+    if args.plot:
+        from analysis.sweep_plots import plot_sweep
+
+        for path in plot_sweep(result.folder, args.figures):
+            print(f"wrote {path}")
+    return code
 
 
 def _cmd_fig4(args: argparse.Namespace) -> int:
@@ -164,6 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument(
         "--retry-failed", action="store_true", help="run again the points recorded as failed"
     )
+    sweep.add_argument("--plot", action="store_true", help="draw the sweep's figure afterwards")
+    sweep.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
     sweep.set_defaults(func=_cmd_sweep)
 
     fig4 = sub.add_parser("fig4", help="reproduce the paper's Fig. 4")

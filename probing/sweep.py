@@ -295,6 +295,21 @@ def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Send file descriptor 1 to /dev/null (C++ output included) for the duration."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
 def execute_task(task: _Task) -> dict[str, Any]:
     """Run one point or reference into its folder, atomically; never raises for a failed run.
 
@@ -313,7 +328,8 @@ def execute_task(task: _Task) -> dict[str, Any]:
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     t0 = time.perf_counter()
     try:
-        result = run_scenario(task.scenario, final.parent, progress=False, folder=tmp)
+        with _quiet_stdout():  # JSBSim's trim prints to C++ std::cout; the message is kept
+            result = run_scenario(task.scenario, final.parent, progress=False, folder=tmp)
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
     except Exception as exc:  # recorded, reported, and the sweep goes on
