@@ -1,4 +1,4 @@
-"""Parquet output: atomic files, row groups as periods complete, provenance metadata."""
+"""Parquet output: atomic files, large row groups written as data arrive, provenance metadata."""
 
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 __all__ = [
+    "ROW_GROUP_ROWS",
     "AtomicParquetWriter",
     "OutputFolder",
     "git_revision",
@@ -72,8 +74,14 @@ def provenance(**items: Any) -> dict[bytes, bytes]:
     }
 
 
+#: Rows buffered before a row group is written: large groups keep the per-group cost of
+#: Parquet (page headers, statistics, compression set-up) negligible, and the buffer small
+#: (~0.5 MB per float64 column).
+ROW_GROUP_ROWS = 65536
+
+
 class AtomicParquetWriter:
-    """Write a Parquet file in row groups under a temporary name; rename on :meth:`close`.
+    """Write a Parquet file under a temporary name in large row groups; rename on :meth:`close`.
 
     Parameters
     ----------
@@ -83,25 +91,72 @@ class AtomicParquetWriter:
         Columns of the file.
     metadata : dict
         Key-value metadata stored in the file's schema.
+    row_group_rows : int
+        Rows buffered before they are written as one row group (the last group of the file
+        holds the rest).  Memory stays bounded by this many rows whatever the file's length.
+
+    Notes
+    -----
+    Only string columns are dictionary-encoded: the float columns hold (nearly) unique
+    values, for which building a dictionary is wasted time.  Float columns use the
+    BYTE_STREAM_SPLIT encoding, which makes them compress ~20 % smaller under zstd at
+    the same cost.
     """
 
-    def __init__(self, path: Path, schema: pa.Schema, metadata: dict[bytes, bytes]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        schema: pa.Schema,
+        metadata: dict[bytes, bytes],
+        row_group_rows: int = ROW_GROUP_ROWS,
+    ) -> None:
+        if row_group_rows < 1:
+            raise ValueError("row_group_rows must be >= 1")
         self.path = Path(path)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         self.schema = schema.with_metadata(metadata)
-        self._writer = pq.ParquetWriter(self.tmp, self.schema, compression="zstd")
+        self.row_group_rows = int(row_group_rows)
+        self._pending: list[pa.Table] = []
+        self._pending_rows = 0
+        strings = [f.name for f in schema if pa.types.is_string(f.type)]
+        floats = [f.name for f in schema if pa.types.is_floating(f.type)]
+        self._writer = pq.ParquetWriter(
+            self.tmp,
+            self.schema,
+            compression="zstd",
+            use_dictionary=strings or False,
+            use_byte_stream_split=floats or False,
+        )
 
     def write(self, columns: dict[str, Any]) -> None:
-        """Append one row group."""
-        self._writer.write_table(pa.table(columns, schema=self.schema))
+        """Append rows (columns of equal length); written out once a row group is full.
+
+        The values are copied: the caller may reuse its arrays right away (Arrow would
+        otherwise wrap a numpy array without copying, and buffered rows would change).
+        """
+        columns = {k: np.array(v) if isinstance(v, np.ndarray) else v for k, v in columns.items()}
+        table = pa.table(columns, schema=self.schema)
+        self._pending.append(table)
+        self._pending_rows += table.num_rows
+        if self._pending_rows >= self.row_group_rows:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self._pending:
+            return
+        table = pa.concat_tables(self._pending)
+        self._pending, self._pending_rows = [], 0
+        self._writer.write_table(table, row_group_size=max(table.num_rows, 1))
 
     def close(self) -> None:
-        """Finish the file and move it to its final name."""
+        """Write the buffered rows, finish the file and move it to its final name."""
+        self._flush()
         self._writer.close()
         os.replace(self.tmp, self.path)
 
     def abort(self) -> None:
         """Drop the partial file."""
+        self._pending, self._pending_rows = [], 0
         try:
             self._writer.close()
         finally:

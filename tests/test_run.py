@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
@@ -17,6 +18,7 @@ from probing.plant import DivergenceError, Plant, TrimError
 from probing.prbs import Probe
 from probing.run import run_scenario
 from probing.scenario import parse_scenario
+from probing.storage import AtomicParquetWriter
 from probing.truth import compute_truth, linear_pulse_response, predicted_probing
 
 pytestmark = pytest.mark.jsbsim
@@ -45,6 +47,14 @@ def scenario(**changes):
 
 def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def private_twin_cache(tmp_path_factory):
+    """Reference twins go to a fresh cache: every run here simulates its twin once."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PROBING_TWIN_CACHE", str(tmp_path_factory.mktemp("twins")))
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -375,3 +385,22 @@ def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> 
         plant.fdm.resume_integration()
     slope = (trim.elevator_deg - below) / 1e-4
     assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)
+
+
+def test_parquet_rows_are_buffered_into_large_row_groups(tmp_path: Path) -> None:
+    """Row groups of >= row_group_rows rows; a caller may reuse its arrays after write()."""
+    schema = pa.schema([("s", pa.string()), ("k", pa.int64()), ("x", pa.float64())])
+    writer = AtomicParquetWriter(tmp_path / "f.parquet", schema, {b"probing.t": b"1"}, 100)
+    buf = np.empty(30)  # reused for every chunk, like the run's elevator buffer
+    for i in range(7):
+        buf[:] = np.arange(30) + 30 * i
+        writer.write({"s": ["a"] * 30, "k": np.arange(30) + 30 * i, "x": buf})
+    assert not (tmp_path / "f.parquet").exists()
+    writer.close()
+    f = pq.ParquetFile(tmp_path / "f.parquet")
+    assert [f.metadata.row_group(i).num_rows for i in range(f.num_row_groups)] == [120, 90]
+    table = f.read()
+    np.testing.assert_array_equal(table["x"].to_numpy(), np.arange(210.0))
+    np.testing.assert_array_equal(table["k"].to_numpy(), np.arange(210))
+    assert table.schema.metadata[b"probing.t"] == b"1"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.parquet"]
