@@ -19,10 +19,14 @@ import tempfile
 import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
 import numpy as np
+
+if TYPE_CHECKING:
+    from probing.scenario import Scenario
 
 __all__ = [
     "CHANNELS",
@@ -32,8 +36,11 @@ __all__ = [
     "Plant",
     "TrimError",
     "TrimResult",
+    "aircraft_digest",
+    "cache_dir",
     "find_aircraft",
     "jsbsim_version",
+    "make_plant",
 ]
 
 #: Output channels: name (with unit) -> JSBSim property.
@@ -103,7 +110,12 @@ def find_aircraft(model: str) -> Path:
     )
 
 
-def _cache_dir() -> Path:
+def cache_dir() -> Path:
+    """The project's cache root: ``$PROBING_CACHE``, else ``$XDG_CACHE_HOME/probing``.
+
+    ``$XDG_CACHE_HOME`` defaults to ``~/.cache``.  Sanitised aircraft live in
+    ``<root>/jsbsim-root``, reference twins (:mod:`probing.twins`) in ``<root>/twins``.
+    """
     env = os.environ.get("PROBING_CACHE")
     if env:
         return Path(env)
@@ -121,15 +133,26 @@ def _sanitise(xml_path: Path, out_path: Path) -> None:
     tree.write(out_path, encoding="utf-8", xml_declaration=True)
 
 
-def sanitised_root(model: str) -> Path:
-    """A JSBSim root folder holding a sanitised copy of the aircraft (cached, made atomically)."""
+def aircraft_digest(model: str) -> str:
+    """SHA-256 (hex) over the relative names and contents of every file of the aircraft folder.
+
+    The folder is the one :func:`find_aircraft` picks, i.e. the files the plant loads
+    (before sanitising).  Engines and systems taken from JSBSim's own folders are covered
+    by the JSBSim version, not by this digest.
+    """
     folder = find_aircraft(model)
     digest = hashlib.sha256()
     for path in sorted(folder.rglob("*")):
         if path.is_file():
             digest.update(str(path.relative_to(folder)).encode())
             digest.update(path.read_bytes())
-    root = _cache_dir() / "jsbsim-root" / f"{model}-{digest.hexdigest()[:16]}"
+    return digest.hexdigest()
+
+
+def sanitised_root(model: str) -> Path:
+    """A JSBSim root folder holding a sanitised copy of the aircraft (cached, made atomically)."""
+    folder = find_aircraft(model)
+    root = cache_dir() / "jsbsim-root" / f"{model}-{aircraft_digest(model)[:16]}"
     if (root / "aircraft" / model / f"{model}.xml").is_file():
         return root
     root.parent.mkdir(parents=True, exist_ok=True)
@@ -368,31 +391,58 @@ class Plant:
         return [self._pm.get_node(CHANNELS[c]) for c in channels]
 
     def step(
-        self, cmd_norm: np.ndarray, nodes: list, out: np.ndarray, elevator_deg: np.ndarray | None
+        self,
+        cmd_norm: np.ndarray | None,
+        nodes: list,
+        out: np.ndarray,
+        elevator_deg: np.ndarray | None = None,
     ) -> None:
-        """Run one step per command; ``out[k, j]`` is channel j read after step k.
+        """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
 
-        ``elevator_deg`` (optional) receives the realised surface deflection.
+        Parameters
+        ----------
+        cmd_norm : numpy.ndarray or None
+            Normalised elevator command for each step (written before the step), shape
+            ``(n,)``.  None holds the command the plant has (after :meth:`trim`, the
+            trimmed one) and writes nothing: the unprobed twin.
+        nodes : list
+            Property nodes of the channels, from :meth:`channel_nodes`.
+        out : numpy.ndarray
+            ``(n, len(nodes))`` float64, filled in place (channel units, see :data:`CHANNELS`).
+        elevator_deg : numpy.ndarray, optional
+            ``(n,)``, receives the realised elevator deflection after each step (deg).
+
+        Notes
+        -----
+        The per-step work is the command write, ``run()`` and one read per channel; the
+        reads are appended to one flat list and copied into ``out`` once, so no array is
+        built per step.
         """
-        set_cmd = self._cmd_node.set_double_value
+        n = out.shape[0]
+        getters = [node.get_double_value for node in nodes]
+        if elevator_deg is not None:
+            getters.append(self._pos_node.get_double_value)
         run = self.fdm.run
-        getters = [n.get_double_value for n in nodes]
-        get_pos = self._pos_node.get_double_value
-        if len(getters) == 1 and elevator_deg is not None:
-            (get0,) = getters
-            col = out[:, 0]
-            for k, c in enumerate(cmd_norm.tolist()):
+        values: list[float] = []
+        append = values.append
+        if cmd_norm is None:
+            for _ in range(n):
+                run()
+                for get in getters:
+                    append(get())
+        else:
+            if len(cmd_norm) != n:
+                raise ValueError(f"{len(cmd_norm)} commands for {n} output rows")
+            set_cmd = self._cmd_node.set_double_value
+            for c in cmd_norm.tolist():
                 set_cmd(c)
                 run()
-                col[k] = get0()
-                elevator_deg[k] = get_pos()
-            return
-        for k, c in enumerate(cmd_norm.tolist()):
-            set_cmd(c)
-            run()
-            out[k] = [g() for g in getters]
-            if elevator_deg is not None:
-                elevator_deg[k] = get_pos()
+                for get in getters:
+                    append(get())
+        block = np.array(values, dtype=np.float64).reshape(n, len(getters))
+        out[:] = block[:, : len(nodes)]
+        if elevator_deg is not None:
+            elevator_deg[:] = block[:, -1]
 
     def check_state(self) -> None:
         """Raise :class:`DivergenceError` if the aircraft left the meaningful region."""
@@ -441,3 +491,10 @@ class Plant:
         cmd, deg = self._map_cmd[order], self._map_deg[order]
         i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
         return float((deg[i] - deg[i - 1]) / (cmd[i] - cmd[i - 1]))
+
+
+def make_plant(scn: Scenario) -> Plant:
+    """A plant for a scenario (model, dt, turbulence, seed), trimmed at its condition."""
+    plant = Plant(scn.model, scn.dt_s, turbulence=scn.turbulence, seed=scn.seed)
+    plant.trim(scn.altitude_ft, **{scn.speed_kind: scn.speed})
+    return plant
