@@ -13,17 +13,60 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import max_len_seq
 
 __all__ = ["MAX_ORDER", "MIN_ORDER", "Probe", "mls"]
 
 MIN_ORDER = 2
 MAX_ORDER = 20
 
+#: Linear recurrence of the m-sequence of each order over GF(2):
+#: ``b[k+n] = XOR of b[k+j] for j in RECURRENCE[n]``, i.e. the primitive feedback polynomial
+#: x^n + sum_j x^j.  With an all-ones start these give exactly the sequences of
+#: :func:`scipy.signal.max_len_seq` with its default taps (checked in the tests), without
+#: importing scipy.signal (most of a second at every start-up).
+RECURRENCE: dict[int, tuple[int, ...]] = {
+    2: (0, 1),
+    3: (0, 2),
+    4: (0, 3),
+    5: (0, 3),
+    6: (0, 5),
+    7: (0, 6),
+    8: (0, 1, 6, 7),
+    9: (0, 5),
+    10: (0, 7),
+    11: (0, 9),
+    12: (0, 4, 10, 11),
+    13: (0, 8, 11, 12),
+    14: (0, 2, 12, 13),
+    15: (0, 14),
+    16: (0, 4, 13, 15),
+    17: (0, 14),
+    18: (0, 11),
+    19: (0, 14, 17, 18),
+    20: (0, 17),
+}
+
 
 @lru_cache(maxsize=32)
 def _mls_cached(order: int) -> np.ndarray:
-    bits, _ = max_len_seq(order)
+    m = 2**order - 1
+    taps = RECURRENCE[order]
+    gap = order - max(taps[1:])  # new bits computable at once from the recurrence
+    bits = np.zeros(m, dtype=np.uint8)
+    bits[:order] = 1
+    filled, scale = order, 1
+    while filled < m:
+        # p(x)^(2^s) = p(x^(2^s)) over GF(2): the same sequence obeys the recurrence with
+        # every lag times 2^s, which yields gap * 2^s new bits per vectorised step.
+        while filled >= 2 * scale * order:
+            scale *= 2
+        start = filled - scale * order
+        n_new = min(gap * scale, m - filled)
+        block = bits[start : start + n_new].copy()
+        for j in taps[1:]:
+            block ^= bits[start + j * scale : start + j * scale + n_new]
+        bits[filled : filled + n_new] = block
+        filled += n_new
     seq = 1.0 - 2.0 * bits.astype(np.float64)  # bit 0 -> +1, bit 1 -> -1
     seq.setflags(write=False)
     return seq
@@ -45,9 +88,9 @@ def mls(order: int) -> np.ndarray:
 
     Notes
     -----
-    The sequence is the output of the Fibonacci LFSR of
-    :func:`scipy.signal.max_len_seq` with its default taps and all-ones
-    initial state, mapped bit 0 -> +1 and bit 1 -> -1.  It holds
+    The sequence is that of :func:`scipy.signal.max_len_seq` with its default
+    taps and all-ones initial state (generated here from :data:`RECURRENCE`),
+    mapped bit 0 -> +1 and bit 1 -> -1.  It holds
     2**(n-1) values of -1 and 2**(n-1) - 1 values of +1, so its sum is -1.
 
     Examples

@@ -94,3 +94,12 @@ def test_probe_float_multiple_is_accepted() -> None:
 def test_probe_rejects_bad_parameters(kwargs: dict, field: str) -> None:
     with pytest.raises(ValueError, match=field):
         Probe(**kwargs)
+
+
+@pytest.mark.parametrize("order", range(MIN_ORDER, MAX_ORDER + 1))
+def test_mls_equals_scipy_max_len_seq(order: int) -> None:
+    """Our recurrence generator against SciPy's LFSR (default taps, all-ones state)."""
+    from scipy.signal import max_len_seq
+
+    bits, _ = max_len_seq(order)
+    np.testing.assert_array_equal(mls(order), 1.0 - 2.0 * bits)
