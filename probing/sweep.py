@@ -375,8 +375,9 @@ def _run_local(tasks: list[_Task], jobs: int) -> Iterator[dict[str, Any]]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["probing.run", "probing.sweep"])
+    import probing.run  # noqa: F401  imported once here, inherited by the forked workers
+
+    ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
         futures = [pool.submit(execute_task, t) for t in tasks]
         try:
