@@ -44,9 +44,14 @@ __all__ = [
     "RunResult",
     "build_nonlinearity",
     "make_plant",
+    "probing_block",
     "probing_rows",
     "run_scenario",
 ]
+
+#: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
+#: least one; the plant is still stepped and checked period by period.
+CHUNK_STEPS = 8192
 
 PROBING_SCHEMA = pa.schema(
     [
@@ -74,6 +79,46 @@ def probing_rows(
         "z": z,
         "zeta": zeta,
         "h_est": h,
+    }
+
+
+def probing_block(
+    channels: list[str],
+    periods: np.ndarray,
+    lag_s: np.ndarray,
+    z: np.ndarray,
+    zeta: np.ndarray,
+    h: np.ndarray,
+) -> dict[str, object]:
+    """Several periods of several channels in the layout of :data:`PROBING_SCHEMA`.
+
+    Parameters
+    ----------
+    channels : list of str
+        Channel names, C of them.
+    periods : numpy.ndarray
+        Period indices, shape (P,).
+    lag_s : numpy.ndarray
+        Lag of each tap (s), shape (M,).
+    z, zeta, h : numpy.ndarray
+        Shape (P, C, M), in the units of :data:`PROBING_SCHEMA`'s columns.
+
+    Returns
+    -------
+    dict
+        Columns with the rows ordered by period, then channel, then tap: the same rows as
+        :func:`probing_rows` called for each period and channel in that order.
+    """
+    n_p, n_c, m = z.shape
+    names = pa.array(channels, pa.string())
+    return {
+        "channel": names.take(pa.array(np.tile(np.repeat(np.arange(n_c), m), n_p))),
+        "period": np.repeat(np.asarray(periods, dtype=np.int32), n_c * m),
+        "tap": np.tile(np.arange(m, dtype=np.int32), n_p * n_c),
+        "lag_s": np.tile(lag_s, n_p * n_c),
+        "z": z.reshape(-1),
+        "zeta": zeta.reshape(-1),
+        "h_est": h.reshape(-1),
     }
 
 
@@ -233,7 +278,10 @@ def run_scenario(
     nl_state = nl.initial_state() if nl else None
     sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in channels])
     rng = np.random.default_rng(scn.seed)
-    correlators = [_correlator(probe, m) for _ in channels]
+    # Periods are simulated one by one (state checked after each) but post-processed
+    # (noise, correlation, Parquet) a chunk of periods at a time: fewer, larger calls.
+    chunk = max(1, CHUNK_STEPS // n_steps)
+    correlators = [_correlator(probe, chunk * m) for _ in channels]
     lag_s = np.arange(m) * probe.bit_duration_s
     h_sum = np.zeros((n_ch, m))
     h_count = 0
@@ -264,57 +312,78 @@ def run_scenario(
         w_ts = outputs.writer("timeseries.parquet", pa.schema(ts_fields))
 
         bar = _Progress(scn.periods, scn.name, stream, progress)
-        out_probed = np.empty((n_steps, n_ch))
-        elevator = np.empty(n_steps)
+        out_probed = np.empty((chunk * n_steps, n_ch))
+        out_ref = np.empty((chunk * n_steps, n_ch))
+        elevator = np.empty(chunk * n_steps)
+        nl_out = np.empty(chunk * n_steps)
         prev_bits: np.ndarray | None = None
-        for period in range(scn.periods):
-            q, nl_state = nl.process(x_period, dt, nl_state) if nl else (x_period, None)
-            cmd = plant.elevator_command(trim.elevator_deg + q)
-            plant.step(cmd, nodes, out_probed, elevator)
-            plant.check_state()
-            measured = out_probed + rng.standard_normal((n_steps, n_ch)) * sigma
-            if twin:
-                out_ref = twin.next(n_steps)
-                y = measured - out_ref
-            else:
-                y = measured - y_trim
+        for first in range(0, scn.periods, chunk):
+            k = min(chunk, scn.periods - first)
+            rows = k * n_steps
+            for i in range(k):
+                span = slice(i * n_steps, (i + 1) * n_steps)
+                q, nl_state = nl.process(x_period, dt, nl_state) if nl else (x_period, None)
+                nl_out[span] = q
+                cmd = plant.elevator_command(trim.elevator_deg + q)
+                plant.step(cmd, nodes, out_probed[span], elevator[span])
+                plant.check_state()
+                if twin:
+                    out_ref[span] = twin.next(n_steps)
+            measured = out_probed[:rows] + rng.standard_normal((rows, n_ch)) * sigma
+            y = measured - (out_ref[:rows] if twin else y_trim)
             y_bits = y[spb - 1 :: spb]
-            estimates = []
             if scn.drift == "detrend":
                 # Each period's z windows reach back one period: detrend both together.
-                if prev_bits is not None:
-                    window = _detrend(np.vstack((prev_bits, y_bits)), scn.detrend_order)
-                    for j in range(n_ch):
-                        fresh = _correlator(probe, 2 * m)
-                        fresh.push(window[:, j])
-                        est = fresh.pop_periods()
-                        estimates.append((est.z[1:], est.zeta[1:], est.h[1:]))
-                prev_bits = y_bits.copy()
+                done, ests = [], []
+                for i in range(k):
+                    bits = y_bits[i * m : (i + 1) * m]
+                    if prev_bits is not None:
+                        window = _detrend(np.vstack((prev_bits, bits)), scn.detrend_order)
+                        per_channel = []
+                        for j in range(n_ch):
+                            fresh = _correlator(probe, 2 * m)
+                            fresh.push(window[:, j])
+                            est = fresh.pop_periods()
+                            per_channel.append((est.z[1], est.zeta[1], est.h[1]))
+                        done.append(first + i)
+                        ests.append(per_channel)
+                    prev_bits = bits.copy()
+                periods = np.array(done, dtype=np.int64)
+                z, zeta, h = (
+                    np.array([[e[x] for e in pc] for pc in ests]).reshape(-1, n_ch, m)
+                    for x in range(3)
+                )
             else:
+                pops = []
                 for j, corr in enumerate(correlators):
                     corr.push(y_bits[:, j])
-                    est = corr.pop_periods()
-                    estimates.append((est.z, est.zeta, est.h))
-            for j, (z, zeta, h) in enumerate(estimates):
-                if len(z) == 0:
+                    pops.append(corr.pop_periods())
+                periods = pops[0].period
+                z, zeta, h = (
+                    np.stack([getattr(e, x) for e in pops], axis=1) for x in ("z", "zeta", "h")
+                )
+            if periods.size:
+                w_probe.write(probing_block(channels, periods, lag_s, z, zeta, h))
+            for p, period in enumerate(periods.tolist()):
+                if period < scn.settle_periods:
                     continue
-                w_probe.write(probing_rows(channels[j], period, lag_s, z[0], zeta[0], h[0]))
-                if period >= scn.settle_periods and np.all(np.isfinite(h[0])):
-                    h_sum[j] += h[0]
-                    if j == 0:
-                        h_count += 1
+                for j in range(n_ch):
+                    if np.all(np.isfinite(h[p, j])):
+                        h_sum[j] += h[p, j]
+                        if j == 0:
+                            h_count += 1
             cols = {
-                "time_s": (period * n_steps + np.arange(1, n_steps + 1)) * dt,
-                "probe_deg": x_period,
-                "nl_out_deg": q,
-                "elevator_deg": elevator,
+                "time_s": (first * n_steps + np.arange(1, rows + 1)) * dt,
+                "probe_deg": np.tile(x_period, k),
+                "nl_out_deg": nl_out[:rows],
+                "elevator_deg": elevator[:rows],
             }
             for j, c in enumerate(channels):
                 cols[c] = measured[:, j]
                 if twin:
-                    cols[f"{c}_reference"] = out_ref[:, j]
+                    cols[f"{c}_reference"] = out_ref[:rows, j]
             w_ts.write(cols)
-            bar.update(period + 1)
+            bar.update(first + k)
     h_mean = {
         c: h_sum[j] / h_count if h_count else np.full(m, np.nan) for j, c in enumerate(channels)
     }
