@@ -11,6 +11,7 @@ deflection is exactly the one asked for, whatever the model's scaling.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -133,20 +134,35 @@ def _sanitise(xml_path: Path, out_path: Path) -> None:
     tree.write(out_path, encoding="utf-8", xml_declaration=True)
 
 
+#: aircraft folder -> (names, sizes and modification times of its files, their digest)
+_DIGESTS: dict[Path, tuple[tuple, str]] = {}
+
+
 def aircraft_digest(model: str) -> str:
     """SHA-256 (hex) over the relative names and contents of every file of the aircraft folder.
 
     The folder is the one :func:`find_aircraft` picks, i.e. the files the plant loads
     (before sanitising).  Engines and systems taken from JSBSim's own folders are covered
-    by the JSBSim version, not by this digest.
+    by the JSBSim version, not by this digest.  The digest is remembered for the process
+    while no file's name, size or modification time changes.
     """
     folder = find_aircraft(model)
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    stamp = tuple((str(p.relative_to(folder)), *_size_mtime(p)) for p in files)
+    known = _DIGESTS.get(folder)
+    if known is not None and known[0] == stamp:
+        return known[1]
     digest = hashlib.sha256()
-    for path in sorted(folder.rglob("*")):
-        if path.is_file():
-            digest.update(str(path.relative_to(folder)).encode())
-            digest.update(path.read_bytes())
+    for path in files:
+        digest.update(str(path.relative_to(folder)).encode())
+        digest.update(path.read_bytes())
+    _DIGESTS[folder] = (stamp, digest.hexdigest())
     return digest.hexdigest()
+
+
+def _size_mtime(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_size, st.st_mtime_ns
 
 
 def sanitised_root(model: str) -> Path:
@@ -190,8 +206,13 @@ class TrimResult:
         return asdict(self)
 
 
+@functools.lru_cache(maxsize=32)
 def _alpha_range_rad(xml_path: Path) -> tuple[float, float]:
-    """Alpha range covered by every aerodynamic table indexed by alpha (rad)."""
+    """Alpha range covered by every aerodynamic table indexed by alpha (rad).
+
+    Memoised: the sanitised copy lives in a folder named after the aircraft's digest, so a
+    path always holds the same content.
+    """
     lo, hi = -math.inf, math.inf
     root = ET.parse(xml_path).getroot()
     aero = root.find("aerodynamics")

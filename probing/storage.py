@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import platform
@@ -30,15 +31,20 @@ __all__ = [
 _PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 
-def versions() -> dict[str, str]:
-    """Versions of Python and of the packages that shape the numbers."""
-    out = {"python": platform.python_version()}
+@functools.cache
+def _package_versions() -> tuple[tuple[str, str], ...]:
+    out = [("python", platform.python_version())]
     for name in ("probing", "jsbsim", "numpy", "scipy", "pandas", "pyarrow"):
         try:
-            out[name] = importlib_metadata.version(name)
+            out.append((name, importlib_metadata.version(name)))
         except importlib_metadata.PackageNotFoundError:
-            out[name] = "unknown"
-    return out
+            out.append((name, "unknown"))
+    return tuple(out)
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and of the packages that shape the numbers (looked up once)."""
+    return dict(_package_versions())
 
 
 def git_revision() -> str:
