@@ -304,10 +304,12 @@ def render_step_loop(r: dict) -> Rendered:
         f"({1e6 / r['probing_steps_per_s']:.2f} us/step) |",
         f"| efficiency (median of per-repeat ratios) | **{r['efficiency']:.2f}** |",
         "",
-        f"Where the time goes: one more run under cProfile ({p['wall_s']:.2f} s wall under the "
-        "profiler). JSBSim's Cython calls are invisible to cProfile and counted in "
-        "`Plant.step`, so `run()` is estimated as the steps times the bare per-step time "
-        "above and the rest of `Plant.step` is the property writes and reads and the loop.",
+        f"Where the time goes: one more run under cProfile ({p['wall_s']:.2f} s wall against "
+        f"{r['run_wall_s']:.2f} s without the profiler, whose overhead falls mostly on the "
+        "per-step loop: read its share as an upper bound). JSBSim's Cython calls are "
+        "invisible to cProfile and counted in `Plant.step`, so `run()` is estimated as the "
+        "steps times the bare per-step time above and the rest of `Plant.step` is the "
+        "property writes and reads and the loop.",
         "",
         *render_profile(p, steps, p["jsbsim_run_s_estimate"]),
     ]
