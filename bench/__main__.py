@@ -740,6 +740,21 @@ def render_fig4(r: dict) -> Rendered:
     return Rendered(rows, lines)
 
 
+# ------------------------------------------------------------- 5. sweep scaling
+def bench_sweeps(args: argparse.Namespace) -> dict:
+    """1 vs 2 workers and Dask on a 16-point sweep (``bench.sweep_scaling``)."""
+    from bench.sweep_scaling import bench_sweep_scaling
+
+    return bench_sweep_scaling(periods=args.sweep_periods, repeats=args.repeats)
+
+
+def render_sweeps(r: dict) -> Rendered:
+    from bench.sweep_scaling import render_sweep_scaling
+
+    rows, lines = render_sweep_scaling(r)
+    return Rendered([Row(**row) for row in rows], lines)
+
+
 # ------------------------------------------------------------------------ report
 SECTIONS: list[Section] = [
     Section("step_loop", "Step-loop efficiency", bench_step_loop, render_step_loop),
@@ -747,7 +762,7 @@ SECTIONS: list[Section] = [
     Section("memory", "Memory", bench_memory, render_memory),
     Section("real_time", "Real-time factor", bench_real_time, render_real_time),
     Section("twin_cache", "Reference-twin cache", bench_twin_cache, render_twin_cache),
-    # 5. sweep scaling: one Section entry here (measure + render).
+    Section("sweep_scaling", "Sweep scaling", bench_sweeps, render_sweeps),
     Section("fig4", "make fig4", bench_fig4, render_fig4),
 ]
 
@@ -791,6 +806,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     parser.add_argument("--fig4-repeats", type=int, default=None)
     parser.add_argument(
+        "--sweep-periods", type=int, default=None, help="probe periods per sweep point"
+    )
+    parser.add_argument(
         "--write", type=Path, default=None, help="report file (default docs/benchmarks.md)"
     )
     parser.add_argument("--child-flight", type=float, default=None, help=argparse.SUPPRESS)
@@ -802,6 +820,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "minutes": 1.0 if quick else 10.0,
         "memory_minutes": [1.0, 3.0] if quick else [10.0, 60.0],
         "fig4_repeats": 1 if quick else 3,
+        "sweep_periods": 4 if quick else 100,
     }
     for k, v in defaults.items():
         if getattr(args, k) is None:

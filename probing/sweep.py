@@ -343,6 +343,8 @@ def execute_task(task: _Task) -> dict[str, Any]:
             "wall_s": wall,
             "steps_simulated": result.steps_simulated,
             "scenario": task.scenario.to_dict(),
+            # Statistics of the first channel, computed here, in parallel, for the summary.
+            "settled": _settled_stats(tmp, task.scenario),
         }
         _write_json_atomic(tmp / POINT_FILE, info)
         try:
@@ -636,6 +638,28 @@ def _settled_h(folder: Path, scn: Scenario, channel: str) -> np.ndarray:
     return h[np.all(np.isfinite(h), axis=1)]
 
 
+def _settled_stats(folder: Path, scn: Scenario) -> dict[str, Any]:
+    """Mean settled h_est of the first channel, its period-to-period spread, period count.
+
+    ``h_mean`` is stored as a list of floats (exact in JSON); ``h_var`` is the per-tap
+    variance over the settled periods (ddof 1), RMS-averaged: sqrt(mean(var)).
+    """
+    h = _settled_h(folder, scn, scn.channels[0])
+    n_p = int(h.shape[0])
+    return {
+        "channel": scn.channels[0],
+        "periods": n_p,
+        "h_mean": h.mean(axis=0).tolist() if n_p else None,
+        "h_spread": float(np.sqrt(np.mean(h.var(axis=0, ddof=1)))) if n_p > 1 else None,
+    }
+
+
+def _stats(folder: Path, scn: Scenario) -> dict[str, Any]:
+    """The settled statistics of a finished run: from point.json, else from its Parquet."""
+    info = json.loads((folder / POINT_FILE).read_text())
+    return info.get("settled") or _settled_stats(folder, scn)
+
+
 def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     """One row per point (a pandas DataFrame) from the stored runs; see ``docs/sweeps.md``.
 
@@ -659,16 +683,15 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     points_dir, refs_dir, failed_dir = _folders(sweep_dir)
     ref_cache: dict[str, np.ndarray | None] = {}
 
-    def mean_h(run_id: str, scn: Scenario, channel: str) -> np.ndarray | None:
+    def mean_h(run_id: str, scn: Scenario) -> np.ndarray | None:
         if run_id not in ref_cache:
+            ref_cache[run_id] = None
             for base in (points_dir, refs_dir):
                 folder = _run_folder(base, run_id)
                 if (folder / POINT_FILE).exists():
-                    h = _settled_h(folder, scn, channel)
-                    ref_cache[run_id] = h.mean(axis=0) if len(h) else None
+                    h = _stats(folder, scn)["h_mean"]
+                    ref_cache[run_id] = None if h is None else np.asarray(h, dtype=float)
                     break
-            else:
-                ref_cache[run_id] = None
         return ref_cache[run_id]
 
     rows = []
@@ -707,18 +730,18 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
             row.update(
                 status="done", wall_s=info["wall_s"], steps_simulated=info["steps_simulated"]
             )
-            h_periods = _settled_h(folder, scn, channel)
-            n_p, m = h_periods.shape
+            stats = _stats(folder, scn)
+            n_p, m = stats["periods"], scn.bits_per_period
             if n_p:
-                h = h_periods.mean(axis=0)
+                h = np.asarray(stats["h_mean"], dtype=float)
                 row["h_rms"] = float(np.sqrt(np.mean(h**2)))
-                if n_p > 1:
-                    row["h_stderr"] = float(np.sqrt(np.mean(h_periods.var(axis=0, ddof=1)) / n_p))
+                if stats["h_spread"] is not None:
+                    row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
                 sigma = scn.sensor_noise.get(channel, 0.0)
                 row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
                 theory = estimator_noise_std(mls(scn.order), scn.amplitude_deg, sigma)
                 row["h_stderr_theory"] = float(np.sqrt(np.mean(theory**2)) / math.sqrt(n_p))
-                h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference, channel)
+                h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
                 if h0 is not None and np.dot(h0, h0) > 0:
                     row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
         elif failed_file.exists():

@@ -339,3 +339,24 @@ def test_provided_sweeps_are_valid_and_named_after_their_files() -> None:
     ):
         assert field in kinds
     assert len(PROVIDED) == 8
+
+
+@pytest.mark.jsbsim
+def test_summary_from_parquet_equals_summary_from_point_files(
+    reference_run: Path, tmp_path: Path
+) -> None:
+    """The statistics the workers store in point.json equal a fresh read of the Parquet."""
+    import json
+    import shutil
+
+    from probing.sweep import summarise
+
+    copy = tmp_path / "backlash-small"
+    shutil.copytree(reference_run, copy)
+    for info_file in copy.glob("*/point_id=*/point.json"):
+        info = json.loads(info_file.read_text())
+        assert info["settled"]["periods"] == 2
+        del info["settled"]
+        info_file.write_text(json.dumps(info))
+    sweep = load_sweep(SMALL)
+    pd.testing.assert_frame_equal(summarise(sweep, copy), summarise(sweep, reference_run))
