@@ -820,7 +820,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "minutes": 1.0 if quick else 10.0,
         "memory_minutes": [1.0, 3.0] if quick else [10.0, 60.0],
         "fig4_repeats": 1 if quick else 3,
-        "sweep_periods": 4 if quick else 100,
+        "sweep_periods": 4 if quick else 200,
     }
     for k, v in defaults.items():
         if getattr(args, k) is None:

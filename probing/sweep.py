@@ -377,7 +377,12 @@ def _run_local(tasks: list[_Task], jobs: int) -> Iterator[dict[str, Any]]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    import probing.run  # noqa: F401  imported once here, inherited by the forked workers
+    # Imported once here and inherited by the forked workers (pandas: pyarrow loads it on its
+    # first table; the summary needs it anyway).
+    import pandas  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
+
+    import probing.run  # noqa: F401
 
     ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
@@ -632,9 +637,9 @@ def _settled_h(folder: Path, scn: Scenario, channel: str) -> np.ndarray:
         columns=["period", "tap", "h_est"],
         filters=[("channel", "==", channel), ("period", ">=", scn.settle_periods)],
     )
-    df = table.to_pandas().sort_values(["period", "tap"])
+    order = np.lexsort((table.column("tap").to_numpy(), table.column("period").to_numpy()))
     m = scn.bits_per_period
-    h = df["h_est"].to_numpy().reshape(-1, m)
+    h = table.column("h_est").to_numpy()[order].reshape(-1, m)
     return h[np.all(np.isfinite(h), axis=1)]
 
 
