@@ -147,7 +147,9 @@ def _panels(data: Fig4Data, path_stem: Path) -> list[Path]:
     out = []
     for ext in ("png", "pdf"):
         path = path_stem.with_suffix(f".{ext}")
-        fig.savefig(path, dpi=200)
+        # No creation date in the PDF: the same results give the same bytes.
+        meta = {"CreationDate": None} if ext == "pdf" else None
+        fig.savefig(path, dpi=200, metadata=meta)
         out.append(path)
     plt.close(fig)
     return out

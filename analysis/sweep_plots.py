@@ -527,7 +527,8 @@ def _save(fig: Any, figures: Path, name: str) -> list[Path]:
     out = []
     for ext in FORMATS:
         path = figures / f"sweep_{name}.{ext}"
-        fig.savefig(path, dpi=DPI)
+        meta = {"CreationDate": None} if ext == "pdf" else None  # same results, same bytes
+        fig.savefig(path, dpi=DPI, metadata=meta)
         out.append(path)
     plt.close(fig)
     return out
