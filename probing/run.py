@@ -12,8 +12,6 @@ Timing conventions (documented in ``docs/method.md``):
 
 from __future__ import annotations
 
-import math
-import sys
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -35,6 +33,7 @@ from probing.nonlinearities import (
 )
 from probing.plant import TrimResult, make_plant
 from probing.prbs import Probe
+from probing.progress import ProgressBar
 from probing.scenario import Scenario
 from probing.storage import output_folder, provenance
 from probing.twins import open_twin
@@ -177,31 +176,6 @@ class RunResult:
     twin_key: str | None = None
 
 
-class _Progress:
-    """A one-line progress bar with ETA on a terminal; silent otherwise."""
-
-    def __init__(self, total: int, label: str, stream: TextIO | None, enabled: bool | None) -> None:
-        self.total = total
-        self.label = label
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-        self.start = time.perf_counter()
-
-    def update(self, done: int) -> None:
-        if not self.enabled:
-            return
-        frac = done / self.total
-        elapsed = time.perf_counter() - self.start
-        eta = elapsed / frac - elapsed if frac > 0 else math.nan
-        bar = "#" * int(30 * frac)
-        self.stream.write(
-            f"\r{self.label} [{bar:<30}] {done}/{self.total} periods, ETA {eta:5.1f} s"
-        )
-        if done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
-
-
 def _correlator(probe: Probe, push_size: int) -> StreamingCorrelator:
     """A correlator whose FFT block takes one push of ``push_size`` samples in one piece.
 
@@ -311,7 +285,7 @@ def run_scenario(
         w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA)
         w_ts = outputs.writer("timeseries.parquet", pa.schema(ts_fields))
 
-        bar = _Progress(scn.periods, scn.name, stream, progress)
+        bar = ProgressBar(scn.periods, scn.name, "periods", stream, progress)
         out_probed = np.empty((chunk * n_steps, n_ch))
         out_ref = np.empty((chunk * n_steps, n_ch))
         elevator = np.empty(chunk * n_steps)

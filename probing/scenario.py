@@ -26,6 +26,7 @@ __all__ = [
     "ScenarioError",
     "load_scenario",
     "parse_scenario",
+    "read_toml",
 ]
 
 #: Nonlinearity type -> its parameters (deg, or deg/s for the rate).
@@ -420,6 +421,27 @@ def _check_nl_order(nl_type: str, p: dict[str, float]) -> None:
         )
 
 
+def read_toml(path: Path) -> tuple[dict[str, Any], str]:
+    """A TOML file's table and text.
+
+    Raises
+    ------
+    ScenarioError
+        Field ``file`` when it cannot be read, ``toml`` when it is not valid TOML.
+    """
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError("file", "does not exist", source) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError("file", f"cannot be read ({exc.__class__.__name__})", source) from None
+    try:
+        return tomllib.loads(text), text
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError("toml", f"invalid TOML ({exc})", source) from None
+
+
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file.
 
@@ -429,15 +451,6 @@ def load_scenario(path: str | Path) -> Scenario:
         With the file name, the field and what is allowed.
     """
     path = Path(path)
+    data, text = read_toml(path)
     source = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioError("file", "does not exist", source) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError("file", f"cannot be read ({exc.__class__.__name__})", source) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError("toml", f"invalid TOML ({exc})", source) from None
     return parse_scenario(data, text=text, source=source)

@@ -35,7 +35,6 @@ import os
 import shutil
 import sys
 import time
-import tomllib
 import uuid
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -44,7 +43,15 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from probing.scenario import _NAME_RE, _SECTIONS, Scenario, ScenarioError, load_scenario
+from probing.progress import ProgressBar
+from probing.scenario import (
+    _NAME_RE,
+    _SECTIONS,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    read_toml,
+)
 
 __all__ = [
     "EXECUTORS",
@@ -265,16 +272,7 @@ def load_sweep(path: str | Path) -> Sweep:
         With the file name, the field and what is allowed.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise _fail("file", "does not exist", str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise _fail("file", f"cannot be read ({exc.__class__.__name__})", str(path)) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise _fail("toml", f"invalid TOML ({exc})", str(path)) from None
+    data, text = read_toml(path)
     return parse_sweep(data, path=path, text=text)
 
 
@@ -454,28 +452,6 @@ class SweepResult:
         )
 
 
-class _Progress:
-    def __init__(self, total: int, label: str, stream: TextIO | None, enabled: bool | None):
-        self.total, self.label = total, label
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-        self.start = time.perf_counter()
-
-    def update(self, done: int, failed: int) -> None:
-        if not self.enabled or self.total == 0:
-            return
-        frac = done / self.total
-        elapsed = time.perf_counter() - self.start
-        eta = f"{elapsed / frac - elapsed:6.1f} s" if frac > 0 else "   ?  "
-        bar = "#" * int(30 * frac)
-        self.stream.write(
-            f"\r{self.label} [{bar:<30}] {done}/{self.total} runs, {failed} failed, ETA {eta}"
-        )
-        if done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
-
-
 @contextlib.contextmanager
 def _locked(folder: Path) -> Iterator[None]:
     folder.mkdir(parents=True, exist_ok=True)
@@ -572,8 +548,8 @@ def run_sweep(
             else:
                 todo.append(t)
 
-        bar = _Progress(len(todo), sweep.name, stream, progress)
-        bar.update(0, 0)
+        bar = ProgressBar(len(todo), sweep.name, "runs", stream, progress)
+        bar.update(0)
         if todo:
             runner = (
                 _run_dask(todo, jobs, scheduler)
@@ -591,7 +567,7 @@ def run_sweep(
                     setattr(result, counter, getattr(result, counter) + 1)
                 elif rec["status"] == "done":
                     result.references += 1
-                bar.update(finished, failed)
+                bar.update(finished, f"{failed} failed")
         summary = summarise(sweep, sweep_dir)
         _write_parquet_atomic(summary, sweep_dir / "summary.parquet", sweep)
     result.wall_s = time.perf_counter() - t0

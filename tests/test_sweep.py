@@ -162,6 +162,17 @@ def _comparable(summary: pd.DataFrame) -> pd.DataFrame:
     return summary.drop(columns=["wall_s", "steps_simulated"])  # how, not what, was computed
 
 
+def assert_same_results(ours: Path, theirs: Path) -> None:
+    """Same summary (but for timing) and bit-identical probing.parquet for every point."""
+    pd.testing.assert_frame_equal(
+        _comparable(read_summary(ours)), _comparable(read_summary(theirs))
+    )
+    a, b = _point_data(ours), _point_data(theirs)
+    assert a.keys() == b.keys()
+    for pid in a:
+        pd.testing.assert_frame_equal(a[pid], b[pid])
+
+
 @pytest.fixture(scope="module")
 def reference_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The small sweep run uninterrupted on the local pool with two workers."""
@@ -251,14 +262,7 @@ def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path)
     assert f"{6 - len(finished)} done, {len(finished)} skipped" in again.stdout
     assert stamps == {f: f.stat().st_mtime_ns for f in stamps}  # finished points untouched
     assert not list(points.glob(".tmp-*"))
-    resumed = tmp_path / "backlash-small"
-    pd.testing.assert_frame_equal(
-        _comparable(read_summary(resumed)), _comparable(read_summary(reference_run))
-    )
-    ours, theirs = _point_data(resumed), _point_data(reference_run)
-    assert ours.keys() == theirs.keys()
-    for pid in ours:
-        pd.testing.assert_frame_equal(ours[pid], theirs[pid])
+    assert_same_results(tmp_path / "backlash-small", reference_run)
 
 
 @pytest.mark.jsbsim
@@ -266,14 +270,7 @@ def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path)
 def test_dask_local_cluster_equals_local_pool(reference_run: Path, tmp_path: Path) -> None:
     result = run_sweep(load_sweep(SMALL), tmp_path, jobs=2, executor="dask", progress=False)
     assert (result.done, result.failed, result.errors) == (6, 0, 0)
-    dasked = tmp_path / "backlash-small"
-    pd.testing.assert_frame_equal(
-        _comparable(read_summary(dasked)), _comparable(read_summary(reference_run))
-    )
-    ours, theirs = _point_data(dasked), _point_data(reference_run)
-    assert ours.keys() == theirs.keys()
-    for pid in ours:
-        pd.testing.assert_frame_equal(ours[pid], theirs[pid])
+    assert_same_results(tmp_path / "backlash-small", reference_run)
 
 
 @pytest.mark.jsbsim
