@@ -411,6 +411,13 @@ def _mark_failed(ax: Any, x: np.ndarray, failed: np.ndarray, missing: np.ndarray
         )
 
 
+def _gain_and_shape_axes() -> tuple[Any, tuple[Any, Any]]:
+    """The two-panel layout of the gain figures: gain on top, shape error below, shared x."""
+    return plt.subplots(
+        2, 1, figsize=(7.0, 6.2), sharex=True, constrained_layout=True, height_ratios=[3, 2]
+    )
+
+
 def _shape_panel(
     ax: Any, x: np.ndarray, df: pd.DataFrame, xlabel: str, stuck: np.ndarray | None = None
 ) -> None:
@@ -568,9 +575,7 @@ def _plot_nonlinearity(data: SweepData) -> Any:
     label = f"|{_short(x_field)}| / a" if use_abs else f"{_short(x_field)} / a"
     label += f"   (a = {a:g} deg probe amplitude)"
 
-    fig, (ax1, ax2) = plt.subplots(
-        2, 1, figsize=(7.0, 6.2), sharex=True, constrained_layout=True, height_ratios=[3, 2]
-    )
+    fig, (ax1, ax2) = _gain_and_shape_axes()
     theory_values: list[np.ndarray] = []
     drawn_series: list[tuple[pd.DataFrame, str, str]] = []
     series = df.groupby(
@@ -666,9 +671,7 @@ def _plot_nonlinearity(data: SweepData) -> Any:
 def _plot_rate_limit(data: SweepData) -> Any:
     df = data.summary
     x = df["rate_ratio"].to_numpy(dtype=float)
-    fig, (ax1, ax2) = plt.subplots(
-        2, 1, figsize=(7.0, 6.2), sharex=True, constrained_layout=True, height_ratios=[3, 2]
-    )
+    fig, (ax1, ax2) = _gain_and_shape_axes()
     ok = np.isfinite(x) & (x > 0)
     lo, hi = (x[ok].min(), x[ok].max()) if ok.any() else (0.25, 4.0)
     lo, hi = min(lo, 0.9) / 1.3, max(hi, 1.1) * 1.3
@@ -939,9 +942,7 @@ def _plot_flight_grid(data: SweepData) -> Any:
 def _plot_other(data: SweepData) -> Any:
     df = data.summary
     x = df["index"].to_numpy(dtype=float)
-    fig, (ax1, ax2) = plt.subplots(
-        2, 1, figsize=(7.0, 6.2), sharex=True, constrained_layout=True, height_ratios=[3, 2]
-    )
+    fig, (ax1, ax2) = _gain_and_shape_axes()
     pred = df["predicted_gain"].to_numpy(dtype=float)
     meas = df["measured_gain"].to_numpy(dtype=float)
     fin = np.isfinite(pred)
