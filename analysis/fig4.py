@@ -49,6 +49,7 @@ from probing.nonlinearities import RateLimit, compensate
 from probing.prbs import Probe
 from probing.run import build_nonlinearity, run_scenario
 from probing.scenario import Scenario, load_scenario, parse_scenario
+from probing.storage import write_json_atomic
 
 __all__ = [
     "PANELS",
@@ -190,7 +191,7 @@ def run_set(
         "sweep": sweep,
         "simulation_wall_s": sim_wall,
     }
-    (out / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n")
+    write_json_atomic(out / "manifest.json", manifest)
     return manifest
 
 

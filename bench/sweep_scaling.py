@@ -116,7 +116,6 @@ def render_sweep_scaling(r: dict) -> tuple[list[dict], list[str]]:
             "ratio": f"{r['dask_ratio']:.2f}",
         },
     ]
-    n, u = r["runs"], "runs"
     lines = [
         f"## Sweep scaling ({r['points']}-point backlash sweep + 1 shared reference, "
         f"{r['periods']} periods of M = 511 per run)",
@@ -144,7 +143,7 @@ def render_sweep_scaling(r: dict) -> tuple[list[dict], list[str]]:
         "summary (~0.2 s) are serial on top, and each worker's first run pays ~0.2 s of "
         "one-off costs (first model load).",
         f"- Dask overhead against the local pool: {r['dask_overhead_s']:.2f} s per sweep, "
-        f"**{1000 * r['dask_overhead_per_run_s']:.0f} ms per run** over {n} {u} "
+        f"**{1000 * r['dask_overhead_per_run_s']:.0f} ms per run** over {r['runs']} runs "
         f"(ratio {r['dask_ratio']:.2f}); mostly starting the LocalCluster's scheduler and "
         "worker processes, which import the package afresh.",
         "",

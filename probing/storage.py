@@ -8,6 +8,7 @@ import os
 import platform
 import shutil
 import subprocess
+import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata as importlib_metadata
@@ -26,6 +27,7 @@ __all__ = [
     "output_folder",
     "provenance",
     "versions",
+    "write_json_atomic",
 ]
 
 _PROJECT_ROOT = Path(__file__).resolve().parent.parent
@@ -84,6 +86,18 @@ def provenance(**items: Any) -> dict[bytes, bytes]:
 #: Parquet (page headers, statistics, compression set-up) negligible, and the buffer small
 #: (~0.5 MB per float64 column).
 ROW_GROUP_ROWS = 65536
+
+
+def write_json_atomic(path: Path, payload: Any) -> None:
+    """Write ``payload`` as JSON under a temporary name, then rename it into place.
+
+    A reader sees the old file or the whole new one, never a part (parents are created).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str) + "\n")
+    os.replace(tmp, path)
 
 
 class AtomicParquetWriter:

@@ -36,7 +36,7 @@ import shutil
 import sys
 import time
 import uuid
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -49,9 +49,11 @@ from probing.scenario import (
     _SECTIONS,
     Scenario,
     ScenarioError,
+    _key,
     load_scenario,
     read_toml,
 )
+from probing.storage import write_json_atomic
 
 __all__ = [
     "EXECUTORS",
@@ -129,27 +131,24 @@ class Sweep:
         return {p.reference_id: p.reference for p in self.points if p.reference_id not in ids}
 
 
-def _fail(field_name: str, message: str, source: str) -> ScenarioError:
-    return ScenarioError(field_name, message, source)
-
-
 def _check_key(table: str, key: str, source: str) -> None:
     parts = key.split(".")
-    label = f'{table}["{key}"]' if key.isprintable() else f"{table}[{key!r}]"
+    label = _label(table, key)
     sections = [s for s, allowed in _SECTIONS.items() if allowed is not None]
     if len(parts) < 2 or parts[0] not in sections or not all(parts):
-        raise _fail(
+        raise ScenarioError(
             label,
             f"not a dotted scenario field (section.field, sections: {', '.join(sections)})",
             source,
         )
     nested = parts[:2] == ["disturbance", "sensor_noise"] and len(parts) == 3
     if len(parts) > 2 and not nested:
-        raise _fail(label, "too many dots: a scenario field is section.field", source)
+        raise ScenarioError(label, "too many dots: a scenario field is section.field", source)
 
 
 def _label(table: str, key: str) -> str:
-    return f'{table}["{key}"]'
+    """``grid["probe.order"]``; keys that could break the one-line message are repr'd."""
+    return f'{table}["{key}"]' if key.isprintable() else f"{table}[{key!r}]"
 
 
 def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sweep:
@@ -174,33 +173,37 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
     source = str(path)
     for key in data:
         if key not in _TOP_KEYS:
-            raise _fail(str(key), f"unknown field; allowed: {', '.join(_TOP_KEYS)}", source)
+            raise ScenarioError(
+                _key(key), f"unknown field; allowed: {', '.join(_TOP_KEYS)}", source
+            )
     name = data.get("name")
     if name is None:
-        raise _fail("name", "missing (a plain file name, also the output folder name)", source)
+        raise ScenarioError(
+            "name", "missing (a plain file name, also the output folder name)", source
+        )
     if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
-        raise _fail(
+        raise ScenarioError(
             "name",
             f"must be a plain file name (letters, digits, '.', '_', '-'), got {name!r}",
             source,
         )
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise _fail("description", "must be a string", source)
+        raise ScenarioError("description", "must be a string", source)
     base_rel = data.get("base")
     if not isinstance(base_rel, str) or not base_rel:
-        raise _fail("base", "missing: a scenario file, relative to the sweep file", source)
+        raise ScenarioError("base", "missing: a scenario file, relative to the sweep file", source)
     base_path = path.parent / base_rel
     try:
         base = load_scenario(base_path)
     except ScenarioError as exc:
-        raise _fail("base", f"{base_rel}: {exc.field}: {exc.message}", source) from None
+        raise ScenarioError("base", f"{base_rel}: {exc.field}: {exc.message}", source) from None
 
     tables: dict[str, dict[str, Any]] = {}
     for table in ("fixed", "grid", "zip"):
         value = data.get(table, {})
         if not isinstance(value, dict):
-            raise _fail(table, 'must be a table of "section.field" = value(s)', source)
+            raise ScenarioError(table, 'must be a table of "section.field" = value(s)', source)
         for key in value:
             _check_key(table, key, source)
         tables[table] = value
@@ -208,25 +211,29 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
     for table, entries in tables.items():
         for key in entries:
             if key in seen:
-                raise _fail(_label(table, key), f"already given in [{seen[key]}]", source)
+                raise ScenarioError(_label(table, key), f"already given in [{seen[key]}]", source)
             seen[key] = table
     for table in ("grid", "zip"):
         for key, values in tables[table].items():
             if not isinstance(values, list) or not values:
-                raise _fail(_label(table, key), "must be a non-empty list of values", source)
+                raise ScenarioError(
+                    _label(table, key), "must be a non-empty list of values", source
+                )
     zip_lengths = {len(v) for v in tables["zip"].values()}
     if len(zip_lengths) > 1:
         lengths = ", ".join(f"{k}: {len(v)}" for k, v in tables["zip"].items())
-        raise _fail("zip", f"lists must have equal lengths, got {lengths}", source)
+        raise ScenarioError("zip", f"lists must have equal lengths, got {lengths}", source)
     if not tables["grid"] and not tables["zip"]:
-        raise _fail("grid", "a sweep needs at least one varied field in [grid] or [zip]", source)
+        raise ScenarioError(
+            "grid", "a sweep needs at least one varied field in [grid] or [zip]", source
+        )
 
     grid_keys = list(tables["grid"])
     zip_keys = list(tables["zip"])
     n_zip = zip_lengths.pop() if zip_keys else 1
     n_points = math.prod(len(v) for v in tables["grid"].values()) * n_zip
     if n_points > MAX_POINTS:
-        raise _fail("grid", f"{n_points} points; at most {MAX_POINTS} allowed", source)
+        raise ScenarioError("grid", f"{n_points} points; at most {MAX_POINTS} allowed", source)
 
     combos = itertools.product(*(tables["grid"][k] for k in grid_keys))
     points: list[SweepPoint] = []
@@ -241,10 +248,10 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
             where = ", ".join(f"{k}={v!r}" for k, v in values.items())
             table = seen.get(exc.field)
             label = _label(table, exc.field) if table else exc.field
-            raise _fail(label, f"{exc.message} (point {index}: {where})", source) from None
+            raise ScenarioError(label, f"{exc.message} (point {index}: {where})", source) from None
         pid = scn.digest()
         if pid in by_id:
-            raise _fail(
+            raise ScenarioError(
                 "grid",
                 f"points {by_id[pid]} and {index} are the same scenario (repeated value?)",
                 source,
@@ -284,13 +291,6 @@ class _Task:
     scenario: Scenario
     target: str  # final folder
     failed_file: str
-
-
-def _write_json_atomic(path: Path, payload: dict[str, Any]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    tmp.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str))
-    os.replace(tmp, path)
 
 
 @contextlib.contextmanager
@@ -344,7 +344,7 @@ def execute_task(task: _Task) -> dict[str, Any]:
             # Statistics of the first channel, computed here, in parallel, for the summary.
             "settled": _settled_stats(tmp, task.scenario),
         }
-        _write_json_atomic(tmp / POINT_FILE, info)
+        write_json_atomic(tmp / POINT_FILE, info)
         try:
             os.rename(tmp, final)
         except OSError:  # another worker finished the same run first: keep theirs
@@ -353,7 +353,7 @@ def execute_task(task: _Task) -> dict[str, Any]:
         return {**record, "status": "done", "wall_s": wall}
     shutil.rmtree(tmp, ignore_errors=True)
     wall = time.perf_counter() - t0
-    _write_json_atomic(
+    write_json_atomic(
         Path(task.failed_file),
         {
             "kind": task.kind,
@@ -367,10 +367,6 @@ def execute_task(task: _Task) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ executors
-def _preload() -> None:  # pragma: no cover - runs in the workers
-    import probing.run  # noqa: F401
-
-
 def _run_local(tasks: list[_Task], jobs: int) -> Iterator[dict[str, Any]]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -531,7 +527,7 @@ def run_sweep(
             d.mkdir(parents=True, exist_ok=True)
             for stale in d.glob(".tmp-*"):  # left by a killed run; we hold the lock
                 shutil.rmtree(stale, ignore_errors=True)
-        _write_json_atomic(sweep_dir / "sweep.json", _manifest(sweep))
+        write_json_atomic(sweep_dir / "sweep.json", _manifest(sweep))
 
         tasks: list[_Task] = []
         # References first: they also fill the shared reference-twin cache.
@@ -663,6 +659,7 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     sweep_dir = Path(sweep_dir)
     points_dir, refs_dir, failed_dir = _folders(sweep_dir)
     ref_cache: dict[str, np.ndarray | None] = {}
+    unit_noise: dict[int, float] = {}  # RMS over taps of the noise std for sigma = a = 1
 
     def mean_h(run_id: str, scn: Scenario) -> np.ndarray | None:
         if run_id not in ref_cache:
@@ -720,8 +717,13 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
                     row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
                 sigma = scn.sensor_noise.get(channel, 0.0)
                 row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
-                theory = estimator_noise_std(mls(scn.order), scn.amplitude_deg, sigma)
-                row["h_stderr_theory"] = float(np.sqrt(np.mean(theory**2)) / math.sqrt(n_p))
+                # The closed form is linear in sigma / a: one O(M^2) evaluation per order.
+                if scn.order not in unit_noise:
+                    unit = estimator_noise_std(mls(scn.order), 1.0, 1.0)
+                    unit_noise[scn.order] = float(np.sqrt(np.mean(unit**2)))
+                row["h_stderr_theory"] = (
+                    sigma / scn.amplitude_deg * unit_noise[scn.order] / math.sqrt(n_p)
+                )
                 h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
                 if h0 is not None and np.dot(h0, h0) > 0:
                     row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
@@ -768,7 +770,7 @@ def open_dataset(sweep_dir: str | Path, table: str = "probing") -> Any:
     if table not in ("probing", "timeseries"):
         raise ValueError(f"table must be 'probing' or 'timeseries', got {table!r}")
     points_dir = Path(sweep_dir) / "points"
-    files: Sequence[str] = sorted(str(f) for f in points_dir.glob(f"point_id=*/{table}.parquet"))
+    files = sorted(str(f) for f in points_dir.glob(f"point_id=*/{table}.parquet"))
     return pads.dataset(
-        list(files), format="parquet", partitioning="hive", partition_base_dir=str(points_dir)
+        files, format="parquet", partitioning="hive", partition_base_dir=str(points_dir)
     )
