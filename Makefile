@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep bench clean
+.PHONY: setup test lint format fig4 sweeps sweep modes bench clean
 
 setup: $(STAMP)
 
@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 lint: setup
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
+	$(VENV)/bin/lint-imports --no-cache --no-logo
 
 format: setup
 	$(PY) -m ruff format .
@@ -35,12 +36,17 @@ SWEEP_OUT ?= results/sweeps
 JOBS     ?=
 SWEEP_ARGS = --out $(SWEEP_OUT) $(if $(JOBS),-j $(JOBS))
 
+# The provided sweeps draw their figures into the committed figures/ (docs/sweeps.md).
 sweeps: setup
-	@for f in $(SWEEPS); do $(PY) -m probing sweep $$f $(SWEEP_ARGS) --plot || exit $$?; done
+	@for f in $(SWEEPS); do $(PY) -m probing sweep $$f $(SWEEP_ARGS) --plot --figures figures || exit $$?; done
 
 sweep: setup
 	@test -n "$(SWEEP)" || { echo "usage: make sweep SWEEP=scenarios/sweeps/<file>.toml [JOBS=n]" >&2; exit 2; }
-	$(PY) -m probing sweep $(SWEEP) $(SWEEP_ARGS) --plot
+	$(PY) -m probing sweep $(SWEEP) $(SWEEP_ARGS) --plot --figures figures
+
+# The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png).
+modes: setup
+	$(PY) -m probing modes
 
 bench: setup
 	$(PY) -m bench

@@ -1,35 +1,23 @@
 """Figures of the Fig. 4 reproduction, drawn from :class:`analysis.fig4.Fig4Data` (no simulation).
 
-Kept apart from :mod:`analysis.fig4` so that computing the numbers never imports matplotlib.
+Kept apart from :mod:`analysis.fig4` so that computing the numbers never imports matplotlib;
+this module imports that one, never the other way round.  :func:`figures` builds the
+figures (inspectable: tests read the plotted data back), :func:`draw` saves them.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-if TYPE_CHECKING:
-    from analysis.fig4 import Fig4Data, PanelResult
+from analysis.fig4 import Fig4Data, PanelResult
+from analysis.figures import RC, save_figure
+from probing.core.nonlinearities import RateLimit
 
-__all__ = ["draw"]
-
-RC = {
-    "font.size": 8,
-    "axes.titlesize": 8,
-    "axes.labelsize": 8,
-    "legend.fontsize": 7,
-    "xtick.labelsize": 7,
-    "ytick.labelsize": 7,
-    "lines.linewidth": 1.0,
-    "axes.grid": True,
-    "grid.alpha": 0.3,
-}
+__all__ = ["draw", "figures"]
 MRAD = 1e3  # rad -> mrad
 C_BASE, C_NL, C_PRED, C_FIX = "0.55", "tab:red", "k", "tab:blue"
 
@@ -37,8 +25,9 @@ C_BASE, C_NL, C_PRED, C_FIX = "0.55", "tab:red", "k", "tab:blue"
 def _title(p: PanelResult, remedy_gain: float | None = None) -> str:
     head = f"({p.letter}) {p.nonlinearity}: {p.parameters}"
     scn = p.run.scenario
-    if p.nonlinearity == "rate limit":
-        ratio = scn.nl_params["rate_deg_s"] / (2 * scn.amplitude_deg / scn.bit_duration_s)
+    nl = scn.build_nonlinearity()
+    if isinstance(nl, RateLimit):
+        ratio = nl.ratio(scn.amplitude_deg, scn.bit_duration_s)
         verdict = "meets" if ratio >= 1 - 1e-12 else "below"
         pred = f"r_l / (2a/t0) = {ratio:.2f}: {verdict} the bound (21)"
     else:
@@ -58,7 +47,7 @@ def _predicted_z(p: PanelResult, z0: np.ndarray) -> np.ndarray:
     return p.predicted_gain * z0 + p.predicted_offset_deg * s
 
 
-def _panels(data: Fig4Data, path_stem: Path) -> list[Path]:
+def _panels(data: Fig4Data) -> Any:
     base = data.baseline
     z0 = base.z.mean(axis=0)
     lag = base.lag_s
@@ -85,7 +74,7 @@ def _panels(data: Fig4Data, path_stem: Path) -> list[Path]:
                 va="bottom",
                 fontsize=7,
             )
-        elif p.nonlinearity != "rate limit":
+        elif not isinstance(p.run.scenario.build_nonlinearity(), RateLimit):
             ax.plot(
                 lag,
                 _predicted_z(p, z0) * MRAD,
@@ -144,18 +133,10 @@ def _panels(data: Fig4Data, path_stem: Path) -> list[Path]:
         transform=info.transAxes,
         fontsize=7.5,
     )
-    out = []
-    for ext in ("png", "pdf"):
-        path = path_stem.with_suffix(f".{ext}")
-        # No creation date in the PDF: the same results give the same bytes.
-        meta = {"CreationDate": None} if ext == "pdf" else None
-        fig.savefig(path, dpi=200, metadata=meta)
-        out.append(path)
-    plt.close(fig)
-    return out
+    return fig
 
 
-def _compensated(data: Fig4Data, path: Path) -> Path:
+def _compensated(data: Fig4Data) -> Any:
     z0 = data.baseline.z.mean(axis=0)
     lag = data.baseline.lag_s
     items = [p for p in data.panels if p.compensated_z is not None]
@@ -183,15 +164,11 @@ def _compensated(data: Fig4Data, path: Path) -> Path:
         f"Compensated probing output, eq. (11) undone per settled period ({data.set_name})",
         fontsize=8,
     )
-    fig.savefig(path, dpi=200)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def _rate_limit(data: Fig4Data, path: Path) -> Path | None:
+def _rate_limit(data: Fig4Data) -> Any:
     sweep = data.sweep
-    if sweep.empty:
-        return None
     a = data.baseline.scenario.amplitude_deg
     dt = data.baseline.scenario.dt_s
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7.0, 3.0), constrained_layout=True)
@@ -234,19 +211,23 @@ def _rate_limit(data: Fig4Data, path: Path) -> Path | None:
     fig.suptitle(
         f"Rate limit against the bound of eq. (21), a = {a:g} deg ({data.set_name})", fontsize=8
     )
-    fig.savefig(path, dpi=200)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def draw(data: Fig4Data, figures: Path, stem: str) -> list[Path]:
-    """Draw ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``."""
-    figures = Path(figures)
-    figures.mkdir(parents=True, exist_ok=True)
+def figures(data: Fig4Data) -> dict[str, Any]:
+    """The figures, by the suffix of their file stem: ``""`` (the panels), ``"_compensated"``
+    and, with a rate-limit sweep, ``"_rate_limit"``.  Close them (or :func:`draw` them)."""
     with plt.rc_context(RC):
-        paths = _panels(data, figures / stem)
-        paths.append(_compensated(data, figures / f"{stem}_compensated.png"))
-        rl = _rate_limit(data, figures / f"{stem}_rate_limit.png")
-        if rl is not None:
-            paths.append(rl)
+        out = {"": _panels(data), "_compensated": _compensated(data)}
+        if not data.sweep.empty:
+            out["_rate_limit"] = _rate_limit(data)
+    return out
+
+
+def draw(data: Fig4Data, folder: Path, stem: str) -> list[Path]:
+    """Save ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``."""
+    paths: list[Path] = []
+    for suffix, fig in figures(data).items():
+        formats = ("png", "pdf") if suffix == "" else ("png",)
+        paths += save_figure(fig, Path(folder) / f"{stem}{suffix}", formats)
     return paths

@@ -1,119 +1,25 @@
-"""Longitudinal modes of the JSBSim GTM T2 model across airspeed.
+"""The GTM's mode table and figure (``docs/gtm.md``, ``figures/gtm_modes.png``).
 
-Usage::
+``probing modes`` computes the points (:func:`probing.experiment.modes.mode_table`: trim
+and linearise the GTM at 800 ft for equivalent airspeeds 60, 70, ..., 130 kt) and this
+module writes ``docs/gtm.md`` whole and draws the figure; nothing is simulated here.
 
-    python -m analysis.gtm_modes [--docs docs/gtm.md] [--figure figures/gtm_modes.png]
-
-For each equivalent airspeed 60, 70, ..., 130 kt at 800 ft (gear up, stabilizer 0) the model
-is trimmed straight and level with JSBSim's full trim (throttle and elevator via
-``fcs/pitch-trim-cmd-norm``), then linearised with ``jsbsim.FGLinearization``. The
-longitudinal block of the state matrix (states Vt, alpha, theta, q) gives the short-period and
-phugoid eigenvalue pairs; their natural frequency (rad/s) and damping ratio are tabulated in
-``docs/gtm.md`` (written whole by this script) and plotted in ``figures/gtm_modes.png``.
-
-FGLinearization suspends JSBSim's time step and leaves ``simulation/dt`` at 0: the script
-restores it with ``fdm.set_dt`` after each linearisation. While dt = 0 the model's servos sit
-at their command, so the linear model is the bare airframe (servo dynamics excluded).
+``FGLinearization`` suspends JSBSim's time step while it linearises: the servos then sit at
+their command, so the linear model is the bare airframe (servo dynamics excluded).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-import numpy as np
+import matplotlib.pyplot as plt
 
-from probing.design import LONG_STATES, longitudinal_modes
+from analysis.figures import save_figure
+from probing.experiment.modes import ModePoint
 
-ROOT = Path(__file__).resolve().parents[1]
-AIRCRAFT = ROOT / "aircraft"
-DT = 1.0 / 200.0
-ALTITUDE_FT = 800.0
-SPEEDS_KEAS = tuple(range(60, 131, 10))
-
-
-@dataclass
-class ModePoint:
-    """Trim and longitudinal modes at one airspeed."""
-
-    ve_kts: float
-    trimmed: bool
-    alpha_deg: float = math.nan
-    elevator_deg: float = math.nan
-    throttle: float = math.nan
-    sp_wn: float = math.nan
-    sp_zeta: float = math.nan
-    ph_wn: float = math.nan
-    ph_zeta: float = math.nan
-    eigenvalues: tuple[complex, ...] = ()
-
-
-def make_fdm():
-    """Load gtm_t2 (gear up, dt = 1/200 s, quiet)."""
-    import jsbsim
-
-    fdm = jsbsim.FGFDMExec(None)
-    fdm.set_debug_level(0)
-    fdm.set_aircraft_path(str(AIRCRAFT))
-    if not fdm.load_model("gtm_t2"):
-        raise RuntimeError("could not load gtm_t2")
-    fdm.set_dt(DT)
-    fdm["gear/gear-cmd-norm"] = 0.0
-    fdm["fcs/stabilizer-pos-deg"] = 0.0
-    return fdm
-
-
-def trim_level(fdm, ve_kts: float, h_ft: float = ALTITUDE_FT) -> bool:
-    """Trim straight and level at ``ve_kts`` (KEAS); True on success."""
-    fdm["ic/h-sl-ft"] = h_ft
-    fdm["ic/ve-kts"] = ve_kts
-    fdm["ic/alpha-deg"] = 4.0
-    fdm["ic/beta-deg"] = 0.0
-    fdm["ic/gamma-deg"] = 0.0
-    fdm["ic/phi-deg"] = 0.0
-    fdm["fcs/elevator-cmd-deg"] = 0.0
-    fdm["fcs/elevator-cmd-norm"] = 0.0
-    fdm.run_ic()
-    try:
-        fdm["simulation/do_simple_trim"] = 1
-    except RuntimeError:  # jsbsim.TrimFailureError derives from RuntimeError
-        return False
-    return True
-
-
-def longitudinal_matrix(fdm) -> np.ndarray:
-    """The (Vt, alpha, theta, q) block of JSBSim's linearised state matrix."""
-    import jsbsim
-
-    lin = jsbsim.FGLinearization(fdm)
-    fdm.set_dt(DT)  # FGLinearization leaves dt at 0
-    names = list(lin.x_names)
-    idx = [names.index(n) for n in LONG_STATES]
-    return np.asarray(lin.system_matrix)[np.ix_(idx, idx)]
-
-
-def sweep(speeds: tuple[int, ...] = SPEEDS_KEAS) -> list[ModePoint]:
-    """Trim and linearise at each speed."""
-    fdm = make_fdm()
-    points: list[ModePoint] = []
-    for v in speeds:
-        if not trim_level(fdm, v):
-            points.append(ModePoint(v, False))
-            continue
-        point = ModePoint(
-            v,
-            True,
-            alpha_deg=fdm["aero/alpha-deg"],
-            elevator_deg=fdm["fcs/elevator-pos-deg"],
-            throttle=fdm["fcs/throttle-cmd-norm"],
-        )
-        eigs = np.linalg.eigvals(longitudinal_matrix(fdm))
-        point.sp_wn, point.sp_zeta, point.ph_wn, point.ph_zeta = longitudinal_modes(eigs)
-        point.eigenvalues = tuple(complex(e) for e in sorted(eigs, key=abs, reverse=True))
-        points.append(point)
-    return points
+__all__ = ["figure", "mode_table", "save", "write_doc"]
 
 
 def mode_table(points: list[ModePoint]) -> str:
@@ -124,33 +30,28 @@ def mode_table(points: list[ModePoint]) -> str:
         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for p in points:
-        if not p.trimmed:
+        if p.modes is None:
             lines.append(f"| {p.ve_kts:.0f} | trim failed | | | | | | | |")
             continue
-        period = 2 * math.pi / (p.ph_wn * math.sqrt(max(1 - p.ph_zeta**2, 0.0)))
+        m = p.modes
         lines.append(
-            f"| {p.ve_kts:.0f} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} | {p.throttle:.3f} "
-            f"| {p.sp_wn:.2f} | {p.sp_zeta:.3f} | {p.ph_wn:.3f} | {p.ph_zeta:.3f} "
-            f"| {period:.1f} |"
+            f"| {p.ve_kts:.0f} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} | {p.throttle_norm:.3f} "
+            f"| {m.sp_wn:.2f} | {m.sp_zeta:.3f} | {m.ph_wn:.3f} | {m.ph_zeta:.3f} "
+            f"| {m.phugoid_period_s:.1f} |"
         )
     return "\n".join(lines)
 
 
-def plot(points: list[ModePoint], path: Path) -> None:
-    """Frequency and damping of both modes against airspeed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ok = [p for p in points if p.trimmed]
+def figure(points: list[ModePoint]) -> Any:
+    """Frequency and damping of both modes against airspeed (a matplotlib Figure)."""
+    ok = [p for p in points if p.modes is not None]
     v = [p.ve_kts for p in ok]
     fig, axes = plt.subplots(2, 2, figsize=(9, 6), sharex=True)
     series = (
-        (axes[0, 0], [p.sp_wn for p in ok], "short period $\\omega_n$ (rad/s)"),
-        (axes[1, 0], [p.sp_zeta for p in ok], "short period $\\zeta$"),
-        (axes[0, 1], [p.ph_wn for p in ok], "phugoid $\\omega_n$ (rad/s)"),
-        (axes[1, 1], [p.ph_zeta for p in ok], "phugoid $\\zeta$"),
+        (axes[0, 0], [p.modes.sp_wn for p in ok], "short period $\\omega_n$ (rad/s)"),
+        (axes[1, 0], [p.modes.sp_zeta for p in ok], "short period $\\zeta$"),
+        (axes[0, 1], [p.modes.ph_wn for p in ok], "phugoid $\\omega_n$ (rad/s)"),
+        (axes[1, 1], [p.modes.ph_zeta for p in ok], "phugoid $\\zeta$"),
     )
     for ax, y, label in series:
         ax.plot(v, y, "o-")
@@ -163,9 +64,12 @@ def plot(points: list[ModePoint], path: Path) -> None:
         ax.set_xlabel("equivalent airspeed (kt)")
     fig.suptitle("GTM T2 (JSBSim), 800 ft, gear up, stabilizer 0: longitudinal modes")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return fig
+
+
+def save(points: list[ModePoint], stem: Path) -> list[Path]:
+    """Draw :func:`figure` into ``<stem>.png``."""
+    return save_figure(figure(points), stem, ("png",), dpi=120)
 
 
 DOC_HEAD = """# GTM T2 on JSBSim
@@ -217,7 +121,7 @@ converter and the rest of the project are MIT. Model notes in detail:
 
 ## Trim and longitudinal modes (800 ft, gear up, stabilizer 0)
 
-Generated by `python -m analysis.gtm_modes`: JSBSim full trim, then `FGLinearization`; modes
+Generated by `probing modes`: JSBSim full trim, then `FGLinearization`; modes
 from the (Vt, alpha, theta, q) block of the state matrix (bare airframe: the servos are at
 their command while JSBSim linearises). Figure: `figures/gtm_modes.png`.
 
@@ -256,24 +160,3 @@ def write_doc(points: list[ModePoint], path: Path) -> None:
     """Write docs/gtm.md whole."""
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(DOC_HEAD + mode_table(points) + "\n" + DOC_TAIL, encoding="utf-8")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command-line entry point."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "gtm.md")
-    parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "gtm_modes.png")
-    args = parser.parse_args(argv)
-    points = sweep()
-    print(mode_table(points))
-    for p in points:
-        if p.trimmed:
-            print(f"{p.ve_kts:.0f} kt eigenvalues: " + ", ".join(f"{e:.4f}" for e in p.eigenvalues))
-    write_doc(points, args.docs)
-    plot(points, args.figure)
-    print(f"wrote {args.docs} and {args.figure}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

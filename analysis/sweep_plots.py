@@ -25,11 +25,8 @@ theory between the points.
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import json
 import math
-import sys
 import textwrap
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -37,9 +34,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import matplotlib.ticker
 import matplotlib.transforms as mtransforms
@@ -47,8 +41,12 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm, TwoSlopeNorm
 
-from analysis.fig4_plots import RC
-from probing.scenario import Scenario, ScenarioError, parse_scenario
+from analysis.figures import RC, save_figure
+from probing.core.metrics import predicted_apparent
+from probing.core.nonlinearities import NONLINEARITIES
+from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
+from probing.sim.channels import CHANNELS
+from probing.sim.flight import SPEED_KINDS
 
 __all__ = [
     "KINDS",
@@ -56,8 +54,8 @@ __all__ = [
     "SweepData",
     "classify",
     "load_sweep_data",
-    "plot_main",
     "plot_sweep",
+    "sweep_figure",
     "theory_curve",
 ]
 
@@ -68,20 +66,7 @@ SHAPE_FLOOR = 1e-9  # shape errors of exactly 0 are drawn here on log axes
 N_DENSE = 200
 DPI = 200  # of the PNG
 FORMATS = ("png", "pdf")  # files written per figure
-SPEED_FIELDS = ("condition.speed_kcas", "condition.speed_ktas", "condition.mach")
-SPEED_UNITS = {"speed_kcas": "kt CAS", "speed_ktas": "kt TAS", "mach": "Mach"}
-#: Output channel -> unit of the channel (h is in these units per deg of probe).
-CHANNEL_UNITS = {
-    "theta_rad": "rad",
-    "q_rad_s": "rad/s",
-    "alpha_rad": "rad",
-    "nz_g": "g",
-    "h_ft": "ft",
-    "vt_fps": "ft/s",
-    "gamma_rad": "rad",
-    "u_fps": "ft/s",
-    "w_fps": "ft/s",
-}
+SPEED_FIELDS = tuple(f"condition.{k}" for k in SPEED_KINDS)
 C_MEAS, C_THEORY, C_FAIL, C_MISSING = "tab:blue", "k", "tab:red", "0.6"
 SIGMA = "\N{GREEK SMALL LETTER SIGMA}"
 
@@ -306,14 +291,11 @@ def theory_curve(
     ValueError
         For a key that is not a parameter of the scenario's nonlinearity, or unequal lengths.
     """
-    from probing.metrics import predicted_apparent
-    from probing.run import build_nonlinearity
-    from probing.scenario import NONLINEARITY_PARAMS
-
+    kind = NONLINEARITIES[scenario.nonlinearity]
     names = {}
     for key in path:
         section, _, name = key.partition(".")
-        if section != "nonlinearity" or name not in NONLINEARITY_PARAMS[scenario.nonlinearity]:
+        if section != "nonlinearity" or name not in kind.names:
             raise ValueError(f"{key}: not a parameter of {scenario.nonlinearity}")
         names[key] = name
     columns = {k: np.asarray(v, dtype=float) for k, v in path.items()}
@@ -328,7 +310,7 @@ def theory_curve(
     offset = np.empty(t.size)
     for i in range(t.size):
         nl_params = {**scenario.nl_params, **{names[k]: float(params[k][i]) for k in params}}
-        nl = build_nonlinearity(dataclasses.replace(scenario, nl_params=nl_params))
+        nl = kind.build(nl_params)
         gain[i], offset[i] = predicted_apparent(nl, scenario.amplitude_deg, scenario.bit_duration_s)
     return params, gain, offset
 
@@ -362,7 +344,7 @@ def _context(data: SweepData) -> str:
     if "condition.altitude_ft" not in varied:
         parts.append(f"{scn.altitude_ft:g} ft")
     if not varied & set(SPEED_FIELDS):
-        parts.append(f"{scn.speed:g} {SPEED_UNITS[scn.speed_kind]}")
+        parts.append(f"{scn.speed:g} {SPEED_KINDS[scn.speed_kind].unit}")
     if "probe.amplitude_deg" not in varied:
         parts.append(f"a = {scn.amplitude_deg:g} deg")
     if "probe.bit_duration_s" not in varied:
@@ -527,18 +509,6 @@ def _gain_limits(
                 color=C_FAIL,
             )
     return off
-
-
-def _save(fig: Any, figures: Path, name: str) -> list[Path]:
-    figures.mkdir(parents=True, exist_ok=True)
-    out = []
-    for ext in FORMATS:
-        path = figures / f"sweep_{name}.{ext}"
-        meta = {"CreationDate": None} if ext == "pdf" else None  # same results, same bytes
-        fig.savefig(path, dpi=DPI, metadata=meta)
-        out.append(path)
-    plt.close(fig)
-    return out
 
 
 # ------------------------------------------------------------------ 1. nonlinearity parameter
@@ -732,7 +702,7 @@ def _plot_noise(data: SweepData) -> Any:
     meas = df["h_stderr"].to_numpy(dtype=float)
     theory = df["h_stderr_theory"].to_numpy(dtype=float)
     channel = str(df["channel"].iloc[0]) if "channel" in df and len(df) else "?"
-    unit = CHANNEL_UNITS.get(channel, "output unit")
+    unit = CHANNELS[channel].unit if channel in CHANNELS else "output unit"
     noise_fields = [f for f in data.varying if f.startswith("disturbance.sensor_noise.")]
     amp_varies = "probe.amplitude_deg" in data.varying
     usable = np.isfinite(naive) & (naive > 0) & np.isfinite(meas) & (meas > 0)
@@ -856,7 +826,7 @@ def _plot_flight_grid(data: SweepData) -> Any:
         e_lo, e_hi = e_lo / 10, e_hi * 10
     norm2 = LogNorm(vmin=max(e_lo, SHAPE_FLOOR), vmax=e_hi)
     err_drawn = np.where(err == 0, norm2.vmin, err)
-    unit = SPEED_UNITS[_short(speed_field)]
+    unit = SPEED_KINDS[_short(speed_field)].unit
     panels = (
         (ax1, ratio, norm1, "RdBu_r", "measured / predicted gain", False),
         (ax2, err_drawn, norm2, "viridis", "shape error ||h - g h0|| / ||g h0||", True),
@@ -979,7 +949,13 @@ _DRAW = {
 
 
 # ------------------------------------------------------------------ entry points
-def plot_sweep(folder: Path, figures: Path) -> list[Path]:
+def sweep_figure(data: SweepData) -> Any:
+    """The figure of a sweep, laid out by :func:`classify` (close it, or :func:`plot_sweep`)."""
+    with plt.rc_context(RC):
+        return _DRAW[classify(data)](data)
+
+
+def plot_sweep(folder: Path, figures: Path | None = None) -> list[Path]:
     """Draw the figure of one sweep folder into ``<figures>/sweep_<name>.png`` and ``.pdf``.
 
     Parameters
@@ -987,8 +963,8 @@ def plot_sweep(folder: Path, figures: Path) -> list[Path]:
     folder : Path
         A sweep folder (``results/sweeps/<name>``) with ``sweep.json`` and
         ``summary.parquet``.
-    figures : Path
-        Figure folder (created if needed).
+    figures : Path, optional
+        Figure folder (created if needed); default: ``<folder>/figures``.
 
     Returns
     -------
@@ -1001,33 +977,5 @@ def plot_sweep(folder: Path, figures: Path) -> list[Path]:
         When the folder is not a sweep folder.
     """
     data = load_sweep_data(folder)
-    kind = classify(data)
-    with plt.rc_context(RC):
-        fig = _DRAW[kind](data)
-        return _save(fig, Path(figures), data.name)
-
-
-def plot_main(args: argparse.Namespace) -> int:
-    """``probing plot sweep DIR``: draw a sweep's figure from its stored results.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        ``results`` (the sweep folder) and ``figures`` (the figure folder).
-
-    Returns
-    -------
-    int
-        0 when the figure was written, 2 when the folder is not a sweep folder (one line on
-        stderr).
-    """
-    folder = Path(args.results)
-    figures = Path(getattr(args, "figures", None) or "figures")
-    try:
-        paths = plot_sweep(folder, figures)
-    except NotASweepError as exc:
-        print(f"probing: error: {exc}", file=sys.stderr)
-        return 2
-    for path in paths:
-        print(f"wrote {path}")
-    return 0
+    target = Path(figures) if figures is not None else Path(folder) / "figures"
+    return save_figure(sweep_figure(data), target / f"sweep_{data.name}", FORMATS, DPI)

@@ -21,6 +21,7 @@ import json
 import os
 import platform
 import pstats
+import re
 import resource
 import statistics
 import subprocess
@@ -35,12 +36,13 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from probing.correlator import StreamingCorrelator
-from probing.plant import jsbsim_version, make_plant
-from probing.prbs import mls
-from probing.run import run_scenario
-from probing.scenario import Scenario, load_scenario, parse_scenario
-from probing.storage import provenance
+from probing.core.correlator import StreamingCorrelator
+from probing.core.prbs import mls
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import Scenario, load_scenario, parse_scenario
+from probing.experiment.storage import provenance
+from probing.sim.aircraft import jsbsim_version
+from probing.sim.plant import make_plant
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_SCENARIO = ROOT / "scenarios" / "baseline-737.toml"
@@ -114,7 +116,7 @@ def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:
     """Median time of one bare ``fdm.run()`` on a freshly trimmed plant of the scenario (s)."""
     times = []
     for _ in range(repeats):
-        run = make_plant(scn).fdm.run
+        run = make_plant(scn.flight).fdm.run
         t0 = time.perf_counter()
         for _ in range(steps):
             run()
@@ -124,7 +126,7 @@ def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:
 
 def bare_loop(scn: Scenario) -> float:
     """Wall time of ``scn.total_steps`` bare ``fdm.run()`` calls on a freshly trimmed plant."""
-    run = make_plant(scn).fdm.run
+    run = make_plant(scn.flight).fdm.run
     t0 = time.perf_counter()
     for _ in range(scn.total_steps):
         run()
@@ -402,7 +404,7 @@ def child_flight(minutes: float) -> dict:
         with tempfile.TemporaryDirectory() as out:
             steps = run_scenario(flight(minutes), out, progress=False).steps_simulated
     else:
-        idle = [make_plant(flight(1.0)) for _ in range(2)]  # both alive when measured
+        idle = [make_plant(flight(1.0).flight) for _ in range(2)]  # both alive when measured
     return {
         "minutes": minutes,
         "steps_simulated": steps,
@@ -432,8 +434,8 @@ def peak_rss_kib() -> int:
 FIRST_RUN_CODE = """
 import json, sys, tempfile, time
 t0 = time.perf_counter()
-from probing.run import run_scenario
-from probing.scenario import load_scenario
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import load_scenario
 imported = time.perf_counter() - t0
 walls = []
 for name in ("first", "second"):
@@ -528,7 +530,7 @@ def bench_real_time(args: argparse.Namespace) -> dict:
     return {
         "simulated_s": simulated,
         "steps_simulated": steps,
-        "make_plant_s": median_time(lambda: make_plant(scn), args.repeats),
+        "make_plant_s": median_time(lambda: make_plant(scn.flight), args.repeats),
         "provenance_s": median_time(provenance, args.repeats),
         "import_s": statistics.median(f["import_s"] for f in first),
         "first_run_s": statistics.median(f["first_s"] for f in first),
@@ -640,11 +642,14 @@ def _fig4_steps(results: Path) -> tuple[dict[tuple, tuple[int, Scenario]], int, 
 
     steps: dict[tuple, tuple[int, Scenario]] = {}
     runs = twins = 0
+    seen: set[str] = set()  # from an empty twin cache, each twin is simulated once
     for path in sorted(results.rglob("probing.parquet")):
         meta = pq.read_schema(path).metadata
         scn = parse_scenario(json.loads(meta[b"probing.scenario"]))
         twin = json.loads(meta.get(b"probing.twin", b"null"))
-        simulated_twin = twin is not None and not twin["cached"]
+        simulated_twin = twin is not None and twin["key"] not in seen
+        if twin is not None:
+            seen.add(twin["key"])
         n = scn.total_steps * (2 if simulated_twin else 1)
         group = (scn.model, scn.altitude_ft, scn.speed_kind, scn.speed, scn.dt_s)
         steps[group] = (steps.get(group, (0, scn))[0] + n, scn)
@@ -655,7 +660,7 @@ def _fig4_steps(results: Path) -> tuple[dict[tuple, tuple[int, Scenario]], int, 
 
 def bench_fig4(args: argparse.Namespace) -> dict:
     """``probing fig4`` end to end in a fresh process vs bare stepping of its steps."""
-    from analysis.fig4 import run_set
+    from probing.experiment.fig4 import run_set
 
     walls, sim_walls, replots = [], [], []
     for _ in range(args.fig4_repeats):
@@ -663,10 +668,9 @@ def bench_fig4(args: argparse.Namespace) -> dict:
             cmd = [sys.executable, "-m", "probing", "fig4", "--out", f"{tmp}/results"]
             cmd += ["--figures", f"{tmp}/figures", "--force"]
             t0 = time.perf_counter()
-            subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True)
+            done = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True)
             walls.append(time.perf_counter() - t0)
-            manifest = json.loads(Path(f"{tmp}/results/manifest.json").read_text())
-            sim_walls.append(manifest["simulation_wall_s"])
+            sim_walls.append(float(re.search(r"simulation: ([0-9.]+) s", done.stdout)[1]))
             steps, runs, twins = _fig4_steps(Path(f"{tmp}/results"))
             cmd = [sys.executable, "-m", "probing", "plot", "fig4", f"{tmp}/results"]
             cmd += ["--figures", f"{tmp}/replot"]

@@ -1,8 +1,56 @@
 """Pulse-compression probing of aircraft dynamics through hard input nonlinearities.
 
-The numerical core (:mod:`probing.prbs`, :mod:`probing.nonlinearities`,
-:mod:`probing.correlator`) knows nothing of JSBSim; :mod:`probing.plant` is the
-only module that imports it.
+The package is layered; imports run one way only (checked by import-linter, ``make lint``):
+
+``probing.core`` (numpy/scipy) <- ``probing.sim`` (the only place that imports jsbsim) <-
+``probing.experiment`` <- ``probing.sweep`` <- ``analysis`` <- ``probing.cli``.
+
+The numerical core is re-exported here; ``import probing`` loads neither JSBSim, matplotlib
+nor pandas.
 """
 
-__version__ = "0.1.0"
+from importlib.metadata import PackageNotFoundError, version
+
+from probing.core import (
+    NONLINEARITIES,
+    Backlash,
+    Deadband,
+    HysteresisRelay,
+    NoApparentFormError,
+    Nonlinearity,
+    ParameterError,
+    PeriodEstimates,
+    Probe,
+    RateLimit,
+    Relay,
+    Saturation,
+    StreamingCorrelator,
+    build_nonlinearity,
+    compensate,
+    mls,
+)
+
+try:
+    __version__ = version("probing")  # the one version string: pyproject.toml's
+except PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "unknown"
+
+__all__ = [
+    "NONLINEARITIES",
+    "Backlash",
+    "Deadband",
+    "HysteresisRelay",
+    "NoApparentFormError",
+    "Nonlinearity",
+    "ParameterError",
+    "PeriodEstimates",
+    "Probe",
+    "RateLimit",
+    "Relay",
+    "Saturation",
+    "StreamingCorrelator",
+    "__version__",
+    "build_nonlinearity",
+    "compensate",
+    "mls",
+]

@@ -21,7 +21,7 @@ def test_readme_example_runs() -> None:
     h, sigma = namespace["h"], namespace["probe"].reference()
     m = h.size
     expected_z = a * ((m + 1) * h - h.sum())
-    from probing.nonlinearities import compensate
+    from probing import compensate
 
     got = compensate(namespace["est"].z[-1], namespace["nl"], a)
     np.testing.assert_allclose(got, expected_z, rtol=1e-9, atol=1e-12)

@@ -1,8 +1,8 @@
 """Build a scenario in code, run it, read the Parquet back and print the gain.
 
-Usage (from the repository root)::
+Usage (from the repository root, after ``make setup``)::
 
-    python scenarios/examples/build_and_run.py [--order 9] [--out results/examples]
+    .venv/bin/python scenarios/examples/build_and_run.py [--order 9] [--out results/examples]
 
 What it shows:
 
@@ -11,9 +11,10 @@ What it shows:
 2. ``Scenario.replace`` derives a variant with dotted field names (a symmetric deadband of
    +-a/3, which should pass the probe with the apparent amplitude a~ = 2a/3);
 3. ``run_scenario`` simulates both and writes ``<out>/<name>/probing.parquet``;
-4. pandas reads the pulse-response estimates back, and the least-squares gain of the
-   deadband's h_est against the baseline's, g = <h, h0>/<h0, h0>, is compared with the
-   prediction a~/a of ``Deadband.apparent``.
+4. ``read_settled`` reads the settled pulse-response estimates back from
+   ``probing.parquet``, and the least-squares gain of the deadband's h_est against the
+   baseline's, g = <h, h0>/<h0, h0>, is compared with the prediction a~/a of
+   ``Deadband.apparent``.
 """
 
 from __future__ import annotations
@@ -22,17 +23,16 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
-from probing.run import build_nonlinearity, run_scenario
-from probing.scenario import parse_scenario
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import Scenario, parse_scenario
+from probing.experiment.storage import read_settled
 
 
-def settled_h(folder: Path, settle_periods: int, channel: str = "theta_rad") -> np.ndarray:
+def settled_h(folder: Path, scn: Scenario, channel: str = "theta_rad") -> np.ndarray:
     """Mean h_est over the settled periods of one channel, read from probing.parquet."""
-    df = pd.read_parquet(folder / "probing.parquet")
-    df = df[(df["channel"] == channel) & (df["period"] >= settle_periods)]
-    return df.groupby("tap")["h_est"].mean().to_numpy()
+    path = folder / "probing.parquet"
+    return read_settled(path, channel, scn.settle_periods, scn.bits_per_period).h.mean(axis=0)
 
 
 def main() -> None:
@@ -71,10 +71,10 @@ def main() -> None:
         result = run_scenario(scn, args.out, progress=False)
         print(f"{scn.name}: {result.steps_simulated} steps in {result.wall_s:.2f} s")
 
-    h0 = settled_h(args.out / baseline.name, baseline.settle_periods)
-    h = settled_h(args.out / deadband.name, deadband.settle_periods)
+    h0 = settled_h(args.out / baseline.name, baseline)
+    h = settled_h(args.out / deadband.name, deadband)
     gain = float(h @ h0 / (h0 @ h0))
-    a_t, b_t = build_nonlinearity(deadband).apparent(a)
+    a_t, b_t = deadband.build_nonlinearity().apparent(a)
     print(f"predicted gain a~/a = {a_t / a:.4f} (b~ = {b_t:g} deg)")
     print(f"measured gain       = {gain:.4f}")
 

@@ -1,0 +1,494 @@
+"""The probing command line: run, truth, sweep, fig4, plot, design, modes.
+
+Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
+folder that cannot be written, a Dask scheduler that does not answer), with one line on
+stderr and nothing written; 1 a run that failed (trim failure, divergence), a sweep with
+failed points or a sweep folder in use by another process; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+__all__ = ["build_parser", "main"]
+
+DESCRIPTION = """\
+Pulse-compression probing of aircraft dynamics through hard input nonlinearities, on JSBSim.
+
+commands:
+  run      simulate a scenario and write its Parquet files
+  truth    ground truth of a scenario (single pulse, linearisation, prediction)
+  sweep    run a sweep file's points in parallel, resumably
+  fig4     reproduce the paper's Fig. 4 (runs, figures, summary)
+  plot     redraw the figures of fig4 or of a sweep from stored Parquet
+  design   recommend order, bit duration and amplitude for an experiment
+  modes    trim and linearise the GTM across airspeed (docs/gtm.md)
+"""
+EPILOG = """\
+exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
+failed (trim failure, divergence) or a sweep folder in use; 130 interrupted.
+See README.md and docs/ for the formats and the method."""
+
+
+class UsageError(Exception):
+    """Bad input found by a command: printed as one line, exit code 2."""
+
+
+def _error(message: str, code: int) -> int:
+    print(f"probing: error: {message}", file=sys.stderr)
+    return code
+
+
+def _out_folder(path: Path, option: str) -> Path:
+    """``path`` after :func:`probing.experiment.storage.check_output_folder` (UsageError)."""
+    from probing.experiment.storage import OutputFolderError, check_output_folder
+
+    try:
+        return check_output_folder(path, option)
+    except OutputFolderError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _load_scenario(path: Path) -> Any:
+    from probing.experiment.scenario import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(path)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _simulating(job: Callable[[], int], where: str) -> int:
+    """Run ``job``; a trim failure or divergence is one line and exit code 1."""
+    from probing.sim.errors import DivergenceError, TrimError
+
+    try:
+        return job()
+    except (TrimError, DivergenceError) as exc:
+        return _error(f"{where}: {exc}", 1)
+
+
+# ------------------------------------------------------------------ run, truth
+def _cmd_run(args: argparse.Namespace) -> int:
+    scn = _load_scenario(args.scenario)
+    _out_folder(args.out, "--out")
+
+    def job() -> int:
+        from probing.experiment.run import run_scenario
+
+        result = run_scenario(scn, args.out, progress=None)
+        print(
+            f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
+            f"{result.wall_s:.2f} s -> {result.out_dir}"
+        )
+        if args.truth:
+            _print_truth(scn, args.out)
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _print_truth(scn: Any, out: Path) -> None:
+    from probing.experiment.truth import compute_truth
+
+    print(f"{scn.name}: ground truth -> {compute_truth(scn, out)}")
+
+
+def _cmd_truth(args: argparse.Namespace) -> int:
+    scn = _load_scenario(args.scenario)
+    _out_folder(args.out, "--out")
+
+    def job() -> int:
+        _print_truth(scn, args.out)
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+# ------------------------------------------------------------------ sweep
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from probing.experiment.scenario import ScenarioError
+    from probing.sweep import load_sweep
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"-j/--jobs: must be an integer >= 1, got {args.jobs}")
+    if args.scheduler and args.executor != "dask":
+        raise UsageError("--scheduler: only with --executor dask")
+    if not args.connect_timeout_s > 0:
+        raise UsageError(f"--connect-timeout-s: must be > 0, got {args.connect_timeout_s:g}")
+    try:
+        sweep = load_sweep(args.sweep)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    _out_folder(args.out, "--out")
+    figures = args.figures if args.figures is not None else args.out / sweep.name / "figures"
+    if args.plot:
+        _out_folder(figures, "--figures")
+    from probing.sweep import SchedulerError, SweepBusyError, run_sweep
+
+    try:
+        result = run_sweep(
+            sweep,
+            args.out,
+            jobs=args.jobs,
+            executor=args.executor,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+            connect_timeout_s=args.connect_timeout_s,
+        )
+    except SchedulerError as exc:
+        raise UsageError(str(exc)) from None
+    except SweepBusyError as exc:
+        return _error(str(exc), 1)
+    for message in result.messages:
+        print(f"  {message}", file=sys.stderr)
+    print(result.line())
+    if args.plot:
+        from analysis.sweep_plots import plot_sweep
+
+        for path in plot_sweep(result.folder, figures):
+            print(f"wrote {path}")
+    return 1 if result.errors else 0
+
+
+# ------------------------------------------------------------------ fig4, plot
+def _cmd_fig4(args: argparse.Namespace) -> int:
+    from probing.experiment.fig4 import load_set, run_set
+    from probing.experiment.scenario import ScenarioError
+
+    t_start = time.perf_counter()
+    scen_dir = args.scenarios
+    try:
+        load_set(scen_dir)  # every scenario valid before anything runs
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
+    _check_fig4_outputs(results, args)
+    print(f"probing fig4: {scen_dir} -> {results}")
+
+    def job() -> int:
+        run_set(scen_dir, results, force=args.force)
+        return _finish_fig4(results, args, t_start)
+
+    return _simulating(job, str(scen_dir))
+
+
+def _check_fig4_outputs(results: Path, args: argparse.Namespace) -> None:
+    _out_folder(results, "--out")
+    _out_folder(args.figures, "--figures")
+    if args.copy_summary is not None:
+        _out_folder(args.copy_summary.parent, "--copy-summary")
+
+
+def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
+    from analysis import fig4, fig4_plots
+
+    try:
+        data = fig4.collect(results)
+    except fig4.NotAFig4FolderError as exc:
+        raise UsageError(str(exc)) from None
+    paths = fig4_plots.draw(data, args.figures, data.set_name)
+    text = fig4.write_summary(data, results)
+    if args.copy_summary is not None:
+        shutil.copyfile(results / "summary.md", args.copy_summary)
+    print(text)
+    for p in paths:
+        print(f"figure -> {p}")
+    print(f"summary -> {results / 'summary.csv'}, {results / 'summary.md'}")
+    print(f"wall time {time.perf_counter() - t_start:.1f} s")
+    return 0
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    if args.target == "sweep":
+        from analysis.sweep_plots import NotASweepError, plot_sweep
+
+        figures = args.figures if args.figures is not None else args.results / "figures"
+        _out_folder(figures, "--figures")
+        try:
+            paths = plot_sweep(args.results, figures)
+        except NotASweepError as exc:
+            raise UsageError(str(exc)) from None
+        for path in paths:
+            print(f"wrote {path}")
+        return 0
+    if args.figures is None:
+        args.figures = Path("figures")
+    _check_fig4_outputs(args.results, args)
+    return _finish_fig4(args.results, args, time.perf_counter())
+
+
+# ------------------------------------------------------------------ design
+def _cmd_design(args: argparse.Namespace) -> int:
+    from probing.experiment.design import (
+        DesignError,
+        DesignInputError,
+        DesignRequest,
+        recommend,
+    )
+
+    request = DesignRequest(
+        aircraft=args.aircraft,
+        altitude_ft=args.altitude_ft,
+        speed_kcas=args.speed_kcas,
+        dt_s=args.dt_s,
+        deadband_deg=tuple(args.deadband_deg) if args.deadband_deg else None,
+        saturation_deg=tuple(args.saturation_deg) if args.saturation_deg else None,
+        rate_limit_deg_s=args.rate_limit_deg_s,
+        noise_sigma=args.noise_sigma,
+        target_se=args.target_se,
+        amplitude_deg=args.amplitude_deg,
+        deadband_margin=args.deadband_margin,
+    )
+
+    def job() -> int:
+        try:
+            d, modes, scn = recommend(request)
+        except DesignInputError as exc:
+            raise UsageError(str(exc)) from None
+        except DesignError as exc:
+            if args.json:
+                print(json.dumps({"feasible": False, "reason": str(exc)}))
+            return _error(f"infeasible: {exc}", 2)
+        if args.json:
+            payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
+            payload["scenario"] = scn.to_dict()
+            print(json.dumps(payload, indent=2))
+            return 0
+        print(
+            f"{args.aircraft} at {args.altitude_ft:g} ft, {args.speed_kcas:g} kcas: short period "
+            f"wn = {modes.sp_wn:.3g} rad/s, zeta = {modes.sp_zeta:.3g}; phugoid wn = "
+            f"{modes.ph_wn:.3g} rad/s, zeta = {modes.ph_zeta:.3g}"
+        )
+        print(_design_table(d))
+        return 0
+
+    return _simulating(job, f"--aircraft {args.aircraft}")
+
+
+def _modes_dict(modes: Any) -> dict[str, float]:
+    return {k: modes.__getattribute__(k) for k in ("sp_wn", "sp_zeta", "ph_wn", "ph_zeta")}
+
+
+def _design_table(d: Any) -> str:
+    rows = [
+        ("order", f"{d.order} (M = {d.bits_per_period})", d.reasons["order"]),
+        ("bit_duration_s", f"{d.bit_duration_s:g}", d.reasons["bit_duration_s"]),
+        ("amplitude_deg", f"{d.amplitude_deg:.4g}", d.reasons["amplitude_deg"]),
+        (
+            "periods",
+            f"{d.periods} ({d.settle_periods} settling)",
+            d.reasons["periods"] + f"; predicted se {d.predicted_se:.3g} rad/deg",
+        ),
+    ]
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    lines = [f"{'parameter':<{w0}}  {'value':<{w1}}  reason"]
+    lines += [f"{a:<{w0}}  {b:<{w1}}  {c}" for a, b, c in rows]
+    lines += [f"warning: {w}" for w in d.warnings]
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ modes
+def _cmd_modes(args: argparse.Namespace) -> int:
+    _out_folder(args.docs.parent, "--docs")
+    _out_folder(args.figure.parent, "--figure")
+
+    def job() -> int:
+        from analysis import gtm_modes
+        from probing.experiment.modes import mode_table
+
+        points = mode_table()
+        print(gtm_modes.mode_table(points))
+        for p in points:
+            if p.modes is not None:
+                eigs = ", ".join(f"{e:.4f}" for e in p.modes.eigenvalues)
+                print(f"{p.ve_kts:.0f} kt eigenvalues: {eigs}")
+        gtm_modes.write_doc(points, args.docs)
+        (path,) = gtm_modes.save(points, args.figure)
+        print(f"wrote {args.docs} and {path}")
+        return 0
+
+    return _simulating(job, "gtm_t2")
+
+
+# ------------------------------------------------------------------ parser
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (exposed for documentation and tests)."""
+    parser = argparse.ArgumentParser(
+        prog="probing",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="command")
+
+    def command(name: str, text: str) -> argparse.ArgumentParser:
+        return sub.add_parser(
+            name,
+            help=text,
+            description=text,
+            formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        )
+
+    run = command("run", "simulate a scenario and write probing.parquet and timeseries.parquet")
+    run.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
+    run.add_argument(
+        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )
+    run.add_argument(
+        "--truth", action="store_true", help="also write truth.parquet and prediction.parquet"
+    )
+    run.set_defaults(func=_cmd_run)
+
+    truth = command(
+        "truth",
+        "ground truth of a scenario: single-pulse and linearised pulse responses "
+        "(truth.parquet) and the probing output they predict (prediction.parquet)",
+    )
+    truth.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
+    truth.add_argument(
+        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )
+    truth.set_defaults(func=_cmd_truth)
+
+    sweep = command("sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)")
+    sweep.add_argument("sweep", type=Path, help="sweep TOML file (scenarios/sweeps/*.toml)")
+    sweep.add_argument(
+        "--out", type=Path, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
+    )
+    sweep.add_argument(
+        "-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)"
+    )
+    sweep.add_argument(
+        "--executor", choices=["local", "dask"], default="local", help="local pool or Dask"
+    )
+    sweep.add_argument(
+        "--scheduler",
+        default=None,
+        help="address of an existing Dask scheduler (tcp://host:8786); without it, "
+        "--executor dask starts a LocalCluster",
+    )
+    sweep.add_argument(
+        "--connect-timeout-s",
+        type=float,
+        default=10.0,
+        help="how long to wait for --scheduler before giving up (exit 2)",
+    )
+    sweep.add_argument(
+        "--retry-failed", action="store_true", help="run again the points recorded as failed"
+    )
+    sweep.add_argument("--plot", action="store_true", help="draw the sweep's figure afterwards")
+    sweep.add_argument(
+        "--figures",
+        type=Path,
+        default=None,
+        help="figure folder (default: OUT/<name>/figures)",
+    )
+    sweep.set_defaults(func=_cmd_sweep)
+
+    fig4 = command("fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
+    fig4.add_argument(
+        "--scenarios", type=Path, default=Path("scenarios/fig4"), help="scenario set folder"
+    )
+    fig4.add_argument(
+        "--out", type=Path, default=None, help="results folder (default: results/<set folder>)"
+    )
+    fig4.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    fig4.add_argument("--force", action="store_true", help="simulate even if results are stored")
+    fig4.add_argument(
+        "--copy-summary", type=Path, default=None, help="also copy summary.md to this file"
+    )
+    fig4.set_defaults(func=_cmd_fig4)
+
+    plot = command("plot", "redraw figures from stored Parquet (no simulation)")
+    plot.add_argument("target", choices=["fig4", "sweep"], help="which figure set")
+    plot.add_argument(
+        "results",
+        type=Path,
+        help="results folder written by `probing fig4`, or a sweep folder (results/sweeps/NAME)",
+    )
+    plot.add_argument(
+        "--figures",
+        type=Path,
+        default=None,
+        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep)",
+    )
+    plot.add_argument(
+        "--copy-summary", type=Path, default=None, help="fig4: also copy summary.md to this file"
+    )
+    plot.set_defaults(func=_cmd_plot)
+
+    design = command("design", "recommend order, bit duration and amplitude for an experiment")
+    _design_arguments(design)
+    design.set_defaults(func=_cmd_design)
+
+    modes = command(
+        "modes",
+        "trim and linearise the GTM at 800 ft, 60..130 KEAS; write the mode table and figure",
+    )
+    modes.add_argument("--docs", type=Path, default=Path("docs/gtm.md"), help="page written whole")
+    modes.add_argument(
+        "--figure", type=Path, default=Path("figures/gtm_modes"), help="figure (without .png)"
+    )
+    modes.set_defaults(func=_cmd_modes)
+    return parser
+
+
+def _design_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--aircraft", required=True, help="JSBSim model, e.g. gtm_t2 or 737")
+    parser.add_argument("--altitude-ft", type=float, required=True, help="trim altitude (ft)")
+    parser.add_argument("--speed-kcas", type=float, required=True, help="trim speed (kt CAS)")
+    parser.add_argument("--dt-s", type=float, default=0.01, help="simulation step (s)")
+    parser.add_argument(
+        "--deadband-deg",
+        type=float,
+        nargs=2,
+        metavar=("LOWER", "UPPER"),
+        default=None,
+        help="deadband edges relative to trim (deg)",
+    )
+    parser.add_argument(
+        "--saturation-deg",
+        type=float,
+        nargs=2,
+        metavar=("LOWER", "UPPER"),
+        default=None,
+        help="saturation limits relative to trim (deg)",
+    )
+    parser.add_argument(
+        "--rate-limit-deg-s", type=float, default=None, metavar="R", help="rate limit (deg/s)"
+    )
+    parser.add_argument(
+        "--noise-sigma", type=float, default=0.0, help="output noise on theta, rad (1 sigma)"
+    )
+    parser.add_argument(
+        "--target-se", type=float, default=None, help="target standard error of h per tap (rad/deg)"
+    )
+    parser.add_argument(
+        "--amplitude-deg", type=float, default=0.005, help="amplitude without a deadband (deg)"
+    )
+    parser.add_argument(
+        "--deadband-margin", type=float, default=3.0, help="a >= margin x deadband half width"
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON for scripts")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``probing`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except UsageError as exc:
+        return _error(str(exc), 2)
+    except KeyboardInterrupt:
+        return _error("interrupted", 130)

@@ -1,0 +1,184 @@
+"""The runs of the paper's Fig. 4: a scenario set, a constant-offset twin and a rate-limit sweep.
+
+A Fig. 4 set is a folder holding ``baseline.toml`` and one file per panel,
+``a_deadband.toml`` .. ``g_hysteresis_relay.toml``.  :func:`run_set` runs every scenario of
+the set, a constant-offset twin for the saturation panel (:func:`offset_twin`) and a
+rate-limit sweep (:func:`sweep_scenarios`), skipping runs whose ``probing.parquet`` already
+holds the same scenario digest (Parquet metadata key ``probing.scenario_digest``), and writes
+``manifest.json`` (which run folder belongs to which panel).  The figures and the summary are
+drawn from the stored Parquet by :mod:`analysis.fig4`; see ``docs/fig4.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+
+from probing.core.nonlinearities import RateLimit
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import Scenario, ScenarioError, load_scenario
+from probing.experiment.storage import write_json_atomic
+
+__all__ = [
+    "BASELINE",
+    "CHANNEL",
+    "OFFSET_TWIN",
+    "PANELS",
+    "ensure_run",
+    "load_set",
+    "offset_twin",
+    "run_set",
+    "stored_digest",
+    "sweep_scenarios",
+]
+
+#: Panel key (scenario file stem) -> panel letter, in figure order.
+PANELS: dict[str, str] = {
+    "a_deadband": "a",
+    "b_saturation": "b",
+    "c_relay": "c",
+    "d_backlash": "d",
+    "e_rate_limit": "e",
+    "f_rate_limit": "f",
+    "g_hysteresis_relay": "g",
+}
+BASELINE = "baseline"
+OFFSET_TWIN = "b_saturation_offset"  # constant b~ through the same chain: the remedy run
+CHANNEL = "theta_rad"
+DIGEST_KEY = b"probing.scenario_digest"
+#: Rate-limit sweep: r_l / (2a/t0), log-spaced, and the bit durations (s).
+SWEEP_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 4.0, 9))  # 0.25 * sqrt(2)**k
+SWEEP_BITS_S = (0.01, 0.04)
+SWEEP_PERIODS, SWEEP_SETTLE = 4, 2
+
+
+def stored_digest(folder: Path) -> str | None:
+    """The scenario digest stored in ``folder/probing.parquet``, or None."""
+    path = folder / "probing.parquet"
+    if not path.exists() or not (folder / "timeseries.parquet").exists():
+        return None
+    meta = pq.read_schema(path).metadata or {}
+    value = meta.get(DIGEST_KEY)
+    return value.decode() if value else None
+
+
+def ensure_run(scn: Scenario, out: Path, force: bool = False) -> tuple[float, bool]:
+    """Run ``scn`` into ``out/<name>`` unless it is already there; (wall s, simulated?)."""
+    if not force and stored_digest(out / scn.name) == scn.digest():
+        return 0.0, False
+    result = run_scenario(scn, out, progress=None)
+    return result.wall_s, True
+
+
+def offset_twin(sat: Scenario) -> Scenario:
+    """The saturation scenario with its probe replaced by the constant offset b~.
+
+    A relay whose threshold lies far above the probe (90 deg) outputs its low level for every
+    probe value; with low = high = b~ it is a constant b~: the same step the saturated run
+    receives on average, without the probe.
+    """
+    _, b_t = sat.build_nonlinearity().apparent(sat.amplitude_deg)
+    return sat.replace(
+        {
+            "name": f"{sat.name}-offset",
+            "nonlinearity.type": "relay",
+            "nonlinearity.threshold_deg": 90.0,
+            "nonlinearity.low_deg": b_t,
+            "nonlinearity.high_deg": b_t,
+        }
+    )
+
+
+def sweep_scenarios(template: Scenario) -> list[tuple[float, float, Scenario]]:
+    """(t0, ratio, scenario) of the rate-limit sweep; ratio NaN marks the baseline of a t0."""
+    out = []
+    a = template.amplitude_deg
+    for t0 in SWEEP_BITS_S:
+        common = {
+            "probe.bit_duration_s": t0,
+            "probe.periods": SWEEP_PERIODS,
+            "probe.settle_periods": SWEEP_SETTLE,
+            "output.channels": [CHANNEL],
+        }
+        base = template.replace(
+            {**common, "name": f"{template.name}-sweep-t0-{t0:g}-none", "nonlinearity.type": "none"}
+        )
+        out.append((t0, math.nan, base))
+        for ratio in SWEEP_RATIOS:
+            rate = ratio * RateLimit.bound(a, t0)
+            scn = template.replace(
+                {
+                    **common,
+                    "name": f"{template.name}-sweep-t0-{t0:g}-r{ratio:.3f}",
+                    "nonlinearity.type": "rate_limit",
+                    "nonlinearity.rate_deg_s": rate,
+                }
+            )
+            out.append((t0, ratio, scn))
+    return out
+
+
+def load_set(scen_dir: Path) -> dict[str, Scenario]:
+    """The scenarios of a Fig. 4 set, keyed by file stem (baseline and the seven panels).
+
+    Raises
+    ------
+    ScenarioError
+        For a folder that is not there, a missing file or an invalid scenario.
+    """
+    scen_dir = Path(scen_dir)
+    if not scen_dir.is_dir():
+        raise ScenarioError("--scenarios", "not a folder of Fig. 4 scenarios", str(scen_dir))
+    scenarios = {}
+    for key in (BASELINE, *PANELS):
+        path = scen_dir / f"{key}.toml"
+        if not path.is_file():
+            raise ScenarioError("file", f"missing (a Fig. 4 set needs {key}.toml)", str(path))
+        scenarios[key] = load_scenario(path)
+    return scenarios
+
+
+def run_set(
+    scen_dir: Path,
+    out: Path,
+    *,
+    force: bool = False,
+    sweep_rate_limit: bool = True,
+    log: Callable[[str], object] = print,
+) -> dict:
+    """Run a Fig. 4 set (skipping runs already stored) and write ``out/manifest.json``.
+
+    ``sweep_rate_limit=False`` leaves out the rate-limit sweep (and its figure).
+    """
+    scenarios = load_set(scen_dir)
+    scenarios[OFFSET_TWIN] = offset_twin(scenarios["b_saturation"])
+    out.mkdir(parents=True, exist_ok=True)
+    sim_wall = 0.0
+    for key, scn in scenarios.items():
+        wall, ran = ensure_run(scn, out, force)
+        sim_wall += wall
+        status = f"ran in {wall:.2f} s" if ran else "stored"
+        log(f"  {key:<22} {scn.name:<36} {status}")
+    sweep_dir = out / "rate_limit_sweep"
+    sweep = []
+    n_ran = 0
+    todo = sweep_scenarios(scenarios["f_rate_limit"]) if sweep_rate_limit else []
+    for t0, ratio, scn in todo:
+        wall, ran = ensure_run(scn, sweep_dir, force)
+        sim_wall += wall
+        n_ran += ran
+        sweep.append({"bit_duration_s": t0, "ratio": ratio, "folder": scn.name})
+    log(f"  rate-limit sweep: {len(sweep)} runs, {n_ran} simulated")
+    log(f"  simulation: {sim_wall:.2f} s")
+    manifest = {
+        "set": Path(scen_dir).resolve().name,
+        "scenarios_dir": str(scen_dir),
+        "panels": {k: s.name for k, s in scenarios.items()},
+        "sweep": sweep,
+    }
+    write_json_atomic(out / "manifest.json", manifest)
+    return manifest

@@ -1,0 +1,398 @@
+"""One probing run: scenario -> trimmed plant -> probe + nonlinearity -> correlator -> Parquet.
+
+Timing conventions (documented in ``docs/method.md``):
+
+* Step k applies probe sample k (the elevator command is written, then
+  ``run()``); output sample k is read right after that step.
+* A bit spanning several steps becomes one correlator sample: the output read
+  after the *last* step of the bit (end-of-bit sampling).  This is exactly the
+  zero-order-hold discretisation at the bit duration, so the taps are the
+  pulse response of the plant sampled at t0.
+
+The run is four pieces, each small: :class:`_Rig` (set-up: probe, nonlinearity, trimmed
+plant, twin, metadata), :func:`_chunks` (stepping, period by period, handed on in chunks of
+whole periods), a drift correction per ``output.drift`` mode (:class:`_Streaming`,
+:class:`_Detrended`) that turns a chunk into per-period estimates, and :class:`SettledMean`
+(the average over the settled periods).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from probing.core.correlator import StreamingCorrelator
+from probing.core.nonlinearities import Nonlinearity
+from probing.core.prbs import Probe
+from probing.experiment.progress import progress_bar
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import (
+    PROBING_SCHEMA,
+    output_folder,
+    probing_block,
+    provenance,
+    timeseries_schema,
+)
+from probing.sim.plant import Plant, TrimResult, make_plant
+from probing.sim.twins import ReferenceTwin, open_twin
+
+__all__ = ["RunResult", "SettledMean", "run_scenario"]
+
+PROBING_TEXT = (
+    "probing output z (eq. 5), its DC-corrected form zeta (eq. 9) and the pulse-response "
+    "estimate h_est, one row per channel, period and tap"
+)
+TIMESERIES_TEXT = (
+    "the run step by step: probe, nonlinearity output, realised elevator, measured outputs "
+    "(sensor noise added) and the unprobed twin's outputs"
+)
+#: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
+#: least one; the plant is still stepped and checked period by period.
+CHUNK_STEPS = 8192
+
+
+@dataclass
+class RunResult:
+    """What a run produced.
+
+    Attributes
+    ----------
+    out_dir : pathlib.Path
+        The folder holding the Parquet files.
+    trim : TrimResult
+        The trimmed state of the probed aircraft.
+    h_est : dict
+        Channel -> mean of ``h_est`` over the settled periods (output units per deg).
+    steps_simulated : int
+        JSBSim steps actually simulated: the probed aircraft's, plus the reference twin's
+        unless it was read from the cache (trim and calibration not counted).
+    wall_s : float
+        Wall time of the whole call (s).
+    twin_cached : bool
+        True if the reference twin was read from the cache instead of simulated.
+    twin_key : str or None
+        The twin's cache key (:func:`probing.sim.twins.twin_key`); None without a twin.
+    """
+
+    out_dir: Path
+    trim: TrimResult
+    h_est: dict[str, np.ndarray]
+    steps_simulated: int
+    wall_s: float
+    twin_cached: bool = False
+    twin_key: str | None = None
+
+
+# ------------------------------------------------------------------ set-up
+@dataclass
+class _Rig:
+    """Everything a run steps with, built from the scenario."""
+
+    scn: Scenario
+    probe: Probe
+    nl: Nonlinearity | None
+    plant: Plant
+    nodes: list
+    y_trim: np.ndarray
+    twin: ReferenceTwin | None
+
+    @classmethod
+    def build(cls, scn: Scenario, twin_cache: bool) -> _Rig:
+        probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+        plant = make_plant(scn.flight)
+        nodes = plant.channel_nodes(list(scn.channels))
+        y_trim = np.array([n.get_double_value() for n in nodes])
+        twin = None
+        if scn.drift == "reference":
+            twin = open_twin(scn.flight, scn.channels, scn.total_steps, use_cache=twin_cache)
+        return cls(scn, probe, scn.build_nonlinearity(), plant, nodes, y_trim, twin)
+
+    @property
+    def period_steps(self) -> int:
+        """Simulation steps of one probe period."""
+        return self.probe.length * self.probe.steps_per_bit(self.scn.dt_s)
+
+    def metadata(self) -> dict[bytes, bytes]:
+        """The key-value metadata of the run's files."""
+        scn = self.scn
+        meta: dict[str, object] = {
+            "scenario_toml": scn.text,
+            "scenario": scn.to_dict(),
+            "scenario_digest": scn.digest(),
+            "trim": self.plant.trim_result.to_dict(),
+            "drift": scn.drift,
+            "sampling": "one correlator sample per bit: the output read after the last step "
+            "of the bit",
+        }
+        if self.twin:
+            meta["twin"] = {"key": self.twin.key}  # not whether it was cached: same bytes
+        return provenance(**meta)
+
+
+# ------------------------------------------------------------------ stepping
+@dataclass
+class _Chunk:
+    """Whole periods ``first .. first + count - 1`` as stepped."""
+
+    first: int
+    count: int
+    nl_out: np.ndarray  # (rows,) probe after the nonlinearity, deg
+    elevator: np.ndarray  # (rows,) realised elevator, deg
+    measured: np.ndarray  # (rows, C) outputs with sensor noise
+    reference: np.ndarray | None  # (rows, C) the twin's outputs
+
+
+def _chunks(rig: _Rig) -> Iterator[_Chunk]:
+    """Step the plant (and twin) period by period, checking the state after each; yield the
+    periods in chunks of about :data:`CHUNK_STEPS` steps, sensor noise added."""
+    scn, n_steps = rig.scn, rig.period_steps
+    n_ch = len(scn.channels)
+    x_period = rig.probe.samples(scn.dt_s, 1)
+    sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
+    rng = np.random.default_rng(scn.seed)
+    chunk = max(1, CHUNK_STEPS // n_steps)
+    out = np.empty((chunk * n_steps, n_ch))
+    ref = np.empty((chunk * n_steps, n_ch))
+    elevator = np.empty(chunk * n_steps)
+    nl_out = np.empty(chunk * n_steps)
+    nl_state = rig.nl.initial_state() if rig.nl else None
+    trim_deg = rig.plant.trim_result.elevator_deg
+    for first in range(0, scn.periods, chunk):
+        k = min(chunk, scn.periods - first)
+        rows = k * n_steps
+        for i in range(k):
+            span = slice(i * n_steps, (i + 1) * n_steps)
+            if rig.nl:
+                q, nl_state = rig.nl.process(x_period, scn.dt_s, nl_state)
+            else:
+                q = x_period
+            nl_out[span] = q
+            cmd = rig.plant.elevator_command(trim_deg + q)
+            rig.plant.step(cmd, rig.nodes, out[span], elevator[span])
+            rig.plant.check_state()
+            if rig.twin:
+                ref[span] = rig.twin.next(n_steps)
+        measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
+        yield _Chunk(
+            first, k, nl_out[:rows], elevator[:rows], measured, ref[:rows] if rig.twin else None
+        )
+
+
+# ------------------------------------------------------------------ drift correction
+@dataclass
+class _Estimates:
+    """Per-period estimates of a chunk: ``periods`` (P,), ``z``, ``zeta``, ``h`` (P, C, M)."""
+
+    periods: np.ndarray
+    z: np.ndarray
+    zeta: np.ndarray
+    h: np.ndarray
+
+
+def _correlator(probe: Probe, push_size: int) -> StreamingCorrelator:
+    """A correlator whose FFT block takes one push of ``push_size`` samples in one piece.
+
+    The default block (16 M) suits long pushes; a run pushes one chunk at a time, and a
+    block just large enough is ~3x faster per push.
+    """
+    m = probe.length
+    need = max(push_size + m - 1, 2 * m)  # one block per push; the correlator needs >= 2 M
+    nfft = 1 << (need - 1).bit_length()  # the smallest power of two >= need
+    return StreamingCorrelator(probe.reference(), probe.amplitude_deg, block=nfft)
+
+
+class _Streaming:
+    """Drift modes ``reference`` and ``none``: the deviation from the twin (or from the
+    trimmed output value) streams through one correlator per channel."""
+
+    def __init__(self, probe: Probe, n_channels: int, push_bits: int) -> None:
+        self.correlators = [_correlator(probe, push_bits) for _ in range(n_channels)]
+
+    def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
+        pops = []
+        for j, corr in enumerate(self.correlators):
+            corr.push(y_bits[:, j])
+            pops.append(corr.pop_periods())
+        z, zeta, h = (np.stack([getattr(e, x) for e in pops], axis=1) for x in ("z", "zeta", "h"))
+        return _Estimates(pops[0].period, z, zeta, h)
+
+
+class _Detrended:
+    """Drift mode ``detrend``: each period's z windows reach back one period, so the bit
+    samples of periods p-1 and p are detrended together (least-squares polynomial of
+    ``order``) and correlated afresh; period 0 has no estimate."""
+
+    def __init__(self, probe: Probe, order: int) -> None:
+        self.probe, self.order = probe, order
+        self.prev: np.ndarray | None = None
+
+    def _detrend(self, y: np.ndarray) -> np.ndarray:
+        t = np.linspace(-1.0, 1.0, y.shape[0])
+        basis = np.vander(t, self.order + 1)
+        coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
+        return y - basis @ coef
+
+    def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
+        m = self.probe.length
+        n_ch = y_bits.shape[1]
+        periods, rows = [], []
+        for i in range(y_bits.shape[0] // m):
+            bits = y_bits[i * m : (i + 1) * m]
+            if self.prev is not None:
+                window = self._detrend(np.vstack((self.prev, bits)))
+                per_channel = []
+                for j in range(n_ch):
+                    fresh = _correlator(self.probe, 2 * m)
+                    fresh.push(window[:, j])
+                    est = fresh.pop_periods()
+                    per_channel.append((est.z[1], est.zeta[1], est.h[1]))
+                periods.append(first + i)
+                rows.append(per_channel)
+            self.prev = bits.copy()
+        z, zeta, h = (
+            np.array([[e[x] for e in pc] for pc in rows]).reshape(-1, n_ch, m) for x in range(3)
+        )
+        return _Estimates(np.array(periods, dtype=np.int64), z, zeta, h)
+
+
+# ------------------------------------------------------------------ settled averaging
+class SettledMean:
+    """Mean of the per-period h over the settled periods, channel by channel.
+
+    A period counts for a channel when it is >= ``settle_periods`` and that channel's h is
+    finite at every tap; each channel keeps its own count.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel names, C of them.
+    m : int
+        Taps per period.
+    settle_periods : int
+        Periods left out at the start.
+    """
+
+    def __init__(self, channels: tuple[str, ...] | list[str], m: int, settle_periods: int):
+        self.channels = list(channels)
+        self.settle = settle_periods
+        self.total = np.zeros((len(self.channels), m))
+        self.count = np.zeros(len(self.channels), dtype=np.int64)
+
+    def add(self, periods: np.ndarray, h: np.ndarray) -> None:
+        """Add periods ``periods`` (P,) with estimates ``h`` (P, C, M)."""
+        settled = np.asarray(periods) >= self.settle
+        for p in np.flatnonzero(settled):
+            for j in range(len(self.channels)):
+                if np.all(np.isfinite(h[p, j])):
+                    self.total[j] += h[p, j]
+                    self.count[j] += 1
+
+    def mean(self) -> dict[str, np.ndarray]:
+        """Channel -> mean h (NaN where no period counted)."""
+        return {
+            c: self.total[j] / self.count[j]
+            if self.count[j]
+            else np.full_like(self.total[j], np.nan)
+            for j, c in enumerate(self.channels)
+        }
+
+
+# ------------------------------------------------------------------ the run
+def run_scenario(
+    scn: Scenario,
+    out: str | Path,
+    *,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+    folder: str | Path | None = None,
+    twin_cache: bool = True,
+) -> RunResult:
+    """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
+
+    Parameters
+    ----------
+    scn : Scenario
+        A validated scenario.
+    out : path
+        Output folder; results go to ``out/<scn.name>/``.
+    progress : bool, optional
+        Force the progress bar on or off; default: on when ``stream`` is a TTY.
+    stream : file, optional
+        Where the progress bar goes (default stderr).
+    folder : path, optional
+        Write into exactly this folder instead of ``out/<scn.name>/`` (used by sweeps).
+    twin_cache : bool
+        With ``drift = "reference"``: read the unprobed twin from the cache
+        (:mod:`probing.sim.twins`) when it is stored, and store it when simulated.  The
+        results are bit-identical either way; False simulates the twin and stores nothing.
+
+    Returns
+    -------
+    RunResult
+        Trim, averaged pulse-response estimates and timing.
+
+    Raises
+    ------
+    probing.sim.errors.TrimError, probing.sim.errors.DivergenceError
+        On trim failure or divergence; no output file is left behind.
+    """
+    t_start = time.perf_counter()
+    rig = _Rig.build(scn, twin_cache)
+    probe, channels = rig.probe, list(scn.channels)
+    m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
+    drift = (
+        _Detrended(probe, scn.detrend_order)
+        if scn.drift == "detrend"
+        else _Streaming(probe, len(channels), max(1, CHUNK_STEPS // rig.period_steps) * m)
+    )
+    settled = SettledMean(channels, m, scn.settle_periods)
+    lag_s = np.arange(m) * probe.bit_duration_s
+    folder = Path(folder) if folder is not None else Path(out) / scn.name
+    x_period = probe.samples(scn.dt_s, 1)
+    ts_schema = timeseries_schema(channels, rig.twin is not None)
+    with rig.twin or nullcontext(), output_folder(folder, rig.metadata()) as outputs:
+        w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels)
+        w_ts = outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels)
+        with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
+            for c in _chunks(rig):
+                baseline = c.reference if c.reference is not None else rig.y_trim
+                est = drift.estimates((c.measured - baseline)[spb - 1 :: spb], c.first)
+                if est.periods.size:
+                    w_probe.write(
+                        probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
+                    )
+                settled.add(est.periods, est.h)
+                w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
+                bar.advance(c.count)
+    return RunResult(
+        out_dir=folder,
+        trim=rig.plant.trim_result,
+        h_est=settled.mean(),
+        steps_simulated=scn.total_steps + (rig.twin.steps_simulated if rig.twin else 0),
+        wall_s=time.perf_counter() - t_start,
+        twin_cached=bool(rig.twin and rig.twin.cached),
+        twin_key=rig.twin.key if rig.twin else None,
+    )
+
+
+def _timeseries_rows(
+    c: _Chunk, x_period: np.ndarray, n_steps: int, scn: Scenario, channels: list[str]
+) -> dict[str, np.ndarray]:
+    rows = c.count * n_steps
+    cols = {
+        "time_s": (c.first * n_steps + np.arange(1, rows + 1)) * scn.dt_s,
+        "probe_deg": np.tile(x_period, c.count),
+        "nl_out_deg": c.nl_out,
+        "elevator_deg": c.elevator,
+    }
+    for j, name in enumerate(channels):
+        cols[name] = c.measured[:, j]
+        if c.reference is not None:
+            cols[f"{name}_reference"] = c.reference[:, j]
+    return cols

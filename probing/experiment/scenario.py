@@ -1,0 +1,482 @@
+"""Scenario files: TOML in, a validated, frozen :class:`Scenario` out.
+
+Every problem is reported as a :class:`ScenarioError` naming the field and
+what is allowed, so the command line can print one line and exit 2.  See
+``docs/scenarios.md`` for the format.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity, ParameterError
+from probing.core.prbs import MAX_ORDER, MIN_ORDER
+from probing.sim.aircraft import find_aircraft
+from probing.sim.channels import CHANNEL_NAMES
+from probing.sim.errors import AircraftNotFoundError
+from probing.sim.flight import SPEED_KINDS, TURBULENCE_SEVERITY, Flight
+
+__all__ = [
+    "DRIFT_MODES",
+    "MAX_PERIODS",
+    "NAME_RE",
+    "SECTIONS",
+    "Scenario",
+    "ScenarioError",
+    "check_name",
+    "field_label",
+    "load_scenario",
+    "parse_scenario",
+    "read_toml",
+    "set_dotted",
+]
+
+DRIFT_MODES = ("reference", "detrend", "none")
+#: Most periods a scenario may ask for.
+MAX_PERIODS = 100_000
+#: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
+_MAX_DEG, _MAX_DEG_S = 90.0, 1e6
+NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+#: Section -> its fields (None: a top-level value).
+SECTIONS: dict[str, set[str] | None] = {
+    "name": None,
+    "aircraft": {"model"},
+    "condition": {"altitude_ft", *SPEED_KINDS},
+    "simulation": {"dt_s"},
+    "probe": {"order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"},
+    "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
+    "output": {"channels", "drift", "detrend_order"},
+    "disturbance": {"turbulence", "sensor_noise", "seed"},
+}
+_REQUIRED = {
+    "aircraft": ("model",),
+    "condition": ("altitude_ft",),
+    "simulation": ("dt_s",),
+    "probe": ("order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"),
+    "nonlinearity": ("type",),
+    "output": ("channels",),
+}
+
+
+class ScenarioError(ValueError):
+    """An invalid scenario: ``field`` names the offending entry."""
+
+    def __init__(self, field: str, message: str, source: str | None = None) -> None:
+        self.field = field
+        self.message = message
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{field}: {message}")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario (see ``docs/scenarios.md``); all values in the units of their names."""
+
+    name: str
+    model: str
+    altitude_ft: float
+    speed_kind: str  # a key of probing.sim.flight.SPEED_KINDS
+    speed: float
+    dt_s: float
+    order: int
+    bit_duration_s: float
+    amplitude_deg: float
+    periods: int
+    settle_periods: int
+    nonlinearity: str
+    nl_params: dict[str, float] = field(default_factory=dict)
+    channels: tuple[str, ...] = ("theta_rad",)
+    drift: str = "reference"
+    detrend_order: int = 1
+    turbulence: str = "none"
+    sensor_noise: dict[str, float] = field(default_factory=dict)
+    seed: int = 0
+    text: str = ""  # the scenario as written (TOML), kept for provenance
+
+    # -------------------------------------------------------------- derived
+    @property
+    def steps_per_bit(self) -> int:
+        """Simulation steps per probe bit."""
+        return round(self.bit_duration_s / self.dt_s)
+
+    @property
+    def bits_per_period(self) -> int:
+        """M = 2**order - 1."""
+        return 2**self.order - 1
+
+    @property
+    def total_steps(self) -> int:
+        """Simulation steps of the whole run (one aircraft)."""
+        return self.periods * self.bits_per_period * self.steps_per_bit
+
+    @property
+    def flight(self) -> Flight:
+        """What the trimmed aircraft depends on: model, condition, dt, turbulence, seed."""
+        return Flight(
+            self.model,
+            self.altitude_ft,
+            self.speed_kind,
+            self.speed,
+            self.dt_s,
+            self.turbulence,
+            self.seed,
+        )
+
+    def build_nonlinearity(self) -> Nonlinearity | None:
+        """The scenario's nonlinearity (parameters in deg, deg/s), or None for ``none``."""
+        return NONLINEARITIES[self.nonlinearity].build(self.nl_params)
+
+    @property
+    def nonlinearity_label(self) -> str:
+        """The nonlinearity's name for titles (``"hysteresis relay"``)."""
+        return NONLINEARITIES[self.nonlinearity].label
+
+    def describe_nonlinearity(self) -> str:
+        """The nonlinearity's parameters as one short line (``"width b_l = 0.0025 deg"``)."""
+        return NONLINEARITIES[self.nonlinearity].describe(self.nl_params)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scenario in its file layout (sections and field names), without ``text``."""
+        nl: dict[str, Any] = {"type": self.nonlinearity, **self.nl_params}
+        disturbance: dict[str, Any] = {"turbulence": self.turbulence, "seed": self.seed}
+        if self.sensor_noise:
+            disturbance["sensor_noise"] = dict(self.sensor_noise)
+        out: dict[str, Any] = {"channels": list(self.channels), "drift": self.drift}
+        if self.drift == "detrend" or self.detrend_order != 1:
+            out["detrend_order"] = self.detrend_order
+        return {
+            "name": self.name,
+            "aircraft": {"model": self.model},
+            "condition": {"altitude_ft": self.altitude_ft, self.speed_kind: self.speed},
+            "simulation": {"dt_s": self.dt_s},
+            "probe": {
+                "order": self.order,
+                "bit_duration_s": self.bit_duration_s,
+                "amplitude_deg": self.amplitude_deg,
+                "periods": self.periods,
+                "settle_periods": self.settle_periods,
+            },
+            "nonlinearity": nl,
+            "output": out,
+            "disturbance": disturbance,
+        }
+
+    def to_json(self) -> str:
+        """Canonical JSON of :meth:`to_dict` (sorted keys), used for hashing and metadata."""
+        return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+
+    def digest(self) -> str:
+        """Content hash of the resolved scenario (hex, 16 characters)."""
+        return hashlib.sha256(self.to_json().encode()).hexdigest()[:16]
+
+    def replace(self, changes: Mapping[str, Any] | None = None, /, **kwargs: Any) -> Scenario:
+        """A validated copy with dotted fields changed, e.g. ``{"nonlinearity.type": "none"}``.
+
+        The changes are given as a mapping, as keyword arguments, or both.  A change of
+        ``nonlinearity.type`` is applied first, so its parameters may be listed in any order.
+        """
+        merged = {**(changes or {}), **kwargs}
+        data = copy.deepcopy(self.to_dict())
+        for key in sorted(merged, key=lambda k: k != "nonlinearity.type"):
+            set_dotted(data, key, merged[key])
+        return parse_scenario(data)
+
+
+def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+    """Set ``data["a"]["b"] = value`` for ``key = "a.b"``.
+
+    A new nonlinearity type drops the old parameters; a new speed drops the other speeds.
+    """
+    parts = key.split(".")
+    target = data
+    for part in parts[:-1]:
+        if not isinstance(target.get(part), dict):
+            target[part] = {}
+        target = target[part]
+    if parts == ["nonlinearity", "type"] and target.get("type") != value:
+        target.clear()
+    if parts[:1] == ["condition"] and parts[-1] in SPEED_KINDS:
+        for other in SPEED_KINDS:
+            target.pop(other, None)
+    target[parts[-1]] = value
+
+
+# ------------------------------------------------------------------ checks
+def field_label(key: str) -> str:
+    """A key as written into an error field: quoted if it could break the one-line message."""
+    return key if key and key.isprintable() else repr(key)
+
+
+def _number(
+    data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
+) -> float:
+    name = f"{section}.{key}" if section else key
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(name, f"must be a number, got {value!r}")
+    value = float(value)
+    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
+    if not ok:
+        bound = f"> {lo:g}" if lo_open else f">= {lo:g}"
+        raise ScenarioError(name, f"must be {bound} and <= {hi:g}, got {value:g}")
+    return value
+
+
+def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
+    name = f"{section}.{key}"
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
+    if not lo <= value <= hi:
+        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value}")
+    return value
+
+
+def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
+    value = data[key]
+    if not isinstance(value, str) or value not in allowed:
+        raise ScenarioError(
+            f"{section}.{key}", f"must be one of {', '.join(allowed)}; got {value!r}"
+        )
+    return value
+
+
+def _check_keys(data: dict[str, Any]) -> None:
+    for key, value in data.items():
+        if key not in SECTIONS:
+            raise ScenarioError(field_label(key), f"unknown field; allowed: {', '.join(SECTIONS)}")
+        allowed = SECTIONS[key]
+        if allowed is None:
+            continue
+        if not isinstance(value, dict):
+            raise ScenarioError(key, "must be a table (a [section])")
+        for sub in value:
+            if sub not in allowed:
+                raise ScenarioError(
+                    f"{key}.{field_label(sub)}",
+                    f"unknown field; allowed: {', '.join(sorted(allowed))}",
+                )
+    if "name" not in data:
+        raise ScenarioError("name", "missing (a plain file name, also the output folder name)")
+    for section, keys in _REQUIRED.items():
+        if section not in data:
+            raise ScenarioError(section, "missing section")
+        for key in keys:
+            if key not in data[section]:
+                raise ScenarioError(f"{section}.{key}", "missing")
+
+
+def parse_scenario(data: dict[str, Any], *, text: str = "", source: str | None = None) -> Scenario:
+    """Validate a scenario given as a dict (the TOML layout).
+
+    Parameters
+    ----------
+    data : dict
+        Parsed TOML.
+    text : str
+        The original file text, kept for provenance.
+    source : str, optional
+        File name, prefixed to error messages.
+
+    Raises
+    ------
+    ScenarioError
+        On the first invalid entry, naming it and what is allowed.
+    """
+    try:
+        return _parse(data, text)
+    except ScenarioError as exc:
+        if source and exc.source is None:
+            raise ScenarioError(exc.field, exc.message, source) from None
+        raise
+
+
+def check_name(name: Any, source: str | None = None) -> str:
+    """A scenario or sweep name: a plain file name, also the output folder's name.
+
+    Raises
+    ------
+    ScenarioError
+        Field ``name``.
+    """
+    if not isinstance(name, str) or not NAME_RE.match(name) or name in (".", ".."):
+        raise ScenarioError(
+            "name",
+            f"must be a plain file name (letters, digits, '.', '_', '-'), got {name!r}",
+            source,
+        )
+    return name
+
+
+def _parse(data: dict[str, Any], text: str) -> Scenario:
+    _check_keys(data)
+    name = check_name(data["name"])
+    model = data["aircraft"]["model"]
+    if not isinstance(model, str):
+        raise ScenarioError("aircraft.model", f"must be a string, got {model!r}")
+    try:
+        find_aircraft(model)  # looks at files only: no JSBSim is loaded
+    except AircraftNotFoundError as exc:
+        raise ScenarioError("aircraft.model", str(exc).replace("aircraft.model ", "")) from None
+
+    cond = data["condition"]
+    altitude = _number(cond, "condition", "altitude_ft", lo=0, hi=60000, lo_open=True)
+    speeds = [k for k in SPEED_KINDS if k in cond]
+    if len(speeds) != 1:
+        raise ScenarioError("condition", f"give exactly one of {', '.join(SPEED_KINDS)}")
+    kind = speeds[0]
+    speed = _number(cond, "condition", kind, lo=0, hi=SPEED_KINDS[kind].upper, lo_open=True)
+
+    dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
+
+    probe = data["probe"]
+    order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
+    bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
+    ratio = bit / dt
+    if round(ratio) < 1 or not math.isclose(ratio, round(ratio), rel_tol=1e-9, abs_tol=1e-9):
+        raise ScenarioError(
+            "probe.bit_duration_s",
+            f"must be an integer multiple of simulation.dt_s ({dt:g}), got {bit:g}",
+        )
+    amplitude = _number(probe, "probe", "amplitude_deg", lo=0, hi=10, lo_open=True)
+    periods = _integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
+    settle = _integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)
+
+    nl_type, params = _nonlinearity(data["nonlinearity"])
+
+    out = data["output"]
+    channels = out["channels"]
+    if (
+        not isinstance(channels, list)
+        or not channels
+        or any(not isinstance(c, str) or c not in CHANNEL_NAMES for c in channels)
+        or len(set(channels)) != len(channels)
+    ):
+        raise ScenarioError(
+            "output.channels",
+            f"must be a non-empty list of distinct names from {', '.join(CHANNEL_NAMES)}",
+        )
+    drift = _choice(out, "output", "drift", DRIFT_MODES) if "drift" in out else "reference"
+    detrend_order = (
+        _integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
+    )
+
+    dist = data.get("disturbance", {})
+    turbulence = (
+        _choice(dist, "disturbance", "turbulence", tuple(TURBULENCE_SEVERITY))
+        if "turbulence" in dist
+        else "none"
+    )
+    seed = _integer(dist, "disturbance", "seed", lo=0, hi=2**31 - 1) if "seed" in dist else 0
+    noise_in = dist.get("sensor_noise", {})
+    if not isinstance(noise_in, dict):
+        raise ScenarioError("disturbance.sensor_noise", "must be a table {channel = sigma}")
+    noise: dict[str, float] = {}
+    for ch in noise_in:
+        if ch not in channels:
+            raise ScenarioError(
+                f"disturbance.sensor_noise.{field_label(ch)}",
+                f"not an output channel (channels: {', '.join(channels)})",
+            )
+        noise[ch] = _number(noise_in, "disturbance.sensor_noise", ch, lo=0, hi=1e6)
+
+    return Scenario(
+        name=name,
+        model=model,
+        altitude_ft=altitude,
+        speed_kind=kind,
+        speed=speed,
+        dt_s=dt,
+        order=order,
+        bit_duration_s=bit,
+        amplitude_deg=amplitude,
+        periods=periods,
+        settle_periods=settle,
+        nonlinearity=nl_type,
+        nl_params=params,
+        channels=tuple(channels),
+        drift=drift,
+        detrend_order=detrend_order,
+        turbulence=turbulence,
+        sensor_noise=noise,
+        seed=seed,
+        text=text,
+    )
+
+
+def _nonlinearity(nl_data: dict[str, Any]) -> tuple[str, dict[str, float]]:
+    """The ``[nonlinearity]`` section: type and parameters, validated by building the class.
+
+    The schema checks that each parameter is a number within the deflection range
+    (|x| <= 90 deg, rates up to 1e6 deg/s); every other rule (signs, the order of the edges)
+    is the class's own (:mod:`probing.core.nonlinearities`), whose error names the argument.
+    """
+    nl_type = _choice(nl_data, "nonlinearity", "type", tuple(NONLINEARITIES))
+    kind = NONLINEARITIES[nl_type]
+    for key in nl_data:
+        if key != "type" and key not in kind.names:
+            allowed = ", ".join(kind.names) if kind.names else "no parameters"
+            raise ScenarioError(
+                f"nonlinearity.{key}", f"not a parameter of {nl_type} (takes {allowed})"
+            )
+    params: dict[str, float] = {}
+    for p in kind.parameters:
+        if p.name not in nl_data:
+            raise ScenarioError(f"nonlinearity.{p.name}", f"missing (required for {nl_type})")
+        hi = _MAX_DEG_S if p.unit == "deg/s" else _MAX_DEG
+        params[p.name] = _number(nl_data, "nonlinearity", p.name, lo=-hi, hi=hi)
+    try:
+        kind.build(params)
+    except ParameterError as exc:
+        param = kind.parameter(exc.argument)
+        names = {q.argument: q.name for q in kind.parameters}
+        raise ScenarioError(
+            f"nonlinearity.{param.name}",
+            f"{exc.requirement(names)}, got {params[param.name]:g}",
+        ) from None
+    return nl_type, params
+
+
+def read_toml(path: Path) -> tuple[dict[str, Any], str]:
+    """A TOML file's table and text.
+
+    Raises
+    ------
+    ScenarioError
+        Field ``file`` when it cannot be read, ``toml`` when it is not valid TOML.
+    """
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError("file", "does not exist", source) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError("file", f"cannot be read ({exc.__class__.__name__})", source) from None
+    try:
+        return tomllib.loads(text), text
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError("toml", f"invalid TOML ({exc})", source) from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file.
+
+    Raises
+    ------
+    ScenarioError
+        With the file name, the field and what is allowed.
+    """
+    path = Path(path)
+    data, text = read_toml(path)
+    source = str(path)
+    return parse_scenario(data, text=text, source=source)

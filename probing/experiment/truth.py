@@ -1,0 +1,93 @@
+"""Ground truth for a scenario, written beside its run: ``truth.parquet`` and the probing
+output it predicts, ``prediction.parquet``.
+
+The pulse responses come from :mod:`probing.sim.truth` (single pulse and linearisation).
+A probing run folds the tail of h that lies beyond one period into its M taps and has not
+reached a periodic steady state while the phugoid still rings, so the like-for-like
+comparison is a *prediction*: the superposition of the single-pulse response over the actual
+probe history, pushed through the same correlator (same layout as ``probing.parquet``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import fftconvolve
+
+from probing.core.correlator import StreamingCorrelator
+from probing.core.prbs import Probe
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import (
+    PROBING_SCHEMA,
+    TRUTH_SCHEMA,
+    output_folder,
+    probing_block,
+    provenance,
+)
+from probing.sim.truth import linear_pulse_response, single_pulse_response
+
+__all__ = ["PREDICTION_TEXT", "TRUTH_TEXT", "compute_truth", "predicted_probing"]
+
+TRUTH_TEXT = (
+    "ground truth: h_pulse, one-bit pulse of amplitude a on a trimmed twin minus an unprobed "
+    "twin, over a; h_lin, JSBSim's FGLinearization discretised with zero-order hold at t0; "
+    "both sampled at the end of each bit, over the whole run"
+)
+PREDICTION_TEXT = (
+    "predicted probing output: h_pulse superposed over the run's probe history and passed "
+    "through the same correlator; compare row by row with probing.parquet"
+)
+
+
+def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Probing output predicted by superposing the single-pulse response over the probe history.
+
+    Returns, per channel, an array (periods, 3, M): z, zeta, h_est per period.
+    """
+    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    bits = probe.bits(scn.periods)
+    out = {}
+    for channel, h in h_pulse.items():
+        y = fftconvolve(bits, h)[: bits.size]
+        corr = StreamingCorrelator(probe.reference(), probe.amplitude_deg)
+        corr.push(y)
+        est = corr.pop_periods()
+        out[channel] = np.stack((est.z, est.zeta, est.h), axis=1)
+    return out
+
+
+def compute_truth(scn: Scenario, out: str | Path) -> Path:
+    """Write ``truth.parquet`` and ``prediction.parquet`` into ``out/<name>/``.
+
+    ``truth.parquet``: channel, tap, lag_s, h_pulse, h_lin (NaN where the linear model has
+    no such output), over the whole run length.  Returns the path of ``truth.parquet``.
+    """
+    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    m = probe.length
+    n_bits = scn.periods * m
+    spb = probe.steps_per_bit(scn.dt_s)
+    h_pulse = single_pulse_response(scn.flight, scn.channels, scn.amplitude_deg, spb, n_bits)
+    h_lin = linear_pulse_response(scn.flight, scn.channels, scn.bit_duration_s, n_bits)
+    pred = predicted_probing(scn, h_pulse)
+    folder = Path(out) / scn.name
+    meta = provenance(scenario_toml=scn.text, scenario=scn.to_dict(), scenario_digest=scn.digest())
+    channels = list(scn.channels)
+    with output_folder(folder, meta) as outputs:
+        w_truth = outputs.writer("truth.parquet", TRUTH_SCHEMA, TRUTH_TEXT, channels)
+        w_pred = outputs.writer("prediction.parquet", PROBING_SCHEMA, PREDICTION_TEXT, channels)
+        taps = np.arange(n_bits, dtype=np.int32)
+        lag_s = np.arange(m) * probe.bit_duration_s
+        for channel in channels:
+            w_truth.write(
+                {
+                    "channel": [channel] * n_bits,
+                    "tap": taps,
+                    "lag_s": taps * probe.bit_duration_s,
+                    "h_pulse": h_pulse[channel],
+                    "h_lin": h_lin.get(channel, np.full(n_bits, np.nan)),
+                }
+            )
+            z, zeta, h = (pred[channel][:, None, k] for k in range(3))
+            w_pred.write(probing_block([channel], np.arange(len(z)), lag_s, z, zeta, h))
+    return folder / "truth.parquet"

@@ -1,0 +1,190 @@
+"""Aircraft lookup, content digests and sanitised copies: files only, no JSBSim loaded.
+
+An aircraft is found in the project's ``aircraft/`` first, then among JSBSim's stock models
+(located through the installed package's folder, without importing it).  The plant loads a
+*sanitised* copy (every top-level ``<input>`` and ``<output>`` directive removed, so no model
+opens a network socket or writes a log file of its own) kept in the cache.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.util
+import math
+import os
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from importlib import metadata
+from pathlib import Path
+
+from probing.sim.errors import AircraftNotFoundError
+
+__all__ = [
+    "PROJECT_AIRCRAFT",
+    "aircraft_digest",
+    "alpha_range_rad",
+    "cache_dir",
+    "find_aircraft",
+    "jsbsim_version",
+    "sanitised_root",
+    "stock_root",
+]
+
+PROJECT_AIRCRAFT = Path(__file__).resolve().parents[2] / "aircraft"
+
+
+def jsbsim_version() -> str:
+    """The version of the installed JSBSim Python package (read from its metadata)."""
+    return metadata.version("jsbsim")
+
+
+@functools.cache
+def stock_root() -> Path:
+    """JSBSim's own data folder (``aircraft/``, ``engine/``, ``systems/``), found without
+    importing jsbsim: it is the installed package's folder."""
+    spec = importlib.util.find_spec("jsbsim")
+    if spec is None or not spec.submodule_search_locations:
+        raise AircraftNotFoundError("the jsbsim package is not installed")
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def find_aircraft(model: str) -> Path:
+    """Folder of an aircraft: the project's ``aircraft/`` first, then JSBSim's stock models.
+
+    Parameters
+    ----------
+    model : str
+        Aircraft name, a plain folder name (e.g. ``"737"``).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder holding ``<model>.xml``.
+
+    Raises
+    ------
+    AircraftNotFoundError
+        For a name that is not plain, or an aircraft found nowhere.
+    """
+    if not model or Path(model).name != model or model.startswith("."):
+        raise AircraftNotFoundError(f"aircraft.model must be a plain name, got {model!r}")
+    for base in (PROJECT_AIRCRAFT, stock_root() / "aircraft"):
+        folder = base / model
+        if (folder / f"{model}.xml").is_file():
+            return folder
+    raise AircraftNotFoundError(
+        f"aircraft.model {model!r} is not in {PROJECT_AIRCRAFT} nor in JSBSim's aircraft"
+    )
+
+
+def cache_dir() -> Path:
+    """The project's cache root: ``$PROBING_CACHE``, else ``$XDG_CACHE_HOME/probing``.
+
+    ``$XDG_CACHE_HOME`` defaults to ``~/.cache``.  Sanitised aircraft live in
+    ``<root>/jsbsim-root``, reference twins (:mod:`probing.sim.twins`) in ``<root>/twins``.
+    """
+    env = os.environ.get("PROBING_CACHE")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "probing"
+
+
+def _sanitise(xml_path: Path, out_path: Path) -> None:
+    """Copy an aircraft XML without its top-level <input>/<output> directives."""
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+    tree = ET.parse(xml_path, parser=parser)
+    root = tree.getroot()
+    for element in list(root):
+        if element.tag in ("input", "output"):
+            root.remove(element)
+    tree.write(out_path, encoding="utf-8", xml_declaration=True)
+
+
+#: aircraft folder -> (names, sizes and modification times of its files, their digest)
+_DIGESTS: dict[Path, tuple[tuple, str]] = {}
+
+
+def aircraft_digest(model: str) -> str:
+    """SHA-256 (hex) over the relative names and contents of every file of the aircraft folder.
+
+    The folder is the one :func:`find_aircraft` picks, i.e. the files the plant loads
+    (before sanitising).  Engines and systems taken from JSBSim's own folders are covered
+    by the JSBSim version, not by this digest.  The digest is remembered for the process
+    while no file's name, size or modification time changes.
+    """
+    folder = find_aircraft(model)
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    stamp = tuple((str(p.relative_to(folder)), *_size_mtime(p)) for p in files)
+    known = _DIGESTS.get(folder)
+    if known is not None and known[0] == stamp:
+        return known[1]
+    digest = hashlib.sha256()
+    for path in files:
+        digest.update(str(path.relative_to(folder)).encode())
+        digest.update(path.read_bytes())
+    _DIGESTS[folder] = (stamp, digest.hexdigest())
+    return digest.hexdigest()
+
+
+def _size_mtime(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_size, st.st_mtime_ns
+
+
+def sanitised_root(model: str) -> Path:
+    """A JSBSim root folder holding a sanitised copy of the aircraft (cached, made atomically)."""
+    folder = find_aircraft(model)
+    root = cache_dir() / "jsbsim-root" / f"{model}-{aircraft_digest(model)[:16]}"
+    if (root / "aircraft" / model / f"{model}.xml").is_file():
+        return root
+    root.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{model}-", dir=root.parent))
+    try:
+        target = tmp / "aircraft" / model
+        shutil.copytree(folder, target)
+        for xml in target.rglob("*.xml"):
+            _sanitise(xml, xml)
+        os.replace(tmp, root)
+    except OSError:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if not (root / "aircraft" / model / f"{model}.xml").is_file():
+            raise
+    return root
+
+
+@functools.lru_cache(maxsize=32)
+def alpha_range_rad(xml_path: Path) -> tuple[float, float]:
+    """Alpha range covered by every aerodynamic table indexed by alpha (rad).
+
+    Memoised: the sanitised copy lives in a folder named after the aircraft's digest, so a
+    path always holds the same content.
+    """
+    lo, hi = -math.inf, math.inf
+    root = ET.parse(xml_path).getroot()
+    aero = root.find("aerodynamics")
+    if aero is None:
+        return (-math.radians(30), math.radians(30))
+    for table in aero.iter("table"):
+        variables = table.findall("independentVar")
+        row = [v for v in variables if v.get("lookup", "row") == "row"]
+        if not row or row[0].text is None:
+            continue
+        name = row[0].text.strip()
+        if name not in ("aero/alpha-rad", "aero/alpha-deg"):
+            continue
+        data = table.find("tableData")
+        if data is None or data.text is None:
+            continue
+        lines = [ln.split() for ln in data.text.strip().splitlines() if ln.strip()]
+        if len(variables) > 1:
+            lines = lines[1:]  # first line holds the column breakpoints
+        keys = [float(ln[0]) for ln in lines if ln]
+        if not keys:
+            continue
+        scale = math.pi / 180 if name.endswith("deg") else 1.0
+        lo, hi = max(lo, min(keys) * scale), min(hi, max(keys) * scale)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
+        return (-math.radians(30), math.radians(30))
+    return (lo, hi)

@@ -1,0 +1,17 @@
+"""What can go wrong in a simulation, as typed errors the command line turns into one line."""
+
+from __future__ import annotations
+
+__all__ = ["AircraftNotFoundError", "DivergenceError", "TrimError"]
+
+
+class AircraftNotFoundError(ValueError):
+    """The aircraft is neither in the project's ``aircraft/`` nor among JSBSim's."""
+
+
+class TrimError(RuntimeError):
+    """JSBSim could not trim the aircraft at the requested condition."""
+
+
+class DivergenceError(RuntimeError):
+    """The simulation left the region where its results mean anything."""

@@ -1,0 +1,100 @@
+"""What a trimmed aircraft depends on: the flight condition, the step and the disturbances.
+
+A :class:`Flight` is all :func:`probing.sim.plant.make_plant` needs; the experiment layer
+builds one from a scenario (:attr:`probing.experiment.scenario.Scenario.flight`).  No JSBSim
+is loaded here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+__all__ = ["SPEED_KINDS", "TURBULENCE_SEVERITY", "Flight", "SpeedKind"]
+
+
+@dataclass(frozen=True)
+class SpeedKind:
+    """One way of giving the trim speed.
+
+    Attributes
+    ----------
+    name : str
+        The field name with its unit (``"speed_kcas"``).
+    ic_property : str
+        The JSBSim initial-condition property it sets.
+    unit : str
+        For labels (``"kt CAS"``).
+    upper : float
+        Largest value accepted (knots, or Mach).
+    """
+
+    name: str
+    ic_property: str
+    unit: str
+    upper: float
+
+
+#: The speed kinds a trim accepts, by field name.
+SPEED_KINDS: dict[str, SpeedKind] = {
+    k.name: k
+    for k in (
+        SpeedKind("speed_kcas", "ic/vc-kts", "kt CAS", 2000.0),
+        SpeedKind("speed_ktas", "ic/vt-kts", "kt TAS", 2000.0),
+        SpeedKind("speed_keas", "ic/ve-kts", "kt EAS", 2000.0),
+        SpeedKind("mach", "ic/mach", "Mach", 5.0),
+    )
+}
+
+#: Turbulence level -> JSBSim MIL-F-8785C/MIL-HDBK-1797 probability-of-exceedance severity
+#: (``atmosphere/turbulence/milspec/severity``; 3 = moderate, 5 = severe in JSBSim's table).
+TURBULENCE_SEVERITY: dict[str, int] = {"none": 0, "light": 2, "moderate": 4, "severe": 6}
+
+
+@dataclass(frozen=True)
+class Flight:
+    """An aircraft at a trim condition, stepped with ``dt_s``, in some turbulence.
+
+    Attributes
+    ----------
+    model : str
+        Aircraft name (project ``aircraft/`` first, then JSBSim's stock models).
+    altitude_ft : float
+        Trim altitude above sea level, ft.
+    speed_kind : str
+        A key of :data:`SPEED_KINDS`.
+    speed : float
+        The trim speed in that kind's unit.
+    dt_s : float
+        Integration step, s.
+    turbulence : str
+        A key of :data:`TURBULENCE_SEVERITY` (switched on after trim).
+    seed : int
+        Seed of JSBSim's random generators (turbulence).
+    """
+
+    model: str
+    altitude_ft: float
+    speed_kind: str
+    speed: float
+    dt_s: float
+    turbulence: str = "none"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.speed_kind not in SPEED_KINDS:
+            raise ValueError(f"speed_kind must be one of {', '.join(SPEED_KINDS)}")
+        if self.turbulence not in TURBULENCE_SEVERITY:
+            raise ValueError(f"turbulence must be one of {', '.join(TURBULENCE_SEVERITY)}")
+
+    @property
+    def condition(self) -> str:
+        """``"737 at altitude_ft = 15000, speed_kcas = 280"``, for messages."""
+        return (
+            f"{self.model} at altitude_ft = {self.altitude_ft:g}, "
+            f"{self.speed_kind} = {self.speed:g}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values, for keys and metadata."""
+        return asdict(self)

@@ -1,0 +1,394 @@
+"""The JSBSim plant: a trimmed aircraft stepped with an elevator deflection in degrees.
+
+A :class:`Plant` loads an aircraft from its sanitised copy (:mod:`probing.sim.aircraft`),
+trims it straight and level, and steps it with an elevator surface deflection given in
+degrees.  The command-to-surface mapping of the model's flight-control system is measured
+on the model itself (integration suspended) and inverted, so the surface deflection is
+exactly the one asked for, whatever the model's scaling.
+
+JSBSim's messages go to a logger of this module (:class:`JSBSimLog`), never to stdout; the
+warnings and errors among them are added to the :class:`~probing.sim.errors.TrimError` a
+failed trim raises.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import os
+from dataclasses import asdict, dataclass
+
+os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
+import jsbsim
+import numpy as np
+
+from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
+from probing.sim.channels import CHANNELS
+from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
+from probing.sim.flight import SPEED_KINDS, TURBULENCE_SEVERITY, Flight
+
+__all__ = ["ELEVATOR_CMD", "ELEVATOR_POS_DEG", "JSBSimLog", "Plant", "TrimResult", "make_plant"]
+
+ELEVATOR_CMD = "fcs/elevator-cmd-norm"
+ELEVATOR_POS_DEG = "fcs/elevator-pos-deg"
+
+
+class JSBSimLog(jsbsim.FGLogger):
+    """JSBSim's log records, kept instead of printed: nothing of JSBSim reaches stdout.
+
+    Records below ``WARN`` (debug chatter, reports JSBSim would print on stdout) are
+    dropped; the latest ``keep`` warnings and errors are kept for error messages.
+    """
+
+    def __init__(self, keep: int = 20) -> None:
+        super().__init__()
+        self._level = jsbsim.LogLevel.BULK
+        self._parts: list[str] = []
+        self.records: collections.deque[str] = collections.deque(maxlen=keep)
+
+    def set_level(self, level: jsbsim.LogLevel) -> None:
+        self._level, self._parts = level, []
+
+    def file_location(self, filename: str, line: int) -> None:
+        pass
+
+    def message(self, message: str) -> None:
+        self._parts.append(message)
+
+    def format(self, format: jsbsim.LogFormat) -> None:
+        pass
+
+    def flush(self) -> None:
+        if jsbsim.LogLevel.WARN <= self._level <= jsbsim.LogLevel.FATAL:
+            text = " ".join("".join(self._parts).split())
+            if text:
+                self.records.append(text)
+        self._parts = []
+
+    def take(self) -> str:
+        """The kept records as one line (``"; "``-joined), and forget them."""
+        text = "; ".join(self.records)
+        self.records.clear()
+        return text
+
+
+@dataclass(frozen=True)
+class TrimResult:
+    """The trimmed straight-and-level state (angles in deg)."""
+
+    altitude_ft: float
+    speed_kcas: float
+    speed_keas: float
+    speed_ktas: float
+    mach: float
+    alpha_deg: float
+    theta_deg: float
+    elevator_deg: float
+    elevator_cmd_norm: float
+    pitch_trim_cmd_norm: float
+    throttle_norm: float
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain dict, for metadata."""
+        return asdict(self)
+
+
+class Plant:
+    """A trimmed JSBSim aircraft stepped with an elevator deflection in degrees.
+
+    Parameters
+    ----------
+    model : str
+        Aircraft name (project ``aircraft/`` first, then JSBSim's stock models).
+    dt_s : float
+        Integration step in seconds.
+    turbulence : str
+        ``"none"``, ``"light"``, ``"moderate"`` or ``"severe"`` (JSBSim's
+        MIL-spec Dryden model, switched on after trim).
+    seed : int
+        Seed of JSBSim's random generator (turbulence).
+    """
+
+    def __init__(self, model: str, dt_s: float, *, turbulence: str = "none", seed: int = 0) -> None:
+        if turbulence not in TURBULENCE_SEVERITY:
+            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
+        self.model = model
+        self.dt_s = float(dt_s)
+        self.turbulence = turbulence
+        self.seed = int(seed)
+        root = sanitised_root(model)
+        stock = stock_root()
+        self.log = JSBSimLog()
+        jsbsim.set_logger(self.log)  # this thread's JSBSim instances log here, not to stdout
+        fdm = jsbsim.FGFDMExec(str(root))
+        fdm.set_debug_level(0)
+        fdm.set_engine_path(str(stock / "engine"))
+        fdm.set_systems_path(str(stock / "systems"))
+        fdm.disable_output()
+        fdm["simulation/randomseed"] = self.seed
+        fdm["atmosphere/randomseed"] = self.seed  # the turbulence generator; set before loading
+        fdm.set_dt(self.dt_s)  # before loading: FCS components keep the dt they were built with
+        if not fdm.load_model(model):
+            raise AircraftNotFoundError(f"JSBSim could not load aircraft {model!r}")
+        fdm.set_dt(self.dt_s)
+        self.fdm = fdm
+        self._alpha_range = alpha_range_rad(root / "aircraft" / model / f"{model}.xml")
+        self._pm = fdm.get_property_manager()
+        self._cmd_node = self._pm.get_node(ELEVATOR_CMD)
+        self._pos_node = self._pm.get_node(ELEVATOR_POS_DEG)
+        self.trim_result: TrimResult | None = None
+        self._map_cmd: np.ndarray | None = None
+        self._map_deg: np.ndarray | None = None
+
+    # ----------------------------------------------------------------- trim
+    def trim(
+        self,
+        altitude_ft: float,
+        *,
+        speed_kcas: float | None = None,
+        speed_ktas: float | None = None,
+        speed_keas: float | None = None,
+        mach: float | None = None,
+    ) -> TrimResult:
+        """Trim straight and level (JSBSim's full trim), gear up, engines running.
+
+        Parameters
+        ----------
+        altitude_ft : float
+            Altitude above sea level, ft.
+        speed_kcas, speed_ktas, speed_keas : float, optional
+            Calibrated, true or equivalent airspeed, kt.
+        mach : float, optional
+            Mach number.  Exactly one of the four speeds is given.
+
+        Returns
+        -------
+        TrimResult
+            The trimmed state; the elevator map is calibrated and turbulence switched on.
+
+        Raises
+        ------
+        TrimError
+            Naming the condition, with JSBSim's own warnings, when JSBSim fails.
+        """
+        speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
+        speeds["mach"] = mach
+        given = {k: v for k, v in speeds.items() if v is not None}
+        if len(given) != 1:
+            raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
+        ((kind, speed),) = given.items()
+        fdm = self.fdm
+        jsbsim.set_logger(self.log)
+        self.log.take()
+        fdm["ic/h-sl-ft"] = altitude_ft
+        fdm[SPEED_KINDS[kind].ic_property] = speed
+        fdm["ic/gamma-deg"] = 0.0
+        fdm["ic/beta-deg"] = 0.0
+        fdm["ic/phi-deg"] = 0.0
+        fdm["gear/gear-cmd-norm"] = 0.0
+        fdm["propulsion/set-running"] = -1
+        where = f"{self.model} at altitude_ft = {altitude_ft:g}, {kind} = {speed:g}"
+        try:
+            if not fdm.run_ic():
+                raise TrimError(self._with_log(f"could not initialise {where}"))
+            fdm.do_trim(1)
+        except RuntimeError as exc:  # jsbsim.TrimFailureError and its BaseError kin
+            raise TrimError(self._with_log(f"trim failed for {where}: {exc}")) from None
+        fdm.set_dt(self.dt_s)
+        if fdm["gear/gear-pos-norm"] > 0.0:
+            raise TrimError(f"gear still down after trim for {where}")
+        self.trim_result = TrimResult(
+            altitude_ft=float(fdm["position/h-sl-ft"]),
+            speed_kcas=float(fdm["velocities/vc-kts"]),
+            speed_keas=float(fdm["velocities/ve-kts"]),
+            speed_ktas=float(fdm["velocities/vtrue-kts"]),
+            mach=float(fdm["velocities/mach"]),
+            alpha_deg=float(fdm["aero/alpha-deg"]),
+            theta_deg=float(fdm["attitude/theta-deg"]),
+            elevator_deg=float(fdm[ELEVATOR_POS_DEG]),
+            elevator_cmd_norm=float(fdm[ELEVATOR_CMD]),
+            pitch_trim_cmd_norm=float(fdm["fcs/pitch-trim-cmd-norm"]),
+            throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
+        )
+        self._calibrate_elevator()
+        if self.turbulence != "none":
+            fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
+            fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[self.turbulence]
+            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = 15.0
+        return self.trim_result
+
+    def _with_log(self, message: str) -> str:
+        """``message`` with JSBSim's warnings and errors since the last call appended."""
+        log = self.log.take()
+        return f"{message} (JSBSim: {log})" if log else message
+
+    def _surface_deg_at(self, cmd: float) -> float:
+        self._cmd_node.set_double_value(cmd)
+        self.fdm.run()  # integration suspended: evaluates the FCS only
+        return self._pos_node.get_double_value()
+
+    def _calibrate_elevator(self) -> None:
+        """Measure elevator-cmd-norm -> elevator-pos-deg on the model's own FCS and keep it.
+
+        The stock models map the (normalised) command to the surface through
+        piecewise-linear components (clip, zero-centred aerosurface_scale,
+        possibly asymmetric); sampled at their breakpoints the map is exact
+        between samples, so its inverse by linear interpolation is exact too.
+        """
+        fdm = self.fdm
+        cmd0 = float(fdm[ELEVATOR_CMD])
+        trim = float(fdm["fcs/pitch-trim-cmd-norm"])
+        grid = np.linspace(-1.0, 1.0, 401)
+        kinks = np.array([-trim, 1.0 - trim, -1.0 - trim, cmd0])
+        grid = np.unique(np.concatenate((grid, kinks[np.abs(kinks) <= 1.0])))
+        time0 = fdm.get_sim_time()
+        fdm.suspend_integration()
+        try:
+            surface = np.array([self._surface_deg_at(c) for c in grid])
+            back = self._surface_deg_at(cmd0)
+        finally:
+            fdm.resume_integration()
+            fdm.set_sim_time(time0)
+        if not math.isclose(back, self.trim_result.elevator_deg, rel_tol=0, abs_tol=1e-12):
+            raise RuntimeError("elevator calibration changed the trimmed surface position")
+        # Keep the strictly monotonic part (clipped ends are flat and cannot be inverted).
+        if surface[-1] < surface[0]:
+            grid, surface = grid[::-1], surface[::-1]
+        keep = np.concatenate(([True], np.diff(surface) > 0))
+        self._map_cmd, self._map_deg = grid[keep], surface[keep]
+
+    @property
+    def elevator_range_deg(self) -> tuple[float, float]:
+        """Surface deflections reachable through the command (deg)."""
+        assert self._map_deg is not None, "trim first"
+        return float(self._map_deg[0]), float(self._map_deg[-1])
+
+    def elevator_command(self, surface_deg: np.ndarray) -> np.ndarray:
+        """Normalised commands that put the elevator exactly at ``surface_deg`` (deg)."""
+        assert self._map_deg is not None, "trim first"
+        surface_deg = np.asarray(surface_deg, dtype=np.float64)
+        lo, hi = self.elevator_range_deg
+        if surface_deg.size and (surface_deg.min() < lo or surface_deg.max() > hi):
+            raise ValueError(
+                f"elevator deflection {surface_deg.min():.6g}..{surface_deg.max():.6g} deg is "
+                f"outside the model's range {lo:.6g}..{hi:.6g} deg"
+            )
+        return np.interp(surface_deg, self._map_deg, self._map_cmd)
+
+    # ----------------------------------------------------------------- step
+    def channel_nodes(self, channels: list[str]) -> list:
+        """Cached property nodes for output channels (see :data:`CHANNELS`)."""
+        unknown = [c for c in channels if c not in CHANNELS]
+        if unknown:
+            raise ValueError(f"unknown channel(s) {unknown}; allowed: {sorted(CHANNELS)}")
+        return [self._pm.get_node(CHANNELS[c].prop) for c in channels]
+
+    def step(
+        self,
+        cmd_norm: np.ndarray | None,
+        nodes: list,
+        out: np.ndarray,
+        elevator_deg: np.ndarray | None = None,
+    ) -> None:
+        """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
+
+        Parameters
+        ----------
+        cmd_norm : numpy.ndarray or None
+            Normalised elevator command for each step (written before the step), shape
+            ``(n,)``.  None holds the command the plant has (after :meth:`trim`, the
+            trimmed one) and writes nothing: the unprobed twin.
+        nodes : list
+            Property nodes of the channels, from :meth:`channel_nodes`.
+        out : numpy.ndarray
+            ``(n, len(nodes))`` float64, filled in place (channel units, see :data:`CHANNELS`).
+        elevator_deg : numpy.ndarray, optional
+            ``(n,)``, receives the realised elevator deflection after each step (deg).
+
+        Notes
+        -----
+        The per-step work is the command write, ``run()`` and one read per channel; the
+        reads are appended to one flat list and copied into ``out`` once, so no array is
+        built per step.
+        """
+        n = out.shape[0]
+        getters = [node.get_double_value for node in nodes]
+        if elevator_deg is not None:
+            getters.append(self._pos_node.get_double_value)
+        run = self.fdm.run
+        values: list[float] = []
+        append = values.append
+        if cmd_norm is None:
+            for _ in range(n):
+                run()
+                for get in getters:
+                    append(get())
+        else:
+            if len(cmd_norm) != n:
+                raise ValueError(f"{len(cmd_norm)} commands for {n} output rows")
+            set_cmd = self._cmd_node.set_double_value
+            for c in cmd_norm.tolist():
+                set_cmd(c)
+                run()
+                for get in getters:
+                    append(get())
+        block = np.array(values, dtype=np.float64).reshape(n, len(getters))
+        out[:] = block[:, : len(nodes)]
+        if elevator_deg is not None:
+            elevator_deg[:] = block[:, -1]
+
+    def check_state(self) -> None:
+        """Raise :class:`DivergenceError` if the aircraft left the meaningful region."""
+        fdm = self.fdm
+        alpha = fdm["aero/alpha-rad"]
+        theta = fdm["attitude/theta-rad"]
+        t = fdm.get_sim_time()
+        if not (math.isfinite(alpha) and math.isfinite(theta)):
+            raise DivergenceError(f"simulation diverged (NaN) at t = {t:.2f} s")
+        if fdm["position/h-agl-ft"] <= 0.0:
+            raise DivergenceError(f"aircraft hit the ground at t = {t:.2f} s")
+        lo, hi = self._alpha_range
+        if not lo <= alpha <= hi:
+            raise DivergenceError(
+                f"alpha = {math.degrees(alpha):.2f} deg left the model's tables "
+                f"({math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg) at t = {t:.2f} s"
+            )
+
+    # -------------------------------------------------------- linearisation
+    def linearise(self) -> dict[str, np.ndarray | list[str]]:
+        """JSBSim's FGLinearization at the current (trimmed) state.
+
+        Returns the continuous-time A, B, C, D and the state/input/output
+        names.  JSBSim leaves dt at 0 afterwards; it is set back here.
+        """
+        jsbsim.set_logger(self.log)
+        lin = jsbsim.FGLinearization(self.fdm)
+        result = {
+            "A": np.array(lin.system_matrix),
+            "B": np.array(lin.input_matrix),
+            "C": np.array(lin.output_matrix),
+            "D": np.array(lin.feedforward_matrix),
+            "x_names": list(lin.x_names),
+            "u_names": list(lin.u_names),
+            "y_names": list(lin.y_names),
+            "x_units": list(lin.x_units),
+            "u_units": list(lin.u_units),
+        }
+        self.fdm.set_dt(self.dt_s)
+        return result
+
+    def elevator_gain_deg_per_norm(self) -> float:
+        """Local slope d(surface deg)/d(command norm) at the trimmed command."""
+        assert self._map_deg is not None, "trim first"
+        cmd0 = self.trim_result.elevator_cmd_norm
+        order = np.argsort(self._map_cmd)  # the map is kept sorted by surface, not command
+        cmd, deg = self._map_cmd[order], self._map_deg[order]
+        i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
+        return float((deg[i] - deg[i - 1]) / (cmd[i] - cmd[i - 1]))
+
+
+def make_plant(flight: Flight) -> Plant:
+    """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition."""
+    plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
+    plant.trim(flight.altitude_ft, **{flight.speed_kind: flight.speed})
+    return plant

@@ -1,0 +1,111 @@
+"""The small-signal pulse response of a trimmed aircraft, computed two independent ways.
+
+(a) Single pulse: a trimmed twin receives one bit of the probe amplitude on the elevator;
+    its output minus an unprobed twin's, divided by the amplitude, sampled at the end of
+    every bit, is the pulse response ``h_pulse`` (output units per deg of elevator).
+(b) Linearisation: JSBSim's FGLinearization at the trim gives (A, B, C, D); discretised
+    with zero-order hold at the bit duration, ``h_lin(0) = C B_d + D`` and
+    ``h_lin(k) = C A_d^k B_d``: the response read at the end of each bit to a one-bit
+    pulse, matching (a).
+
+Writing them beside a run, with the probing output they predict, is
+:func:`probing.experiment.truth.compute_truth`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.signal import cont2discrete
+
+from probing.sim.channels import CHANNELS
+from probing.sim.flight import Flight
+from probing.sim.plant import make_plant
+
+__all__ = ["linear_pulse_response", "single_pulse_response"]
+
+
+def single_pulse_response(
+    flight: Flight,
+    channels: Sequence[str],
+    amplitude_deg: float,
+    steps_per_bit: int,
+    n_bits: int,
+) -> dict[str, np.ndarray]:
+    """Response to one bit of ``amplitude_deg`` at t = 0, per deg, sampled at each bit's end.
+
+    Parameters
+    ----------
+    flight : Flight
+        Aircraft, condition, step, turbulence and seed (both twins fly the same gusts).
+    channels : sequence of str
+        Output channels.
+    amplitude_deg : float
+        Height of the pulse, deg of elevator.
+    steps_per_bit : int
+        Simulation steps per bit (t0 / dt).
+    n_bits : int
+        Length of the response, in bits.
+
+    Returns
+    -------
+    dict
+        Channel -> h, shape (n_bits,), in the channel's unit per deg.
+    """
+    n_steps = n_bits * steps_per_bit
+    pulsed, reference = make_plant(flight), make_plant(flight)
+    trim = pulsed.trim_result
+    surface = np.full(n_steps, trim.elevator_deg)
+    surface[:steps_per_bit] += amplitude_deg
+    out_p = np.empty((n_steps, len(channels)))
+    out_r = np.empty((n_steps, len(channels)))
+    pulsed.step(pulsed.elevator_command(surface), pulsed.channel_nodes(list(channels)), out_p)
+    pulsed.check_state()
+    cmd_trim = np.full(n_steps, trim.elevator_cmd_norm)
+    reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r)
+    h = (out_p - out_r)[steps_per_bit - 1 :: steps_per_bit] / amplitude_deg
+    return {c: h[:, j] for j, c in enumerate(channels)}
+
+
+def linear_pulse_response(
+    flight: Flight, channels: Sequence[str], bit_duration_s: float, n_bits: int
+) -> dict[str, np.ndarray]:
+    """Pulse response of JSBSim's linearisation, ZOH at the bit duration, per deg of elevator.
+
+    Parameters
+    ----------
+    flight : Flight
+        Aircraft and trim condition.
+    channels : sequence of str
+        Output channels; those without a linearised output (:data:`CHANNELS`) are left out.
+    bit_duration_s : float
+        Bit duration t0, s.
+    n_bits : int
+        Length of the response, in bits.
+
+    Returns
+    -------
+    dict
+        Channel -> h, shape (n_bits,), in the channel's unit per deg.
+    """
+    plant = make_plant(flight)
+    lin = plant.linearise()
+    gain = plant.elevator_gain_deg_per_norm()
+    iu = lin["u_names"].index("DeCmd")
+    a_mat, b_mat = lin["A"], lin["B"][:, [iu]] / gain  # per deg of surface
+    out: dict[str, np.ndarray] = {}
+    ad, bd, *_ = cont2discrete((a_mat, b_mat, lin["C"], lin["D"]), bit_duration_s, "zoh")
+    x = np.empty((n_bits, a_mat.shape[0]))
+    x[0] = bd[:, 0]
+    for k in range(1, n_bits):
+        x[k] = ad @ x[k - 1]
+    for channel in channels:
+        name = CHANNELS[channel].linear_output
+        if name is None:
+            continue
+        iy = lin["y_names"].index(name)
+        h = x @ lin["C"][iy]
+        h[0] += lin["D"][iy, iu] / gain
+        out[channel] = h
+    return out

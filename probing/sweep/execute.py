@@ -1,0 +1,424 @@
+"""Running a sweep: tasks, the local and Dask executors, the folder lock, resume.
+
+Each run (a point, or a shared reference) is computed in a hidden temporary folder and
+renamed into ``points/point_id=<id>/`` (``references/...``) when complete; a failed run is
+recorded in ``failed/<id>.json`` and the sweep goes on.  The executor is opened *before*
+anything is written: an unreachable Dask scheduler leaves no trace.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import logging
+import math
+import os
+import shutil
+import sys
+import time
+import uuid
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from probing.experiment.progress import progress_bar
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import write_json_atomic
+from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
+from probing.sweep.summary import settled_stats, summarise, write_summary
+
+__all__ = [
+    "EXECUTORS",
+    "SchedulerError",
+    "SweepBusyError",
+    "SweepResult",
+    "execute_task",
+    "run_sweep",
+]
+
+EXECUTORS = ("local", "dask")
+LOCK_FILE = ".lock"
+
+
+class SweepBusyError(RuntimeError):
+    """Another sweep process holds the lock of the output folder."""
+
+
+class SchedulerError(ValueError):
+    """The Dask scheduler named by ``--scheduler`` cannot be reached (or the address is bad)."""
+
+
+# ------------------------------------------------------------------ running one task
+@dataclass(frozen=True)
+class _Task:
+    kind: str  # "point" | "reference"
+    run_id: str
+    scenario: Scenario
+    target: str  # final folder
+    failed_file: str
+
+
+def execute_task(task: _Task) -> dict[str, Any]:
+    """Run one point or reference into its folder, atomically; never raises for a failed run.
+
+    Returns a record: ``kind``, ``run_id``, ``status`` (``done``, ``failed`` for a trim
+    failure or divergence, ``error`` for anything unexpected, ``skipped`` when the folder
+    already existed), ``message``, ``wall_s``.
+    """
+    from probing.experiment.run import run_scenario
+    from probing.sim.errors import DivergenceError, TrimError
+
+    final = Path(task.target)
+    record: dict[str, Any] = {"kind": task.kind, "run_id": task.run_id, "message": ""}
+    if (final / POINT_FILE).exists():
+        return {**record, "status": "skipped", "wall_s": math.nan}
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    t0 = time.perf_counter()
+    try:
+        result = run_scenario(task.scenario, final.parent, progress=False, folder=tmp)
+    except (TrimError, DivergenceError) as exc:
+        status, message = "failed", str(exc)
+    except Exception as exc:  # recorded, reported, and the sweep goes on
+        status, message = "error", f"{exc.__class__.__name__}: {exc}"
+    else:
+        wall = time.perf_counter() - t0
+        info = {
+            "kind": task.kind,
+            "point_id": task.run_id,
+            "status": "done",
+            "wall_s": wall,
+            "steps_simulated": result.steps_simulated,
+            "scenario": task.scenario.to_dict(),
+            # Statistics of the first channel, computed here, in parallel, for the summary.
+            "settled": settled_stats(tmp, task.scenario),
+        }
+        write_json_atomic(tmp / POINT_FILE, info)
+        try:
+            os.rename(tmp, final)
+        except OSError:  # another worker finished the same run first: keep theirs
+            shutil.rmtree(tmp, ignore_errors=True)
+        Path(task.failed_file).unlink(missing_ok=True)
+        return {**record, "status": "done", "wall_s": wall}
+    shutil.rmtree(tmp, ignore_errors=True)
+    wall = time.perf_counter() - t0
+    write_json_atomic(
+        Path(task.failed_file),
+        {
+            "kind": task.kind,
+            "point_id": task.run_id,
+            "status": status,
+            "message": message,
+            "wall_s": wall,
+        },
+    )
+    return {**record, "status": status, "message": message, "wall_s": wall}
+
+
+# ------------------------------------------------------------------ executors
+class _Local:
+    """A pool of forked worker processes on this machine."""
+
+    def __init__(self, jobs: int) -> None:
+        self.jobs = jobs
+
+    def close(self) -> None:
+        """Nothing to release between sweeps."""
+
+    def run(self, tasks: list[_Task]) -> Iterator[dict[str, Any]]:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # Imported once here and inherited by the forked workers (pandas: pyarrow loads it on
+        # its first table; the summary needs it anyway).
+        import pandas  # noqa: F401
+        import pyarrow.parquet  # noqa: F401
+
+        import probing.experiment.run  # noqa: F401
+
+        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        workers = min(self.jobs, len(tasks))
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = [pool.submit(execute_task, t) for t in tasks]
+            try:
+                for fut in as_completed(futures):
+                    yield fut.result()
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                raise
+
+
+class _Dask:
+    """Dask distributed: a LocalCluster of ``jobs`` single-threaded processes, or an existing
+    scheduler.  Connects on construction, so a bad address fails before anything is written.
+    """
+
+    def __init__(self, jobs: int, scheduler: str | None, timeout_s: float) -> None:
+        from distributed import Client, LocalCluster
+
+        self.cluster = None
+        if scheduler:
+            try:
+                self.client = Client(scheduler, timeout=f"{timeout_s}s")
+            except (OSError, ValueError, TypeError) as exc:  # refused, timed out, bad address
+                reason = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+                raise SchedulerError(
+                    f"--scheduler {scheduler}: no Dask scheduler answered within "
+                    f"{timeout_s:g} s ({reason})"
+                ) from None
+        else:
+            # Port 0: the scheduler's HTTP server (dashboard) takes a free port instead of
+            # warning that 8787 is busy.
+            self.cluster = LocalCluster(
+                n_workers=jobs,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=logging.ERROR,
+            )
+            self.client = Client(self.cluster)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+    def run(self, tasks: list[_Task]) -> Iterator[dict[str, Any]]:
+        from distributed import as_completed
+
+        futures = self.client.map(execute_task, tasks, pure=False)
+        for fut in as_completed(futures):
+            yield fut.result()
+
+
+# ------------------------------------------------------------------ orchestration
+@dataclass
+class SweepResult:
+    """What a sweep invocation did."""
+
+    folder: Path
+    points: int
+    done: int = 0  # computed in this invocation
+    skipped: int = 0  # already finished before
+    failed: int = 0  # trim failure or divergence (recorded)
+    errors: int = 0  # unexpected exceptions (recorded)
+    references: int = 0  # reference runs computed in this invocation
+    wall_s: float = 0.0
+    messages: list[str] = field(default_factory=list)
+
+    def line(self) -> str:
+        """The one-line summary printed at the end of a sweep."""
+        parts = [
+            f"{self.done} done",
+            f"{self.skipped} skipped (already done)",
+            f"{self.failed} failed",
+        ]
+        if self.errors:
+            parts.append(f"{self.errors} errors")
+        return (
+            f"{self.folder.name}: {self.points} points: {', '.join(parts)}; "
+            f"{self.references} reference runs; {self.wall_s:.1f} s -> "
+            f"{self.folder / 'summary.parquet'}"
+        )
+
+
+@contextlib.contextmanager
+def _locked(folder: Path) -> Iterator[None]:
+    """Hold the folder's lock file for the block; the file is removed on leaving it.
+
+    The lock is taken without waiting.  Because the file is removed while it is held, a
+    process that opened the old file and then got its lock would hold a lock nobody else
+    sees: it checks that the file it locked is still the one at the path, else retries.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / LOCK_FILE
+    while True:
+        fh = open(path, "a")
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.close()
+            raise SweepBusyError(f"{folder}: another sweep is running on this folder") from None
+        try:
+            same = os.path.samestat(os.fstat(fh.fileno()), os.stat(path))
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        fh.close()  # the file was removed under us: lock the new one
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        fcntl.flock(fh, fcntl.LOCK_UN)
+        fh.close()
+
+
+def open_executor(
+    executor: str, jobs: int, scheduler: str | None = None, timeout_s: float = 10.0
+) -> _Local | _Dask:
+    """The executor of a sweep, connected (Dask) before the sweep writes anything.
+
+    Raises
+    ------
+    SchedulerError
+        When ``scheduler`` does not answer within ``timeout_s``.
+    """
+    if executor not in EXECUTORS:
+        raise ValueError(f"executor must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+    return _Dask(jobs, scheduler, timeout_s) if executor == "dask" else _Local(jobs)
+
+
+def run_sweep(
+    sweep: Sweep,
+    out: str | Path,
+    *,
+    jobs: int | None = None,
+    executor: str = "local",
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+    connect_timeout_s: float = 10.0,
+) -> SweepResult:
+    """Run the missing runs of a sweep, then write ``<out>/<name>/summary.parquet``.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        A validated sweep.
+    out : path
+        Results root; the sweep goes to ``out/<sweep.name>/``.
+    jobs : int, optional
+        Worker processes (default: one per core).  With ``executor="dask"`` and no
+        ``scheduler``, the LocalCluster's worker count.
+    executor : {"local", "dask"}
+        A local process pool, or Dask distributed.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``); the workers must see
+        ``out`` on a shared file system and have this package installed.
+    retry_failed : bool
+        Run again the points recorded as failed (a trim failure is deterministic, so by
+        default they are kept as failed).
+    progress : bool, optional
+        Progress bar with ETA; default: when ``stream`` is a terminal.  Otherwise one line
+        per finished run is written to ``stream``.
+    stream : file, optional
+        Where progress goes (default stderr).
+    connect_timeout_s : float
+        How long to wait for ``scheduler`` to answer, s.
+
+    Returns
+    -------
+    SweepResult
+        Counts of the runs done, skipped and failed.
+
+    Raises
+    ------
+    SweepBusyError
+        When another process is running a sweep in the same folder.
+    SchedulerError
+        When the Dask scheduler cannot be reached; nothing is written then.
+    """
+    jobs = jobs or os.cpu_count() or 1
+    t0 = time.perf_counter()
+    sweep_dir = Path(out) / sweep.name
+    points_dir, refs_dir, _ = sweep_folders(sweep_dir)
+    result = SweepResult(folder=sweep_dir, points=len(sweep.points))
+    pool = open_executor(executor, jobs, scheduler, connect_timeout_s)
+    try:
+        with _locked(sweep_dir):
+            for d in (points_dir, refs_dir):
+                d.mkdir(parents=True, exist_ok=True)
+                for stale in d.glob(".tmp-*"):  # left by a killed run; we hold the lock
+                    shutil.rmtree(stale, ignore_errors=True)
+            write_json_atomic(sweep_dir / "sweep.json", _manifest(sweep))
+            todo = _pending(sweep, sweep_dir, retry_failed, result)
+            _execute(pool, todo, sweep.name, result, progress, stream)
+            write_summary(summarise(sweep, sweep_dir), sweep_dir / "summary.parquet", sweep)
+    finally:
+        pool.close()
+    result.wall_s = time.perf_counter() - t0
+    return result
+
+
+def _pending(sweep: Sweep, sweep_dir: Path, retry_failed: bool, result: SweepResult) -> list:
+    """The runs still to do, references first (they also fill the shared twin cache);
+    counts the points already finished or recorded as failed into ``result``."""
+    points_dir, refs_dir, failed_dir = sweep_folders(sweep_dir)
+    tasks = [
+        _task("reference", rid, scn, refs_dir, failed_dir)
+        for rid, scn in sweep.references().items()
+    ]
+    tasks += [_task("point", p.point_id, p.scenario, points_dir, failed_dir) for p in sweep.points]
+    todo = []
+    for t in tasks:
+        if (Path(t.target) / POINT_FILE).exists():
+            result.skipped += t.kind == "point"
+        elif Path(t.failed_file).exists() and not retry_failed:
+            result.failed += t.kind == "point"  # recorded by an earlier invocation
+        else:
+            todo.append(t)
+    return todo
+
+
+def _execute(
+    pool: _Local | _Dask,
+    todo: list[_Task],
+    name: str,
+    result: SweepResult,
+    progress: bool | None,
+    stream: TextIO | None,
+) -> None:
+    """Run ``todo`` on the pool, counting into ``result`` and reporting each finished run."""
+    head = f"{len(todo)} runs to do"
+    if result.skipped or result.failed:
+        head += f" ({result.skipped} points already done, {result.failed} recorded as failed)"
+    with progress_bar(len(todo), f"{name} ({head})", "runs", stream, progress, lines=True) as bar:
+        if not todo:
+            return
+        failed = 0
+        for rec in pool.run(todo):
+            if rec["status"] in ("failed", "error"):
+                failed += 1
+                result.messages.append(f"{rec['kind']} {rec['run_id']}: {rec['message']}")
+            if rec["kind"] == "point":
+                counter = rec["status"] if rec["status"] != "error" else "errors"
+                setattr(result, counter, getattr(result, counter) + 1)
+            elif rec["status"] == "done":
+                result.references += 1
+            what = f"{rec['kind']} {rec['run_id']} {rec['status']}"
+            if math.isfinite(rec["wall_s"]):
+                what += f" in {rec['wall_s']:.1f} s"
+            bar.advance(1, what, f"{failed} failed")
+
+
+def _task(kind: str, run_id: str, scn: Scenario, base: Path, failed_dir: Path) -> _Task:
+    return _Task(
+        kind=kind,
+        run_id=run_id,
+        scenario=scn,
+        target=str(point_folder(base, run_id)),
+        failed_file=str(failed_dir / f"{run_id}.json"),
+    )
+
+
+def _manifest(sweep: Sweep) -> dict[str, Any]:
+    return {
+        "name": sweep.name,
+        "source": sweep.source,
+        "sweep_toml": sweep.text,
+        "base": sweep.base.to_dict(),
+        "fields": list(sweep.fields),
+        "points": [
+            {
+                "index": p.index,
+                "point_id": p.point_id,
+                "reference_id": p.reference_id,
+                "values": p.values,
+            }
+            for p in sweep.points
+        ],
+    }

@@ -1,0 +1,227 @@
+"""The summary of a sweep: one row per point, with units, and the points as one dataset.
+
+``summary.parquet`` joins with the points' files (:func:`open_dataset`) on ``point_id`` and
+``channel``: the summary's statistics describe that channel (the first output channel).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from probing.core.metrics import estimator_noise_std, gain_and_shape, predicted_apparent
+from probing.core.nonlinearities import RateLimit
+from probing.core.prbs import mls
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import PER_DEG, metadata, provenance, read_settled, units
+from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
+
+__all__ = [
+    "SUMMARY_COLUMNS",
+    "open_dataset",
+    "read_summary",
+    "settled_stats",
+    "summarise",
+    "write_summary",
+]
+
+#: Summary columns with a unit or a meaning worth stating: name -> (unit, description).  A
+#: unit ``<channel>/deg`` is that of the row's ``channel`` per deg of probe.
+SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
+    "index": ("1", "position of the point in the sweep"),
+    "point_id": ("", "digest of the point's scenario; join key with the points' files"),
+    "status": ("", "done, failed (trim failure or divergence), error or missing"),
+    "message": ("", "why the run failed"),
+    "channel": ("", "the channel the statistics describe; join key with the points' files"),
+    "predicted_gain": ("1", "a~/a of the nonlinearity, eq. (10)"),
+    "predicted_offset_deg": ("deg", "b~ of the nonlinearity, eq. (10)"),
+    "rate_ratio": ("1", "r_l / (2a/t0), eq. (21) (rate limits only)"),
+    "measured_gain": ("1", "least-squares gain of the mean settled h_est on the reference's"),
+    "shape_error": ("1", "||h - g h0|| / ||g h0||"),
+    "h_rms": (PER_DEG, "RMS over taps of the mean settled h_est"),
+    "h_stderr": (PER_DEG, "standard error of the mean h_est from its spread, RMS over taps"),
+    "h_stderr_naive": (PER_DEG, "sigma / (a sqrt(M P))"),
+    "h_stderr_theory": (PER_DEG, "closed form of the eq. (9) estimator's noise"),
+    "wall_s": ("s", "wall time of the point's run"),
+    "steps_simulated": ("1", "JSBSim steps the point's run simulated"),
+    "reference_id": ("", "point_id of the run without the nonlinearity"),
+}
+
+
+def settled_stats(folder: Path, scn: Scenario) -> dict[str, Any]:
+    """Mean settled h_est of the first channel, its period-to-period spread, period count.
+
+    ``h_mean`` is stored as a list of floats (exact in JSON); ``h_spread`` is the per-tap
+    variance over the settled periods (ddof 1), RMS-averaged: sqrt(mean(var)).
+    """
+    channel = scn.channels[0]
+    h = read_settled(folder / "probing.parquet", channel, scn.settle_periods, scn.bits_per_period).h
+    n_p = int(h.shape[0])
+    return {
+        "channel": channel,
+        "periods": n_p,
+        "h_mean": h.mean(axis=0).tolist() if n_p else None,
+        "h_spread": float(np.sqrt(np.mean(h.var(axis=0, ddof=1)))) if n_p > 1 else None,
+    }
+
+
+def _stats(folder: Path, scn: Scenario) -> dict[str, Any]:
+    """The settled statistics of a finished run: from point.json, else from its Parquet."""
+    info = json.loads((folder / POINT_FILE).read_text())
+    return info.get("settled") or settled_stats(folder, scn)
+
+
+def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
+    """One row per point (a pandas DataFrame) from the stored runs; see ``docs/sweeps.md``.
+
+    Columns: ``index``, ``point_id``, the varied fields (dotted names), ``status``
+    (``done``, ``failed``, ``error`` or ``missing``), ``message``, ``channel`` (the first
+    output channel, which the figures describe), ``predicted_gain`` (a~/a),
+    ``predicted_offset_deg`` (b~), ``rate_ratio`` (r / (2a/t0), rate limits only),
+    ``measured_gain`` and ``shape_error`` (least-squares fit of the mean settled h_est on the
+    reference's), ``h_rms``, ``h_stderr`` (standard error of the mean h_est from the spread
+    over the settled periods, RMS over taps), ``h_stderr_naive`` (sigma / (a sqrt(M P))),
+    ``h_stderr_theory`` (closed form of the eq. 9 estimator, :func:`estimator_noise_std`),
+    ``wall_s``, ``steps_simulated``, ``reference_id``.
+    """
+    import pandas as pd
+
+    sweep_dir = Path(sweep_dir)
+    points_dir, refs_dir, failed_dir = sweep_folders(sweep_dir)
+    ref_cache: dict[str, np.ndarray | None] = {}
+    unit_noise: dict[int, float] = {}  # RMS over taps of the noise std for sigma = a = 1
+
+    def mean_h(run_id: str, scn: Scenario) -> np.ndarray | None:
+        if run_id not in ref_cache:
+            ref_cache[run_id] = None
+            for base in (points_dir, refs_dir):
+                folder = point_folder(base, run_id)
+                if (folder / POINT_FILE).exists():
+                    h = _stats(folder, scn)["h_mean"]
+                    ref_cache[run_id] = None if h is None else np.asarray(h, dtype=float)
+                    break
+        return ref_cache[run_id]
+
+    rows = []
+    for p in sweep.points:
+        scn = p.scenario
+        channel = scn.channels[0]
+        nl = scn.build_nonlinearity()
+        gain_pred, offset_pred = predicted_apparent(nl, scn.amplitude_deg, scn.bit_duration_s)
+        row: dict[str, Any] = {"index": p.index, "point_id": p.point_id}
+        row.update({k: p.values[k] for k in sweep.fields})
+        row.update(
+            status="missing",
+            message="",
+            channel=channel,
+            predicted_gain=gain_pred,
+            predicted_offset_deg=offset_pred,
+            rate_ratio=(
+                nl.ratio(scn.amplitude_deg, scn.bit_duration_s)
+                if isinstance(nl, RateLimit)
+                else math.nan
+            ),
+            measured_gain=math.nan,
+            shape_error=math.nan,
+            h_rms=math.nan,
+            h_stderr=math.nan,
+            h_stderr_naive=math.nan,
+            h_stderr_theory=math.nan,
+            wall_s=math.nan,
+            steps_simulated=0,
+            reference_id=p.reference_id,
+        )
+        folder = point_folder(points_dir, p.point_id)
+        failed_file = failed_dir / f"{p.point_id}.json"
+        if (folder / POINT_FILE).exists():
+            info = json.loads((folder / POINT_FILE).read_text())
+            row.update(
+                status="done", wall_s=info["wall_s"], steps_simulated=info["steps_simulated"]
+            )
+            stats = _stats(folder, scn)
+            n_p, m = stats["periods"], scn.bits_per_period
+            if n_p:
+                h = np.asarray(stats["h_mean"], dtype=float)
+                row["h_rms"] = float(np.sqrt(np.mean(h**2)))
+                if stats["h_spread"] is not None:
+                    row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
+                sigma = scn.sensor_noise.get(channel, 0.0)
+                row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
+                # The closed form is linear in sigma / a: one O(M^2) evaluation per order.
+                if scn.order not in unit_noise:
+                    unit = estimator_noise_std(mls(scn.order), 1.0, 1.0)
+                    unit_noise[scn.order] = float(np.sqrt(np.mean(unit**2)))
+                row["h_stderr_theory"] = (
+                    sigma / scn.amplitude_deg * unit_noise[scn.order] / math.sqrt(n_p)
+                )
+                h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
+                if h0 is not None and np.dot(h0, h0) > 0:
+                    row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
+        elif failed_file.exists():
+            info = json.loads(failed_file.read_text())
+            row.update(status=info["status"], message=info["message"], wall_s=info["wall_s"])
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_summary(df: Any, path: Path, sweep: Sweep) -> None:
+    """Write the summary atomically, with units and descriptions per column (field
+    metadata), ``probing.units`` per channel, the sweep file and the versions."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    fields = []
+    for f in table.schema:
+        unit, text = SUMMARY_COLUMNS.get(f.name, ("", "a varied field of the sweep"))
+        fields.append(f.with_metadata({"unit": unit, "description": text}))
+    schema = pa.schema(fields, metadata=table.schema.metadata)
+    channels = sorted(set(df["channel"])) if "channel" in df and len(df) else []
+    meta = dict(schema.metadata or {})
+    meta.update(
+        provenance(sweep_toml=sweep.text, sweep=sweep.name, base_scenario=sweep.base.to_dict())
+    )
+    meta.update(
+        metadata(
+            description="one row per point of the sweep: predicted and measured gain, shape "
+            "error, noise of the estimate, status",
+            units=units(schema, channels),
+        )
+    )
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    pq.write_table(table.cast(schema).replace_schema_metadata(meta), tmp)
+    os.replace(tmp, path)
+
+
+def read_summary(sweep_dir: str | Path) -> Any:
+    """``summary.parquet`` of a sweep folder as a pandas DataFrame."""
+    import pandas as pd
+
+    return pd.read_parquet(Path(sweep_dir) / "summary.parquet")
+
+
+def open_dataset(sweep_dir: str | Path, table: str = "probing") -> Any:
+    """The points' ``probing`` or ``timeseries`` files as one pyarrow dataset.
+
+    The Hive-style folder names add a ``point_id`` column to join with ``summary.parquet``
+    (on ``point_id`` and ``channel`` for the ``probing`` files)::
+
+        ds = open_dataset("results/sweeps/backlash-width")
+        df = ds.to_table(filter=pyarrow.dataset.field("channel") == "theta_rad").to_pandas()
+        joined = read_summary("results/sweeps/backlash-width").merge(
+            df, on=["point_id", "channel"])
+    """
+    import pyarrow.dataset as pads
+
+    if table not in ("probing", "timeseries"):
+        raise ValueError(f"table must be 'probing' or 'timeseries', got {table!r}")
+    points_dir = Path(sweep_dir) / "points"
+    files = sorted(str(f) for f in points_dir.glob(f"point_id=*/{table}.parquet"))
+    return pads.dataset(
+        files, format="parquet", partitioning="hive", partition_base_dir=str(points_dir)
+    )

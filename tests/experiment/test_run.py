@@ -1,0 +1,329 @@
+"""A probing run end to end: Parquet output, ground truth, drift modes, failures."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import parse_scenario
+from probing.experiment.storage import AtomicParquetWriter
+from probing.experiment.truth import compute_truth, predicted_probing
+from probing.sim.errors import DivergenceError
+
+pytestmark = pytest.mark.jsbsim
+
+BASE = {
+    "name": "t",
+    "aircraft": {"model": "737"},
+    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
+    "simulation": {"dt_s": 0.01},
+    "probe": {
+        "order": 9,
+        "bit_duration_s": 0.01,
+        "amplitude_deg": 0.005,
+        "periods": 8,
+        "settle_periods": 2,
+    },
+    "nonlinearity": {"type": "none"},
+    "output": {"channels": ["theta_rad", "q_rad_s", "alpha_rad"], "drift": "reference"},
+}
+
+
+def scenario(**changes):
+    scn = parse_scenario(json.loads(json.dumps(BASE)))
+    return scn.replace(**changes) if changes else scn
+
+
+def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def private_twin_cache(tmp_path_factory):
+    """Reference twins go to a fresh cache: every run here simulates its twin once."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PROBING_TWIN_CACHE", str(tmp_path_factory.mktemp("twins")))
+        yield
+
+
+@pytest.fixture(scope="module")
+def baseline(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("baseline")
+    scn = scenario()
+    run_scenario(scn, out, progress=False)
+    compute_truth(scn, out)
+    return out / scn.name
+
+
+# --------------------------------------------------------------- the plant
+def test_outputs_layout_and_metadata(baseline: Path) -> None:
+    probing = pq.read_table(baseline / "probing.parquet")
+    df = probing.to_pandas()
+    assert list(df.columns) == ["channel", "period", "tap", "lag_s", "z", "zeta", "h_est"]
+    assert set(df.channel) == {"theta_rad", "q_rad_s", "alpha_rad"}
+    assert sorted(df.period.unique()) == list(range(8))
+    assert len(df) == 3 * 8 * 511
+    one = df[(df.channel == "theta_rad") & (df.period == 3)]
+    np.testing.assert_array_equal(one.tap, np.arange(511))
+    np.testing.assert_allclose(one.lag_s, np.arange(511) * 0.01)
+    # eq. (9): zeta = z + sum over the period of z; h = zeta / (a (M+1))
+    np.testing.assert_allclose(one.zeta, one.z + one.z.sum(), rtol=1e-12)
+    np.testing.assert_allclose(one.h_est, one.zeta / (0.005 * 512), rtol=1e-12)
+    meta = probing.schema.metadata
+    for key in (b"scenario", b"scenario_toml", b"trim", b"versions", b"git_revision", b"drift"):
+        assert b"probing." + key in meta
+    versions = json.loads(meta[b"probing.versions"])
+    assert versions["jsbsim"] == "1.3.3"
+    trim = json.loads(meta[b"probing.trim"])
+    assert 0 < trim["alpha_deg"] < 10
+    ts = pd.read_parquet(baseline / "timeseries.parquet")
+    for col in ("time_s", "probe_deg", "nl_out_deg", "elevator_deg", "theta_rad"):
+        assert col in ts
+    assert len(ts) == 8 * 511
+    np.testing.assert_allclose(ts.elevator_deg - trim["elevator_deg"], ts.probe_deg, atol=1e-12)
+    assert not any(p.name.startswith(".") for p in baseline.iterdir())
+
+
+def test_same_scenario_same_numbers(tmp_path: Path, baseline: Path) -> None:
+    scn = scenario()
+    run_scenario(scn, tmp_path, progress=False)
+    a = pd.read_parquet(baseline / "probing.parquet")
+    b = pd.read_parquet(tmp_path / scn.name / "probing.parquet")
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
+def test_ground_truth_agreement(baseline: Path) -> None:
+    """The acceptance target of issue [2/6].
+
+    A settled period's z agrees with the superposition of the single-pulse response over
+    the actual probe history to 1 % relative L2; the DC-corrected estimate agrees with
+    JSBSim's linearised model (folded the same way, one-step delay) over the short-period
+    part (first 2 s).
+    """
+    pr = pd.read_parquet(baseline / "probing.parquet")
+    pred = pd.read_parquet(baseline / "prediction.parquet")
+    truth = pd.read_parquet(baseline / "truth.parquet")
+    for channel in ("theta_rad", "q_rad_s", "alpha_rad"):
+        for period in range(2, 8):
+            z = pr[(pr.channel == channel) & (pr.period == period)].z.to_numpy()
+            zp = pred[(pred.channel == channel) & (pred.period == period)].z.to_numpy()
+            assert rel_l2(z, zp) < 0.01, (channel, period, rel_l2(z, zp))
+    scn = scenario()
+    h_est = pr[pr.period >= 2].groupby(["channel", "tap"]).h_est.mean()
+    limits = {"theta_rad": 0.005, "q_rad_s": 0.02, "alpha_rad": 0.02}
+    for channel, limit in limits.items():
+        h_lin = truth[truth.channel == channel].h_lin.to_numpy()
+        delayed = np.concatenate(([0.0], h_lin[:-1]))  # JSBSim: pitch responds one step later
+        expected = predicted_probing(scn, {channel: delayed})[channel][2:, 2].mean(axis=0)
+        est = h_est[channel].to_numpy()
+        error = rel_l2(est[:200], expected[:200])
+        assert error < limit, (channel, error)
+        if channel != "theta_rad":  # theta's folded estimate is dominated by the phugoid tail
+            # Without the delay the agreement is clearly worse: the alignment matters.
+            undelayed = predicted_probing(scn, {channel: h_lin})[channel][2:, 2].mean(axis=0)
+            assert rel_l2(est[:200], undelayed[:200]) > 1.5 * error
+
+
+def test_drift_reference_vs_none(tmp_path: Path, baseline: Path) -> None:
+    """Without the reference twin the trimmed 737's drift swamps the probing output."""
+    scn = scenario(**{"output.drift": "none", "name": "nodrift"})
+    run_scenario(scn, tmp_path, progress=False)
+    ts = pd.read_parquet(tmp_path / "nodrift" / "timeseries.parquet")
+    ref = pd.read_parquet(baseline / "timeseries.parquet")
+    drift = ref.theta_rad_reference.to_numpy()
+    period = slice(2 * 511, 3 * 511)
+    assert abs(drift[period].max() - drift[period].min()) > 1e-4  # the unprobed pitch moves
+    np.testing.assert_allclose(ts.theta_rad, ref.theta_rad, rtol=0, atol=1e-15)
+    a = pd.read_parquet(tmp_path / "nodrift" / "probing.parquet")
+    b = pd.read_parquet(baseline / "probing.parquet")
+    za = a[(a.channel == "theta_rad") & (a.period == 4)].z.to_numpy()
+    zb = b[(b.channel == "theta_rad") & (b.period == 4)].z.to_numpy()
+    assert np.linalg.norm(za) / np.linalg.norm(zb) > 3
+
+
+def test_detrend_mode_beats_no_correction(tmp_path: Path, baseline: Path) -> None:
+    """Per-period detrending (the flight-data option) brings z closer to the twin-corrected z.
+
+    It cannot tell the slow part of the response from drift: theta keeps a large error
+    (measured 1.4 relative L2 against 5.8 without correction), while the short-period
+    channels keep their shape (mean removed: ~5 % for q, ~3 % for alpha).
+    """
+    for drift in ("detrend", "none"):
+        run_scenario(scenario(**{"output.drift": drift, "name": drift}), tmp_path, progress=False)
+    table = pq.read_table(tmp_path / "detrend" / "probing.parquet")
+    assert table.schema.metadata[b"probing.drift"] == b"detrend"
+    det, raw = table.to_pandas(), pd.read_parquet(tmp_path / "none" / "probing.parquet")
+    assert det.period.min() == 1  # period 0 has no previous period to detrend with
+    ref = pd.read_parquet(baseline / "probing.parquet")
+
+    def z_of(df, channel):
+        return df[(df.channel == channel) & (df.period == 5)].z.to_numpy()
+
+    for channel in ("theta_rad", "q_rad_s", "alpha_rad"):
+        zr = z_of(ref, channel)
+        assert rel_l2(z_of(det, channel), zr) < 0.5 * rel_l2(z_of(raw, channel), zr)
+    for channel in ("q_rad_s", "alpha_rad"):
+        zd, zr = z_of(det, channel), z_of(ref, channel)
+        assert rel_l2(zd - zd.mean(), zr - zr.mean()) < 0.1
+
+
+def test_divergence_stops_cleanly(tmp_path: Path) -> None:
+    """A relay stuck far nose-down dives the aircraft: clear error, nothing left behind."""
+    scn = scenario(
+        **{
+            "name": "dive",
+            "probe.order": 6,
+            "probe.periods": 400,
+            "nonlinearity.type": "relay",
+            "nonlinearity.threshold_deg": 1.0,
+            "nonlinearity.low_deg": 15.0,
+            "nonlinearity.high_deg": 15.0,
+        }
+    )
+    out = tmp_path / "out"
+    with pytest.raises(DivergenceError):
+        run_scenario(scn, out, progress=False)
+    assert not out.exists()
+
+
+def test_cli_run_and_exit_codes(tmp_path: Path) -> None:
+    path = tmp_path / "s.toml"
+    path.write_text(
+        'name = "cli"\n[aircraft]\nmodel = "737"\n[condition]\naltitude_ft = 15000\n'
+        "speed_kcas = 280\n[simulation]\ndt_s = 0.01\n[probe]\norder = 5\n"
+        "bit_duration_s = 0.02\namplitude_deg = 0.01\nperiods = 3\nsettle_periods = 1\n"
+        '[nonlinearity]\ntype = "backlash"\nwidth_deg = 0.005\n[output]\n'
+        'channels = ["theta_rad"]\n'
+    )
+    res = subprocess.run(
+        [sys.executable, "-m", "probing", "run", str(path), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""  # not a TTY: no progress bar, and no JSBSim banner
+    df = pd.read_parquet(tmp_path / "o" / "cli" / "probing.parquet")
+    assert len(df) == 3 * 31
+    bad = path.with_name("bad.toml")
+    bad.write_text(path.read_text().replace("speed_kcas = 280", "speed_kcas = 30"))
+    res = subprocess.run(
+        [sys.executable, "-m", "probing", "run", str(bad), "--out", str(tmp_path / "o2")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert res.returncode == 1
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert "trim failed" in res.stderr and "speed_kcas = 30" in res.stderr
+    assert not (tmp_path / "o2").exists()
+
+
+def test_turbulence_is_seeded_and_shared_with_the_twin(tmp_path: Path) -> None:
+    """Same seed, same gusts (run to run and probed vs twin); another seed, other gusts."""
+
+    def theta(seed: int, name: str) -> pd.DataFrame:
+        scn = scenario(
+            **{
+                "name": name,
+                "probe.order": 6,
+                "probe.periods": 3,
+                "probe.settle_periods": 1,
+                "disturbance.turbulence": "moderate",
+                "disturbance.seed": seed,
+            }
+        )
+        run_scenario(scn, tmp_path, progress=False)
+        return pd.read_parquet(tmp_path / name / "timeseries.parquet")
+
+    a, b, c = theta(1, "a"), theta(1, "b"), theta(2, "c")
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    assert np.abs(a.theta_rad - c.theta_rad).max() > 1e-4
+    # The twin flies through the same gusts: the probed-minus-twin difference is small
+    # against the gust response itself (probe response ~1e-5 rad, gusts ~1e-3 rad).
+    gust = np.abs(a.theta_rad_reference - a.theta_rad_reference.iloc[0]).max()
+    diff = np.abs(a.theta_rad - a.theta_rad_reference).max()
+    assert gust > 1e-3 and diff < 0.05 * gust
+
+
+def test_progress_bar_only_when_asked_or_on_a_tty(tmp_path: Path) -> None:
+    import io
+
+    scn = scenario(**{"name": "bar", "probe.order": 5, "probe.periods": 3})
+    shown, hidden = io.StringIO(), io.StringIO()  # StringIO is not a TTY
+    run_scenario(scn, tmp_path, progress=True, stream=shown)
+    run_scenario(scn, tmp_path, stream=hidden)
+    assert "3/3 periods" in shown.getvalue() and "ETA" in shown.getvalue()
+    assert hidden.getvalue() == ""
+
+
+def test_parquet_rows_are_buffered_into_large_row_groups(tmp_path: Path) -> None:
+    """Row groups of >= row_group_rows rows; a caller may reuse its arrays after write()."""
+    schema = pa.schema([("s", pa.string()), ("k", pa.int64()), ("x", pa.float64())])
+    writer = AtomicParquetWriter(tmp_path / "f.parquet", schema, {b"probing.t": b"1"}, 100)
+    buf = np.empty(30)  # reused for every chunk, like the run's elevator buffer
+    for i in range(7):
+        buf[:] = np.arange(30) + 30 * i
+        writer.write({"s": ["a"] * 30, "k": np.arange(30) + 30 * i, "x": buf})
+    assert not (tmp_path / "f.parquet").exists()
+    writer.close()
+    f = pq.ParquetFile(tmp_path / "f.parquet")
+    assert [f.metadata.row_group(i).num_rows for i in range(f.num_row_groups)] == [120, 90]
+    table = f.read()
+    np.testing.assert_array_equal(table["x"].to_numpy(), np.arange(210.0))
+    np.testing.assert_array_equal(table["k"].to_numpy(), np.arange(210))
+    assert table.schema.metadata[b"probing.t"] == b"1"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.parquet"]
+
+
+@pytest.mark.parametrize("drift", ["reference", "detrend"])
+def test_chunked_post_processing_matches_period_by_period(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, drift: str
+) -> None:
+    """Periods post-processed in chunks of 1, 2 (+ a partial one) or all: the same results.
+
+    The time series are bit-identical; the probing outputs agree to rounding (the FFT
+    block of the correlator follows the chunk size).
+    """
+    import probing.experiment.run as run_module
+
+    scn = scenario(
+        **{
+            "probe.order": 6,
+            "probe.periods": 5,
+            "probe.settle_periods": 1,
+            "output.drift": drift,
+            "disturbance.sensor_noise": {"q_rad_s": 1e-5},
+            "disturbance.turbulence": "light",
+        }
+    )
+    results = []
+    for periods_per_chunk in (1, 2, 5):
+        monkeypatch.setattr(run_module, "CHUNK_STEPS", periods_per_chunk * 63)
+        res = run_scenario(scn, tmp_path / str(periods_per_chunk), progress=False)
+        results.append((res, frames_of(res.out_dir)))
+    (ref, (pr0, ts0)), *others = results
+    for res, (pr, ts) in others:
+        pd.testing.assert_frame_equal(ts, ts0, check_exact=True)
+        pd.testing.assert_frame_equal(
+            pr[["channel", "period", "tap"]], pr0[["channel", "period", "tap"]]
+        )
+        for col in ("z", "zeta", "h_est"):
+            np.testing.assert_allclose(pr[col], pr0[col], rtol=1e-9, atol=1e-15)
+        for c in scn.channels:
+            np.testing.assert_allclose(res.h_est[c], ref.h_est[c], rtol=1e-9, atol=1e-15)
+
+
+def frames_of(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    return pd.read_parquet(folder / "probing.parquet"), pd.read_parquet(
+        folder / "timeseries.parquet"
+    )

@@ -1,0 +1,353 @@
+"""Scenario files: the validator, the invalid-scenario corpus and the CLI's error contract.
+
+Every file in ``tests/data/bad_scenarios`` is a small variation of the baseline scenario with
+a first line ``# expect: <field>`` naming the field the error must name.  The library must
+raise a one-line :class:`ScenarioError` naming that field and the file; the command line
+(``python -m probing run FILE --out DIR``) must print exactly one line
+``probing: error: <path>: <field>: <what is allowed>`` to stderr, exit with code 2, and
+create nothing under DIR.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from probing.core.nonlinearities import NONLINEARITIES
+from probing.experiment.scenario import (
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+BASELINE = ROOT / "scenarios" / "baseline-737.toml"
+BAD_DIR = ROOT / "tests" / "data" / "bad_scenarios"
+BAD_FILES = sorted(BAD_DIR.glob("*.toml"))
+#: The baseline's digest; a change here means every cached result's digest changes too.
+
+
+def _expected_field(path: Path) -> str:
+    first = path.read_bytes().split(b"\n", 1)[0].decode("utf-8")
+    prefix = "# expect: "
+    assert first.startswith(prefix), f"{path.name}: first line must be '{prefix}<field>'"
+    return first[len(prefix) :].strip()
+
+
+def _field_matches(field: str, expected: str) -> bool:
+    return field == expected or field.startswith(expected + ".")
+
+
+def _baseline_dict() -> dict:
+    return tomllib.loads(BASELINE.read_text(encoding="utf-8"))
+
+
+def _fields(s: Scenario) -> dict:
+    return {f.name: getattr(s, f.name) for f in dataclasses.fields(s) if f.name != "text"}
+
+
+def _run_cli(path: Path, out: Path) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    return subprocess.run(
+        [sys.executable, "-m", "probing", "run", str(path), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=out.parent,
+        timeout=120,
+    )
+
+
+def _assert_cli_error(result: subprocess.CompletedProcess[str], path: Path, field: str) -> None:
+    assert "Traceback" not in result.stderr, result.stderr
+    assert result.returncode == 2, (result.returncode, result.stderr)
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, f"stderr must be one line, got {result.stderr!r}"
+    line = lines[0]
+    assert line.strip(), "stderr line is empty"
+    assert line.startswith("probing: error: "), line
+    assert str(path) in line, line
+    assert f": {field}" in line, line
+
+
+# --------------------------------------------------------------------- the corpus
+def test_corpus_is_large_enough():
+    assert len(BAD_FILES) >= 30
+    for path in BAD_FILES:
+        _expected_field(path)
+
+
+@pytest.mark.parametrize("path", BAD_FILES, ids=lambda p: p.stem)
+def test_bad_scenario_is_rejected_naming_the_field(path: Path):
+    expected = _expected_field(path)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    exc = info.value
+    assert _field_matches(exc.field, expected), f"field {exc.field!r}, expected {expected!r}"
+    message = str(exc)
+    assert "\n" not in message and "\r" not in message, repr(message)
+    assert str(path) in message
+    assert message.startswith(f"{path}: {exc.field}: ")
+    assert exc.source == str(path)
+
+
+@pytest.mark.parametrize("path", BAD_FILES, ids=lambda p: p.stem)
+def test_cli_rejects_bad_scenario_with_one_line_and_exit_2(path: Path, tmp_path: Path):
+    out = tmp_path / "out"
+    result = _run_cli(path, out)
+    _assert_cli_error(result, path, _expected_field(path))
+    assert not out.exists(), f"{out} was created for an invalid scenario"
+
+
+def test_cli_missing_file(tmp_path: Path):
+    missing = tmp_path / "no-such-scenario.toml"
+    out = tmp_path / "out"
+    result = _run_cli(missing, out)
+    _assert_cli_error(result, missing, "file")
+    assert not out.exists()
+
+
+def test_cli_leaves_existing_out_dir_empty(tmp_path: Path):
+    out = tmp_path / "out"
+    out.mkdir()
+    path = BAD_DIR / "order-too-small.toml"
+    result = _run_cli(path, out)
+    _assert_cli_error(result, path, "probe.order")
+    assert list(out.iterdir()) == []
+
+
+def test_missing_file_library():
+    missing = BAD_DIR / "no-such-scenario.toml"
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(missing)
+    assert info.value.field == "file"
+    assert str(missing) in str(info.value)
+
+
+def test_error_without_source_has_no_path():
+    data = _baseline_dict()
+    data["probe"]["order"] = 1
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(data)
+    assert info.value.field == "probe.order"
+    assert str(info.value).startswith("probe.order: ")
+    assert info.value.source is None
+    assert isinstance(info.value, ValueError)
+
+
+# ----------------------------------------------------------------- valid scenarios
+def test_baseline_values():
+    s = load_scenario(BASELINE)
+    assert s.name == "baseline-737"
+    assert s.model == "737"
+    assert s.altitude_ft == 15000.0
+    assert (s.speed_kind, s.speed) == ("speed_kcas", 280.0)
+    assert s.dt_s == 0.01
+    assert s.order == 9
+    assert s.bit_duration_s == 0.01
+    assert s.amplitude_deg == 0.005
+    assert (s.periods, s.settle_periods) == (8, 2)
+    assert (s.nonlinearity, s.nl_params) == ("none", {})
+    assert s.channels == ("theta_rad", "q_rad_s", "alpha_rad", "nz_g")
+    assert s.drift == "reference"
+    assert s.turbulence == "none"
+    assert s.sensor_noise == {}
+    assert s.seed == 0
+    assert s.text == BASELINE.read_text(encoding="utf-8")
+    assert (s.steps_per_bit, s.bits_per_period, s.total_steps) == (1, 511, 8 * 511)
+
+
+VALID_NONLINEARITIES = {
+    "none": {},
+    "deadband": {"lower_deg": -0.002, "upper_deg": 0.001},
+    "saturation": {"lower_deg": -0.003, "upper_deg": 0.004},
+    "relay": {"threshold_deg": 0.0, "low_deg": -0.005, "high_deg": 0.005},
+    "hysteresis_relay": {
+        "lower_threshold_deg": -0.002,
+        "upper_threshold_deg": 0.002,
+        "low_deg": -0.005,
+        "high_deg": 0.005,
+    },
+    "backlash": {"width_deg": 0.004},
+    "rate_limit": {"rate_deg_s": 2.0},
+}
+
+
+def test_every_nonlinearity_type_is_covered():
+    assert set(VALID_NONLINEARITIES) == set(NONLINEARITIES)
+
+
+@pytest.mark.parametrize("nl_type", sorted(VALID_NONLINEARITIES))
+def test_each_nonlinearity_parses(nl_type: str):
+    data = _baseline_dict()
+    data["nonlinearity"] = {"type": nl_type, **VALID_NONLINEARITIES[nl_type]}
+    s = parse_scenario(data)
+    assert s.nonlinearity == nl_type
+    assert s.nl_params == VALID_NONLINEARITIES[nl_type]
+    assert all(isinstance(v, float) for v in s.nl_params.values())
+
+
+def _variants() -> dict[str, dict]:
+    out = {"baseline": _baseline_dict()}
+    for nl_type, params in VALID_NONLINEARITIES.items():
+        d = _baseline_dict()
+        d["nonlinearity"] = {"type": nl_type, **params}
+        out[f"nl-{nl_type}"] = d
+    d = _baseline_dict()
+    d["condition"] = {"altitude_ft": 30000, "mach": 0.78}
+    out["mach"] = d
+    d = _baseline_dict()
+    d["condition"] = {"altitude_ft": 5000.5, "speed_ktas": 250}
+    out["ktas"] = d
+    d = _baseline_dict()
+    d["output"] = {"channels": ["q_rad_s"], "drift": "detrend", "detrend_order": 2}
+    out["detrend"] = d
+    d = _baseline_dict()
+    d["output"]["detrend_order"] = 3  # given, though unused with drift = "reference"
+    out["unused-detrend-order"] = d
+    d = _baseline_dict()
+    d["output"]["drift"] = "none"
+    d["disturbance"] = {
+        "turbulence": "moderate",
+        "seed": 12345,
+        "sensor_noise": {"theta_rad": 1e-4, "nz_g": 0.0},
+    }
+    out["noisy"] = d
+    d = _baseline_dict()
+    del d["disturbance"]
+    d["simulation"]["dt_s"] = 0.005
+    d["probe"].update(order=2, bit_duration_s=0.05, periods=2, settle_periods=0)
+    out["minimal"] = d
+    return out
+
+
+VARIANTS = _variants()
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_to_dict_round_trips(variant: str):
+    s = parse_scenario(VARIANTS[variant])
+    again = parse_scenario(s.to_dict())
+    assert _fields(again) == _fields(s)
+    assert again.digest() == s.digest()
+    assert again.to_json() == s.to_json()
+
+
+def test_digest_is_stable():
+    a = load_scenario(BASELINE)
+    b = load_scenario(BASELINE)
+    assert a.digest() == b.digest()
+    # Stable across processes (no dependence on hash randomisation or object identity).
+    code = (
+        "from probing.experiment.scenario import load_scenario; "
+        f"print(load_scenario({str(BASELINE)!r}).digest())"
+    )
+    other = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert other.stdout.strip() == a.digest()
+    assert len(a.digest()) == 16
+    int(a.digest(), 16)
+    # Independent of comments, layout and key order: only the resolved content counts.
+    reordered = {k: _baseline_dict()[k] for k in reversed(list(_baseline_dict()))}
+    assert parse_scenario(reordered, text="other text").digest() == a.digest()
+    # Integers and floats written either way resolve alike.
+    data = _baseline_dict()
+    data["condition"]["altitude_ft"] = 15000.0
+    assert parse_scenario(data).digest() == a.digest()
+
+
+DIGEST_CHANGES = {
+    "name": "baseline-737b",
+    "aircraft.model": "c172x",
+    "condition.altitude_ft": 15001,
+    "condition.mach": 0.6,
+    "simulation.dt_s": 0.005,
+    "probe.order": 10,
+    "probe.bit_duration_s": 0.02,
+    "probe.amplitude_deg": 0.006,
+    "probe.periods": 9,
+    "probe.settle_periods": 1,
+    "nonlinearity.type": "rate_limit",
+    "output.channels": ["theta_rad"],
+    "output.drift": "none",
+    "disturbance.turbulence": "light",
+    "disturbance.seed": 1,
+    "disturbance.sensor_noise": {"nz_g": 0.01},
+}
+
+
+@pytest.mark.parametrize("key", list(DIGEST_CHANGES))
+def test_digest_changes_with_any_field(key: str):
+    base = load_scenario(BASELINE)
+    changes = {key: DIGEST_CHANGES[key]}
+    if key == "nonlinearity.type":
+        changes["nonlinearity.rate_deg_s"] = 5.0
+    changed = base.replace(changes)
+    assert changed.digest() != base.digest()
+
+
+def test_digests_of_changes_are_distinct():
+    base = load_scenario(BASELINE)
+    digests = {base.digest()}
+    for key, value in DIGEST_CHANGES.items():
+        changes = {key: value}
+        if key == "nonlinearity.type":
+            changes["nonlinearity.rate_deg_s"] = 5.0
+        digests.add(base.replace(changes).digest())
+    assert len(digests) == len(DIGEST_CHANGES) + 1
+
+
+def test_replace_nonlinearity():
+    base = load_scenario(BASELINE)
+    s = base.replace({"nonlinearity.type": "backlash", "nonlinearity.width_deg": 0.01})
+    assert s.nonlinearity == "backlash"
+    assert s.nl_params == {"width_deg": 0.01}
+    assert {k: v for k, v in _fields(s).items() if k not in ("nonlinearity", "nl_params")} == {
+        k: v for k, v in _fields(base).items() if k not in ("nonlinearity", "nl_params")
+    }
+    assert base.nonlinearity == "none" and base.nl_params == {}  # the original is untouched
+    # The parameters may come before the type, and keyword arguments work too.
+    assert base.replace({"nonlinearity.width_deg": 0.01, "nonlinearity.type": "backlash"}) == s
+    assert base.replace(**{"nonlinearity.type": "backlash", "nonlinearity.width_deg": 0.01}) == s
+    # A new type drops the old type's parameters.
+    r = s.replace({"nonlinearity.type": "rate_limit", "nonlinearity.rate_deg_s": 3.0})
+    assert r.nl_params == {"rate_deg_s": 3.0}
+    assert s.replace({"nonlinearity.type": "none"}).nl_params == {}
+
+
+def test_replace_speed_drops_the_other_speed():
+    s = load_scenario(BASELINE).replace({"condition.mach": 0.6})
+    assert (s.speed_kind, s.speed) == ("mach", 0.6)
+
+
+@pytest.mark.parametrize(
+    ("changes", "field"),
+    [
+        ({"probe.order": 1}, "probe.order"),
+        ({"probe.order": 9.5}, "probe.order"),
+        ({"probe.amplitude_deg": float("nan")}, "probe.amplitude_deg"),
+        ({"probe.settle_periods": 8}, "probe.settle_periods"),
+        ({"nonlinearity.type": "backlash"}, "nonlinearity.width_deg"),
+        ({"nonlinearity.type": "spring"}, "nonlinearity.type"),
+        ({"nonlinearity.width_deg": 0.01}, "nonlinearity.width_deg"),
+        ({"condition.mach": 9.0}, "condition.mach"),
+        ({"output.channels": []}, "output.channels"),
+        ({"disturbance.sensor_noise": {"h_ft": 1.0}}, "disturbance.sensor_noise.h_ft"),
+        ({"name": "a/b"}, "name"),
+        ({"bogus.key": 1}, "bogus"),
+    ],
+    ids=lambda v: str(v) if isinstance(v, str) else None,
+)
+def test_replace_with_invalid_value_raises(changes: dict, field: str):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(BASELINE).replace(changes)
+    assert info.value.field == field

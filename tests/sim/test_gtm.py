@@ -1,0 +1,330 @@
+"""Validation of the JSBSim GTM T2 model (aircraft/gtm_t2) against NASA's aero database.
+
+The JSBSim tests read the model's total body-axis coefficients from the properties
+``aero/coefficient/{CX,CY,CZ,Cl,Cm,Cn}`` after setting a state through the initial conditions
+and ``run_ic()``. ``run_ic`` runs every model once with the time step suspended (dt = 0); the
+servos then sit exactly at their (limited) commands, so the surfaces equal the commands set.
+
+The reference values come from ``tests/data/gtm_reference.npz``, generated from the .mat file
+by ``tests/data/make_gtm_reference.py`` (an independent SciPy evaluation of the tables), so the
+suite runs without the NASA files. The converter determinism test runs only where the .mat is
+available.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from probing.sim.linear import LongitudinalModes, longitudinal_matrix
+
+ROOT = Path(__file__).resolve().parents[2]
+AIRCRAFT = ROOT / "aircraft"
+MODEL_DIR = AIRCRAFT / "gtm_t2"
+MODEL_XML = MODEL_DIR / "gtm_t2.xml"
+REFERENCE = ROOT / "tests" / "data" / "gtm_reference.npz"
+#: NASA's database, beside the repository (../shared/gtm/) where a developer has it.
+MAT = ROOT.parent / "shared" / "gtm" / "T2_polynomial_aerodatabase.mat"
+COEFFS = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+S_FT2, CBAR_FT, SPAN_FT = 5.9018, 0.9153, 6.8488
+NOTICE = (
+    "Copyright 2009 United States Government as represented by the Administrator of the "
+    "National Aeronautics and Space Administration. No copyright is claimed in the United "
+    "States under Title 17, U.S. Code. All Other Rights Reserved."
+)
+
+# ------------------------------------------------------------------------------------------
+# helpers
+# ------------------------------------------------------------------------------------------
+
+
+def set_state(fdm, **s: float) -> None:
+    """Set a flight state and surface commands, then run_ic (dt = 0: servos at command)."""
+    fdm["ic/h-sl-ft"] = s.get("h_ft", 800.0)
+    fdm["ic/vt-fps"] = s.get("vt_fps", 128.0)
+    fdm["ic/alpha-deg"] = s.get("alpha_deg", 3.0)
+    fdm["ic/beta-deg"] = s.get("beta_deg", 0.0)
+    fdm["ic/phi-deg"] = 0.0
+    fdm["ic/theta-deg"] = s.get("alpha_deg", 3.0)
+    fdm["ic/p-rad_sec"] = s.get("p_rad_sec", 0.0)
+    fdm["ic/q-rad_sec"] = s.get("q_rad_sec", 0.0)
+    fdm["ic/r-rad_sec"] = s.get("r_rad_sec", 0.0)
+    fdm["fcs/elevator-cmd-deg"] = s.get("elevator_deg", 0.0)
+    fdm["fcs/stabilizer-pos-deg"] = s.get("stabilizer_deg", 0.0)
+    fdm["fcs/aileron-cmd-deg"] = s.get("aileron_deg", 0.0)
+    fdm["fcs/rudder-cmd-deg"] = s.get("rudder_deg", 0.0)
+    fdm["fcs/left-spoiler-cmd-deg"] = s.get("left_spoiler_deg", 0.0)
+    fdm["fcs/right-spoiler-cmd-deg"] = s.get("right_spoiler_deg", 0.0)
+    fdm["gear/gear-cmd-norm"] = s.get("gear_pos", 0.0)
+    fdm["fcs/flap-cmd-deg"] = s.get("flap_deg", 0.0)
+    fdm.run_ic()
+
+
+def coefficients(fdm) -> np.ndarray:
+    """The model's total body-axis coefficients [CX CY CZ Cl Cm Cn]."""
+    return np.array([fdm[f"aero/coefficient/{c}"] for c in COEFFS])
+
+
+@pytest.fixture(scope="module")
+def fdm(new_plant):
+    """One model instance shared by the coefficient tests (state reset by each test)."""
+    return new_plant("gtm_t2").fdm
+
+
+# ------------------------------------------------------------------------------------------
+# files and licence (no JSBSim needed)
+# ------------------------------------------------------------------------------------------
+
+
+def test_model_files_present_and_licensed() -> None:
+    """The derived aircraft folder carries NOSA 1.3, the notice and a change log."""
+    for name in ("gtm_t2.xml", "NOSA-1.3.txt", "NOTICE", "CHANGELOG.md", "README.md"):
+        assert (MODEL_DIR / name).is_file(), name
+    assert NOTICE in (MODEL_DIR / "NOTICE").read_text()
+    assert NOTICE in MODEL_XML.read_text()
+    assert "GTM_DesignSim" in (MODEL_DIR / "CHANGELOG.md").read_text()
+    nosa = " ".join((MODEL_DIR / "NOSA-1.3.txt").read_text(encoding="utf-8").split())
+    assert "NASA OPEN SOURCE AGREEMENT VERSION 1.3" in nosa
+
+
+def test_model_has_no_network_io_and_uses_body_axes() -> None:
+    """No <input>/<output> socket directives; aero in X/Y/Z/ROLL/PITCH/YAW body axes."""
+    root = ET.parse(MODEL_XML).getroot()
+    assert root.tag == "fdm_config"
+    assert root.find(".//input") is None
+    assert root.find("output") is None
+    axes = sorted(a.get("name") for a in root.find("aerodynamics").findall("axis"))
+    assert axes == sorted(["X", "Y", "Z", "ROLL", "PITCH", "YAW"])
+
+
+def test_reference_fixture_is_consistent() -> None:
+    """The fixture has the expected shape and finite values."""
+    ref = np.load(REFERENCE)
+    assert ref["states"].shape[0] >= 200
+    assert ref["coefficients"].shape == (ref["states"].shape[0], 6)
+    assert np.all(np.isfinite(ref["coefficients"]))
+
+
+# ------------------------------------------------------------------------------------------
+# transcription
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.jsbsim
+def test_coefficients_match_independent_table_evaluation(fdm) -> None:
+    """JSBSim's totals equal the SciPy evaluation of NASA's tables to 1e-6 at ~300 states."""
+    ref = np.load(REFERENCE)
+    names = [str(n) for n in ref["state_names"]]
+    worst = 0.0
+    for row, expected in zip(ref["states"], ref["coefficients"], strict=True):
+        s = dict(zip(names, row.tolist(), strict=True))
+        set_state(fdm, **s)
+        # the state really is the one asked for
+        assert fdm["aero/alpha-deg"] == pytest.approx(s["alpha_deg"], abs=1e-9)
+        assert fdm["aero/beta-deg"] == pytest.approx(s["beta_deg"], abs=1e-9)
+        assert fdm["velocities/vt-fps"] == pytest.approx(s["vt_fps"], rel=1e-12)
+        assert fdm["velocities/q-aero-rad_sec"] == pytest.approx(s["q_rad_sec"], abs=1e-12)
+        got = coefficients(fdm)
+        worst = max(worst, float(np.max(np.abs(got - expected))))
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6, err_msg=str(s))
+    assert worst < 1e-6
+
+
+# ------------------------------------------------------------------------------------------
+# sign conventions
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.jsbsim
+def test_force_axes_map_database_coefficients_with_plus_sign(fdm) -> None:
+    """JSBSim body forces are +qbar S CX (forward) and +qbar S CZ (down); lift is up."""
+    set_state(fdm, alpha_deg=5.0, beta_deg=4.0)
+    qs = fdm["aero/qbar-psf"] * S_FT2
+    assert fdm["aero/coefficient/CZ"] < 0.0  # positive alpha: force up, CZ < 0
+    assert fdm["forces/fbx-aero-lbs"] == pytest.approx(qs * fdm["aero/coefficient/CX"])
+    assert fdm["forces/fby-aero-lbs"] == pytest.approx(qs * fdm["aero/coefficient/CY"])
+    assert fdm["forces/fbz-aero-lbs"] == pytest.approx(qs * fdm["aero/coefficient/CZ"])
+    assert fdm["aero/coefficient/CY"] < 0.0  # wind from the right pushes left
+    assert fdm["aero/coefficient/Cn"] > 0.0  # weathercock stability
+    assert fdm["aero/coefficient/Cl"] < 0.0  # dihedral effect
+
+
+@pytest.mark.jsbsim
+def test_moments_are_about_quarter_chord_and_transferred_to_cg(fdm) -> None:
+    """Pitch moment at the CG = qSc Cm (about 25 % MAC) + lever(25 % - 21.99 % MAC) x Z."""
+    set_state(fdm, alpha_deg=6.0)
+    qs = fdm["aero/qbar-psf"] * S_FT2
+    x_ac_in, x_cg_in = fdm["metrics/aero-rp-x-in"], fdm["inertia/cg-x-in"]
+    assert x_ac_in == pytest.approx((4.5462 + 0.25 * CBAR_FT) * 12, abs=1e-5)
+    assert x_cg_in == pytest.approx((4.5462 + 0.2199 * CBAR_FT) * 12, abs=1e-5)
+    lever_ft = (x_ac_in - x_cg_in) / 12.0  # aero ref point aft of the CG
+    expected = qs * CBAR_FT * fdm["aero/coefficient/Cm"] + lever_ft * fdm["forces/fbz-aero-lbs"]
+    assert fdm["moments/m-aero-lbsft"] == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.jsbsim
+def test_control_signs(fdm) -> None:
+    """Elevator TED: nose down. Aileron (NASA sign): rolls left. Rudder TEL: nose left."""
+    set_state(fdm, alpha_deg=4.0)
+    base = coefficients(fdm)
+    set_state(fdm, alpha_deg=4.0, elevator_deg=5.0)
+    up = coefficients(fdm)
+    assert up[4] < base[4] - 0.05  # Cm more negative
+    assert up[2] < base[2]  # more tail lift (CZ more negative)
+    assert fdm["accelerations/qdot-rad_sec2"] < 0.0
+    set_state(fdm, alpha_deg=4.0, aileron_deg=10.0)
+    assert fdm["fcs/right-aileron-pos-deg"] == pytest.approx(10.0)
+    assert fdm["fcs/left-aileron-pos-deg"] == pytest.approx(-10.0)
+    assert coefficients(fdm)[3] < base[3] - 0.005
+    set_state(fdm, alpha_deg=4.0, rudder_deg=10.0)
+    rud = coefficients(fdm)
+    assert rud[5] < base[5] - 0.01 and rud[1] > base[1]
+    # the mirrored positive rudder is the negative rudder's mirror image
+    set_state(fdm, alpha_deg=4.0, rudder_deg=-10.0)
+    neg = coefficients(fdm)
+    np.testing.assert_allclose((rud - base) * [1, -1, 1, -1, 1, -1], neg - base, atol=1e-12)
+
+
+@pytest.mark.jsbsim
+def test_rate_damping_and_gear_drag(fdm) -> None:
+    """Pitch and roll rates are damped; the gear adds drag."""
+    set_state(fdm, alpha_deg=4.0)
+    base = coefficients(fdm)
+    set_state(fdm, alpha_deg=4.0, q_rad_sec=0.3)
+    assert coefficients(fdm)[4] < base[4]
+    set_state(fdm, alpha_deg=4.0, p_rad_sec=0.5)
+    assert coefficients(fdm)[3] < base[3]
+    set_state(fdm, alpha_deg=4.0, gear_pos=1.0)
+    assert coefficients(fdm)[0] < base[0] - 0.01
+
+
+@pytest.mark.jsbsim
+def test_rate_normalisation_is_b_and_cbar_over_2v(fdm) -> None:
+    """q-hat = q cbar / 2V (beta = 0); p-hat = p b / 2V and JSBSim's bi2vel, ci2vel agree."""
+    set_state(fdm, alpha_deg=0.0, vt_fps=150.0, q_rad_sec=0.2)
+    assert fdm["aero/gtm/q-hat"] == pytest.approx(0.2 * CBAR_FT / 300.0, rel=1e-12)
+    assert fdm["aero/ci2vel"] == pytest.approx(CBAR_FT / 300.0, rel=1e-12)
+    assert fdm["aero/bi2vel"] == pytest.approx(SPAN_FT / 300.0, rel=1e-12)
+    set_state(fdm, alpha_deg=0.0, vt_fps=150.0, p_rad_sec=0.4)
+    # at alpha = beta = 0 a roll rate is pure rotation about the velocity vector
+    assert fdm["aero/gtm/omega-hat"] == pytest.approx(0.4 * SPAN_FT / 300.0, rel=1e-12)
+    assert fdm["aero/gtm/p-hat"] == pytest.approx(0.0, abs=1e-15)
+
+
+# ------------------------------------------------------------------------------------------
+# servo
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.jsbsim
+def test_elevator_servo_first_order_rate_limited_and_bypass(new_plant) -> None:
+    """5 Hz loop, 300 deg/s inside the loop, -30..+20 deg limits, exact bypass."""
+    fdm = new_plant("gtm_t2", 1.0 / 200.0).fdm
+    set_state(fdm, alpha_deg=3.0)
+    dt = fdm["simulation/dt"]
+    # small step: linear first order, y_k = (1 - w dt)^k * (y0 - u) + u
+    fdm["fcs/elevator-cmd-deg"] = 1.0
+    fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(2 * math.pi * 5 * dt * 1.0, rel=1e-9)
+    # large step: rate limited at 300 deg/s
+    fdm["fcs/elevator-cmd-deg"] = -25.0
+    y0 = fdm["fcs/elevator-pos-deg"]
+    fdm.run()
+    assert y0 - fdm["fcs/elevator-pos-deg"] == pytest.approx(300.0 * dt, rel=1e-9)
+    for _ in range(400):
+        fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(-25.0, abs=1e-6)
+    fdm["fcs/elevator-cmd-deg"] = 40.0
+    for _ in range(400):
+        fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(20.0)
+    assert fdm["fcs/elevator-pos-rad"] == pytest.approx(math.radians(20.0))
+    # normalised command: 30 deg per unit
+    fdm["fcs/elevator-cmd-deg"] = 0.0
+    fdm["fcs/elevator-cmd-norm"] = -0.5
+    for _ in range(400):
+        fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(-15.0, abs=1e-6)
+    # bypass: surface equals the command exactly, at once
+    fdm["fcs/elevator-servo-bypass"] = 1
+    fdm["fcs/elevator-cmd-norm"] = 0.0
+    fdm["fcs/elevator-cmd-deg"] = 0.0123
+    fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == 0.0123
+
+
+# ------------------------------------------------------------------------------------------
+# trim
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.jsbsim
+def test_trim_straight_and_level_75_kt_800_ft(new_plant) -> None:
+    """Trim at 800 ft, 75 KEAS, gear up succeeds and the aircraft stays there."""
+    plant = new_plant("gtm_t2")
+    trim = plant.trim(800.0, speed_keas=75.0)
+    fdm = plant.fdm
+    alpha = fdm["aero/alpha-deg"]
+    elevator = fdm["fcs/elevator-pos-deg"]
+    throttle = fdm["fcs/throttle-cmd-norm"]
+    assert fdm["gear/gear-pos-norm"] == 0.0
+    assert 2.0 < alpha < 8.0
+    assert -10.0 < elevator < 10.0
+    assert 0.0 < throttle < 1.0
+    assert fdm["velocities/ve-kts"] == pytest.approx(75.0, abs=0.01)
+    assert trim.speed_keas == pytest.approx(75.0, abs=0.01)
+    h0, theta0 = fdm["position/h-sl-ft"], fdm["attitude/theta-deg"]
+    for _ in range(400):  # 2 s
+        fdm.run()
+    assert abs(fdm["position/h-sl-ft"] - h0) < 0.5
+    assert abs(fdm["attitude/theta-deg"] - theta0) < 0.05
+    assert abs(fdm["velocities/q-rad_sec"]) < 1e-3
+
+
+# ------------------------------------------------------------------------------------------
+# converter determinism (needs the NASA .mat)
+NO_MAT = f"NASA's database is not beside the repository (looked for {MAT})"
+# ------------------------------------------------------------------------------------------
+
+
+def _load_converter():
+    spec = importlib.util.spec_from_file_location("convert_gtm", AIRCRAFT / "convert_gtm.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.skipif(not MAT.exists(), reason=NO_MAT)
+def test_converter_regenerates_committed_model_byte_for_byte(tmp_path: Path) -> None:
+    """Regenerating from the .mat reproduces every committed generated file exactly."""
+    written = _load_converter().write_outputs(_load_converter().load_database(MAT), tmp_path)
+    assert written
+    for path in written:
+        rel = path.relative_to(tmp_path)
+        assert path.read_bytes() == (MODEL_DIR / rel).read_bytes(), rel
+
+
+@pytest.mark.skipif(not MAT.exists(), reason=NO_MAT)
+def test_reference_fixture_was_made_from_this_database() -> None:
+    """The fixture records the SHA-256 of the .mat it came from."""
+    import hashlib
+
+    ref = np.load(REFERENCE)
+    assert str(ref["mat_sha256"]) == hashlib.sha256(MAT.read_bytes()).hexdigest()
+
+
+@pytest.mark.jsbsim
+def test_longitudinal_modes_at_75_kt_are_plausible(new_plant) -> None:
+    """Short period and phugoid from FGLinearization (as probing modes computes them)."""
+    plant = new_plant("gtm_t2")
+    plant.trim(800.0, speed_keas=75.0)
+    a = longitudinal_matrix(plant)
+    assert plant.fdm["simulation/dt"] == pytest.approx(1.0 / 200.0)  # restored after linearising
+    m = LongitudinalModes.from_eigenvalues(np.linalg.eigvals(a))
+    assert 3.0 < m.sp_wn < 10.0 and 0.3 < m.sp_zeta < 0.7
+    assert 0.25 < m.ph_wn < 0.45 and 0.0 < m.ph_zeta < 0.2

@@ -1,0 +1,143 @@
+"""The JSBSim plant: exact elevator, trim, sanitised models, linearisation, single pulse."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from probing.core.prbs import Probe
+from probing.sim.errors import TrimError
+from probing.sim.flight import Flight
+from probing.sim.plant import Plant
+from probing.sim.truth import linear_pulse_response, single_pulse_response
+
+pytestmark = pytest.mark.jsbsim
+
+FLIGHT_737 = Flight("737", 15000.0, "speed_kcas", 280.0, 0.01)
+CHANNELS = ("theta_rad", "q_rad_s", "alpha_rad")
+
+
+def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+# --------------------------------------------------------------- the plant
+@pytest.mark.parametrize("model", ["737", "A320"])
+def test_elevator_deflection_is_exact(model: str) -> None:
+    """trim + NL(probe) reaches the surface exactly, also through the A320's asymmetric map."""
+    plant = Plant(model, 0.01)
+    trim = plant.trim(15000, speed_kcas=280)
+    lo, hi = plant.elevator_range_deg
+    # The stock maps are piecewise linear and (for the A320) asymmetric about zero.
+    assert lo < trim.elevator_deg < hi
+    rng = np.random.default_rng(1)
+    surface = trim.elevator_deg + np.concatenate(
+        (0.005 * Probe(6, 0.01, 1.0).bits(2), rng.uniform(-3, 3, 50))
+    )
+    surface = np.concatenate((surface, [lo + 0.5, hi - 0.5, trim.elevator_deg]))
+    realised = np.empty(surface.size)
+    out = np.empty((surface.size, 1))
+    plant.step(plant.elevator_command(surface), plant.channel_nodes(["theta_rad"]), out, realised)
+    np.testing.assert_allclose(realised, surface, rtol=0, atol=1e-12)
+
+
+def test_a320_map_is_asymmetric() -> None:
+    plant = Plant("A320", 0.01)
+    plant.trim(15000, speed_kcas=280)
+    up = plant.elevator_command(np.array([10.0])) - plant.elevator_command(np.array([0.0]))
+    down = plant.elevator_command(np.array([0.0])) - plant.elevator_command(np.array([-10.0]))
+    assert abs(up[0] - down[0]) > 0.01 * abs(up[0])
+
+
+def test_elevator_outside_range_is_refused() -> None:
+    plant = Plant("737", 0.01)
+    plant.trim(15000, speed_kcas=280)
+    with pytest.raises(ValueError, match="outside the model's range"):
+        plant.elevator_command(np.array([plant.elevator_range_deg[1] + 1.0]))
+
+
+def test_trim_failure_names_the_condition() -> None:
+    plant = Plant("737", 0.01)
+    with pytest.raises(TrimError, match=r"737 at altitude_ft = 15000, speed_kcas = 40"):
+        plant.trim(15000, speed_kcas=40)
+
+
+def _inet_sockets_of(code: str) -> list[tuple[str, str]]:
+    """Run ``code`` in a child process and list the TCP/UDP sockets it holds open."""
+    code += "\nimport os, sys\nprint(os.getpid()); sys.stdout.flush(); sys.stdin.read()\n"
+    env = {**os.environ, "JSBSIM_DEBUG": "0"}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        pid = proc.stdout.readline().strip()
+        assert pid.isdigit(), "child failed before reporting its pid"
+        inodes = set()
+        for fd in Path(f"/proc/{pid}/fd").iterdir():
+            try:
+                target = os.readlink(fd)
+            except FileNotFoundError:
+                continue
+            if target.startswith("socket:["):
+                inodes.add(target[8:-1])
+        found = []
+        for table in ("/proc/net/tcp", "/proc/net/tcp6", "/proc/net/udp", "/proc/net/udp6"):
+            for line in Path(table).read_text().splitlines()[1:]:
+                fields = line.split()
+                if fields[9] in inodes:
+                    found.append((table, fields[1]))
+        return found
+    finally:
+        proc.communicate("", timeout=60)
+
+
+def test_no_listening_socket() -> None:
+    """The stock 737 declares <input port="5137"/>; the sanitised copy must not open it."""
+    sanitised = (
+        "from probing.sim.plant import Plant\n"
+        "p = Plant('737', 0.01); p.trim(15000, speed_kcas=280)\n"
+        "p2 = Plant('c172x', 0.01); p2.fdm.run_ic(); p2.fdm.run()\n"  # input port, socket outputs
+    )
+    assert _inet_sockets_of(sanitised) == []
+    # The unsanitised stock model does listen, so the check above can fail.
+    stock = (
+        "import jsbsim\n"
+        "f = jsbsim.FGFDMExec(jsbsim.get_default_root_dir()); f.set_debug_level(0)\n"
+        "f.load_model('737'); f.run_ic()\n"  # FGInput opens its socket at run_ic
+    )
+    assert any(local.endswith(":1411") for _, local in _inet_sockets_of(stock))  # 5137 = 0x1411
+
+
+# ------------------------------------------------------------ the outputs
+def test_single_pulse_matches_linearisation() -> None:
+    lin = linear_pulse_response(FLIGHT_737, CHANNELS, 0.01, 400)
+    pulse = single_pulse_response(FLIGHT_737, CHANNELS, 0.005, 1, 400)
+    q_lin = np.concatenate(([0.0], lin["q_rad_s"][:-1]))
+    assert pulse["q_rad_s"][0] == 0.0  # the one-step delay of JSBSim
+    assert rel_l2(pulse["q_rad_s"][:300], q_lin[:300]) < 0.02
+
+
+def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> None:
+    """The slope used to scale FGLinearization's DeCmd column, checked on the FCS itself."""
+    plant = Plant("A320", 0.01)
+    trim = plant.trim(15000, speed_kcas=280)
+    plant.fdm.suspend_integration()
+    try:
+        plant.fdm["fcs/elevator-cmd-norm"] = trim.elevator_cmd_norm - 1e-4
+        plant.fdm.run()
+        below = plant.fdm["fcs/elevator-pos-deg"]
+    finally:
+        plant.fdm["fcs/elevator-cmd-norm"] = trim.elevator_cmd_norm
+        plant.fdm.run()
+        plant.fdm.resume_integration()
+    slope = (trim.elevator_deg - below) / 1e-4
+    assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)

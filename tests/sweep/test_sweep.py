@@ -1,0 +1,359 @@
+"""Sweeps: validation before anything runs, results against closed-form gains, resume after a
+real kill, Dask against the local pool, failed points, the dataset view."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from probing.cli import main as cli_main
+from probing.experiment.scenario import ScenarioError, load_scenario
+from probing.sweep import (
+    SweepBusyError,
+    load_sweep,
+    open_dataset,
+    parse_sweep,
+    read_summary,
+    run_sweep,
+)
+from probing.sweep.execute import _locked
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "sweeps"
+SMALL = DATA / "backlash-small.toml"
+BASE = DATA / "base-737-small.toml"
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def write_sweep(tmp_path: Path, body: str, name: str = "s.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(f'base = "{BASE}"\n' + body)
+    return path
+
+
+# ------------------------------------------------------------------ validation
+BAD = {
+    "unknown top-level field": ('name = "x"\ncolour = 1\n[grid]\n"probe.order" = [5]\n', "colour"),
+    "missing name": ('[grid]\n"probe.order" = [5]\n', "name"),
+    "bad name": ('name = "a/b"\n[grid]\n"probe.order" = [5]\n', "name"),
+    "grid not a table": ('name = "x"\ngrid = 3\n', "grid"),
+    "no varied field": ('name = "x"\n[fixed]\n"probe.order" = 5\n', "grid"),
+    "not dotted": ('name = "x"\n[grid]\norder = [5]\n', 'grid["order"]'),
+    "unknown section": ('name = "x"\n[grid]\n"plane.order" = [5]\n', 'grid["plane.order"]'),
+    "too many dots": ('name = "x"\n[grid]\n"probe.order.x" = [5]\n', 'grid["probe.order.x"]'),
+    "empty list": ('name = "x"\n[grid]\n"probe.order" = []\n', 'grid["probe.order"]'),
+    "not a list": ('name = "x"\n[grid]\n"probe.order" = 5\n', 'grid["probe.order"]'),
+    "zip lengths": (
+        'name = "x"\n[zip]\n"probe.order" = [5, 6]\n"probe.periods" = [4]\n',
+        "zip",
+    ),
+    "key twice": (
+        'name = "x"\n[grid]\n"probe.order" = [5]\n[zip]\n"probe.order" = [6]\n',
+        'zip["probe.order"]',
+    ),
+    "point out of range": (
+        'name = "x"\n[grid]\n"nonlinearity.type" = ["backlash"]\n'
+        '"nonlinearity.width_deg" = [0.01, -0.01]\n',
+        'grid["nonlinearity.width_deg"]',
+    ),
+    "unknown scenario field": (
+        'name = "x"\n[grid]\n"nonlinearity.type" = ["backlash"]\n"nonlinearity.widht_deg" = [1]\n',
+        'grid["nonlinearity.widht_deg"]',
+    ),
+    "parameter missing at a point": (
+        'name = "x"\n[grid]\n"nonlinearity.type" = ["backlash"]\n',
+        "nonlinearity.width_deg",
+    ),
+    "repeated point": ('name = "x"\n[grid]\n"probe.order" = [5, 5]\n', "grid"),
+    "order too high": ('name = "x"\n[grid]\n"probe.order" = [5, 21]\n', 'grid["probe.order"]'),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_sweeps_are_refused_naming_the_field(case: str, tmp_path: Path) -> None:
+    body, field = BAD[case]
+    path = write_sweep(tmp_path, body)
+    with pytest.raises(ScenarioError) as info:
+        load_sweep(path)
+    assert info.value.field == field, str(info.value)
+    assert str(path) in str(info.value)
+
+
+def test_bad_base_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "bad.toml").write_text(BASE.read_text().replace("order = 5", "order = 1"))
+    path = tmp_path / "s.toml"
+    path.write_text('name = "x"\nbase = "bad.toml"\n[grid]\n"probe.periods" = [3]\n')
+    with pytest.raises(ScenarioError, match=r"base: bad.toml: probe.order: must be an integer"):
+        load_sweep(path)
+    path.write_text('name = "x"\nbase = "nowhere.toml"\n[grid]\n"probe.periods" = [3]\n')
+    with pytest.raises(ScenarioError, match=r"base: nowhere\.toml: file: does not exist"):
+        load_sweep(path)
+
+
+def test_cli_refuses_a_bad_sweep_with_one_line_exit_2_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = write_sweep(tmp_path, BAD["point out of range"][0])
+    out = tmp_path / "out"
+    assert cli_main(["sweep", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("probing: error: ")
+    assert 'grid["nonlinearity.width_deg"]' in err and "point 1" in err
+    assert not out.exists()
+    assert cli_main(["sweep", str(SMALL), "--out", str(out), "-j", "0"]) == 2
+    assert cli_main(["sweep", str(SMALL), "--out", str(out), "--scheduler", "tcp://x:1"]) == 2
+    assert not out.exists()
+
+
+def test_points_grid_zip_fixed_and_references(tmp_path: Path) -> None:
+    path = write_sweep(
+        tmp_path,
+        'name = "combo"\n[fixed]\n"probe.periods" = 3\n'
+        '[grid]\n"nonlinearity.type" = ["deadband", "none"]\n'
+        '[zip]\n"probe.amplitude_deg" = [0.01, 0.02]\n"probe.order" = [5, 6]\n',
+    )
+    # A deadband needs its limits: refused, naming the missing parameter.
+    with pytest.raises(ScenarioError, match=r"nonlinearity\.lower_deg: missing"):
+        load_sweep(path)
+    path = write_sweep(
+        tmp_path,
+        'name = "combo"\n[fixed]\n"probe.periods" = 3\n'
+        '[grid]\n"nonlinearity.type" = ["backlash"]\n"nonlinearity.width_deg" = [0.0, 0.001]\n'
+        '[zip]\n"probe.amplitude_deg" = [0.01, 0.02]\n"probe.order" = [5, 6]\n',
+    )
+    sweep = load_sweep(path)
+    base = load_scenario(BASE)
+    assert len(sweep.points) == 4
+    assert sweep.fields == (
+        "nonlinearity.type",
+        "nonlinearity.width_deg",
+        "probe.amplitude_deg",
+        "probe.order",
+    )
+    p = sweep.points[3]
+    assert p.values["nonlinearity.width_deg"] == 0.001 and p.values["probe.order"] == 6
+    assert p.scenario.periods == 3 and p.scenario.amplitude_deg == 0.02
+    assert p.scenario.name == "combo" and p.point_id == p.scenario.digest()
+    assert p.scenario.replace(name=base.name, **{"probe.periods": 4}).model == base.model
+    assert p.reference.nonlinearity == "none" and p.reference.order == 6
+    # Two references (one per probe design), shared by the two widths each.
+    assert len(sweep.references()) == 2
+    assert len({q.point_id for q in sweep.points}) == 4
+
+
+# ------------------------------------------------------------------ running
+def _h_table(folder: Path) -> pd.DataFrame:
+    return pq.read_table(folder / "probing.parquet").to_pandas()
+
+
+def _point_data(sweep_dir: Path) -> dict[str, pd.DataFrame]:
+    return {d.name: _h_table(d) for d in sorted((sweep_dir / "points").glob("point_id=*"))}
+
+
+def _comparable(summary: pd.DataFrame) -> pd.DataFrame:
+    return summary.drop(columns=["wall_s", "steps_simulated"])  # how, not what, was computed
+
+
+def assert_same_results(ours: Path, theirs: Path) -> None:
+    """Same summary (but for timing) and bit-identical probing.parquet for every point."""
+    pd.testing.assert_frame_equal(
+        _comparable(read_summary(ours)), _comparable(read_summary(theirs))
+    )
+    a, b = _point_data(ours), _point_data(theirs)
+    assert a.keys() == b.keys()
+    for pid in a:
+        pd.testing.assert_frame_equal(a[pid], b[pid])
+
+
+@pytest.fixture(scope="module")
+def reference_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small sweep run uninterrupted on the local pool with two workers."""
+    out = tmp_path_factory.mktemp("uninterrupted")
+    result = run_sweep(load_sweep(SMALL), out, jobs=2, progress=False)
+    assert (result.done, result.skipped, result.failed, result.errors) == (6, 0, 0, 0)
+    assert result.references == 1
+    return out / "backlash-small"
+
+
+@pytest.mark.jsbsim
+def test_sweep_gains_match_closed_form(reference_run: Path) -> None:
+    summary = read_summary(reference_run)
+    assert list(summary["status"]) == ["done"] * 6
+    w = summary["nonlinearity.width_deg"].to_numpy()
+    a = 0.01
+    closed_form = np.clip(1.0 - w / (2 * a), 0.0, None)  # backlash on a +-a square wave
+    assert np.allclose(summary["predicted_gain"], closed_form, atol=1e-12)
+    ok = closed_form > 0
+    assert np.allclose(summary["measured_gain"][ok], closed_form[ok], rtol=1e-3)
+    assert np.all(summary["shape_error"][ok] < 1e-3)
+    assert np.allclose(summary["h_rms"][~ok], 0.0)
+    # Each point folder holds the files of `probing run` and its own scenario's digest.
+    for pid in summary["point_id"]:
+        folder = reference_run / "points" / f"point_id={pid}"
+        assert {"probing.parquet", "timeseries.parquet", "point.json"} <= {
+            f.name for f in folder.iterdir()
+        }
+        meta = pq.read_schema(folder / "probing.parquet").metadata
+        assert meta[b"probing.scenario_digest"].decode() == pid
+    # The summary carries its provenance.
+    meta = pq.read_schema(reference_run / "summary.parquet").metadata
+    assert b"probing.sweep_toml" in meta and b"probing.versions" in meta
+
+
+@pytest.mark.jsbsim
+def test_points_form_one_dataset(reference_run: Path) -> None:
+    table = open_dataset(reference_run).to_table()
+    summary = read_summary(reference_run)
+    assert set(table.column("point_id").to_pylist()) == set(summary["point_id"])
+    assert table.num_rows == 6 * 2 * 4 * 31  # points x channels x periods x taps
+    ts = open_dataset(reference_run, "timeseries").to_table()
+    assert ts.num_rows == 6 * 4 * 31 * 2  # points x periods x bits x steps per bit
+
+
+@pytest.mark.jsbsim
+def test_rerun_skips_finished_points_without_rewriting(reference_run: Path, tmp_path: Path) -> None:
+    import shutil
+
+    copy = tmp_path / "backlash-small"
+    shutil.copytree(reference_run, copy)
+    stamps = {f: f.stat().st_mtime_ns for f in copy.glob("points/*/*.parquet")}
+    result = run_sweep(load_sweep(SMALL), tmp_path, jobs=2, progress=False)
+    assert (result.done, result.skipped, result.references) == (0, 6, 0)
+    assert stamps == {f: f.stat().st_mtime_ns for f in copy.glob("points/*/*.parquet")}
+    pd.testing.assert_frame_equal(
+        _comparable(read_summary(copy)), _comparable(read_summary(reference_run))
+    )
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path) -> None:
+    cmd = [sys.executable, "-m", "probing", "sweep", str(SMALL), "--out", str(tmp_path), "-j", "1"]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    points = tmp_path / "backlash-small" / "points"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(points.glob("point_id=*"))) < 2:
+        time.sleep(0.005)
+    os.killpg(proc.pid, sig)  # the whole process group: the CLI and its workers
+    proc.communicate(timeout=60)
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130
+    else:
+        assert proc.returncode == -signal.SIGKILL
+    finished = sorted(points.glob("point_id=*"))
+    assert 2 <= len(finished) < 6, "the kill must land mid-sweep"
+    for folder in finished:  # nothing half-written is visible
+        assert (folder / "point.json").exists()
+    stamps = {f: f.stat().st_mtime_ns for f in points.glob("point_id=*/*.parquet")}
+
+    again = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert f"{6 - len(finished)} done, {len(finished)} skipped" in again.stdout
+    assert stamps == {f: f.stat().st_mtime_ns for f in stamps}  # finished points untouched
+    assert not list(points.glob(".tmp-*"))
+    assert_same_results(tmp_path / "backlash-small", reference_run)
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+def test_dask_local_cluster_equals_local_pool(reference_run: Path, tmp_path: Path) -> None:
+    result = run_sweep(load_sweep(SMALL), tmp_path, jobs=2, executor="dask", progress=False)
+    assert (result.done, result.failed, result.errors) == (6, 0, 0)
+    assert_same_results(tmp_path / "backlash-small", reference_run)
+
+
+@pytest.mark.jsbsim
+def test_failed_point_is_recorded_and_the_sweep_goes_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 180 KCAS clean is below what the 737 model can trim at 15,000 ft.
+    path = write_sweep(
+        tmp_path,
+        'name = "envelope"\n[grid]\n"condition.speed_kcas" = [280, 180]\n'
+        '"nonlinearity.type" = ["deadband"]\n"nonlinearity.lower_deg" = [-0.002]\n'
+        '"nonlinearity.upper_deg" = [0.002]\n',
+    )
+    out = tmp_path / "out"
+    assert cli_main(["sweep", str(path), "--out", str(out), "-j", "2"]) == 0
+    captured = capsys.readouterr()
+    assert "2 points: 1 done, 0 skipped (already done), 1 failed" in captured.out
+    summary = read_summary(out / "envelope")
+    assert list(summary["status"]) == ["done", "failed"]
+    assert "trim failed" in summary["message"][1]
+    assert summary["measured_gain"][0] == pytest.approx(0.8, rel=1e-3)  # 1 - d/a
+    assert np.isnan(summary["measured_gain"][1])
+    # A rerun keeps the failure without retrying; --retry-failed tries again.
+    assert cli_main(["sweep", str(path), "--out", str(out)]) == 0
+    assert "0 done, 1 skipped (already done), 1 failed" in capsys.readouterr().out
+    assert cli_main(["sweep", str(path), "--out", str(out), "--retry-failed"]) == 0
+    assert "1 done" not in capsys.readouterr().out
+
+
+def test_a_second_sweep_on_the_same_folder_is_refused(tmp_path: Path) -> None:
+    with _locked(tmp_path / "backlash-small"):
+        with pytest.raises(SweepBusyError, match="another sweep is running"):
+            run_sweep(load_sweep(SMALL), tmp_path, jobs=1, progress=False)
+        assert cli_main(["sweep", str(SMALL), "--out", str(tmp_path)]) == 1
+
+
+def test_parse_sweep_needs_no_file(tmp_path: Path) -> None:
+    data = {"name": "x", "base": str(BASE), "grid": {"probe.periods": [3, 5]}}
+    sweep = parse_sweep(data, path=tmp_path / "virtual.toml")
+    assert [p.scenario.periods for p in sweep.points] == [3, 5]
+
+
+PROVIDED = sorted((ROOT / "scenarios" / "sweeps").glob("*.toml"))
+
+
+def test_provided_sweeps_are_valid_and_named_after_their_files() -> None:
+    kinds = set()
+    for path in PROVIDED:
+        sweep = load_sweep(path)
+        assert sweep.name == path.stem
+        assert sweep.description
+        kinds.update(sweep.fields)
+    # The issue's list: each nonlinearity's parameter, noise against amplitude, the envelope.
+    for field in (
+        "nonlinearity.width_deg",
+        "nonlinearity.upper_deg",
+        "nonlinearity.high_deg",
+        "nonlinearity.upper_threshold_deg",
+        "nonlinearity.rate_deg_s",
+        "probe.amplitude_deg",
+        "condition.altitude_ft",
+        "condition.speed_kcas",
+    ):
+        assert field in kinds
+    assert len(PROVIDED) == 8
+
+
+@pytest.mark.jsbsim
+def test_summary_from_parquet_equals_summary_from_point_files(
+    reference_run: Path, tmp_path: Path
+) -> None:
+    """The statistics the workers store in point.json equal a fresh read of the Parquet."""
+    import json
+    import shutil
+
+    from probing.sweep import summarise
+
+    copy = tmp_path / "backlash-small"
+    shutil.copytree(reference_run, copy)
+    for info_file in copy.glob("*/point_id=*/point.json"):
+        info = json.loads(info_file.read_text())
+        assert info["settled"]["periods"] == 2
+        del info["settled"]
+        info_file.write_text(json.dumps(info))
+    sweep = load_sweep(SMALL)
+    pd.testing.assert_frame_equal(summarise(sweep, copy), summarise(sweep, reference_run))
