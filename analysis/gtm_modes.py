@@ -89,7 +89,7 @@ converter and the rest of the project are MIT. Model notes in detail:
   dC6_spo (right, plus mirrored left); dC3_q/p/r forced-oscillation rate terms; dC6_w
   rotary-balance terms; dC3_lgr gear increment; flap derivatives. Multilinear interpolation,
   clamped at table ends. Totals: `aero/coefficient/{CX,CY,CZ,Cl,Cm,Cn}`.
-* **Transcription check** (`tests/test_gtm.py`): at 300 random states (alpha -5..40 deg, beta
+* **Transcription check** (`tests/sim/test_gtm.py`): at 300 random states (alpha -5..40 deg, beta
   +-20 deg, rates up to 1.5 rad/s, all surfaces) JSBSim's six totals agree with an independent
   SciPy `RegularGridInterpolator` evaluation of the .mat tables to better than 1e-9 (test
   tolerance 1e-6). States are set with `ic/*` properties and `run_ic()`; during `run_ic` the

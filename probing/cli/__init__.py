@@ -150,6 +150,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return _error(str(exc), 1)
     for message in result.messages:
         print(f"  {message}", file=sys.stderr)
+    from analysis.tables import sweep_table
+    from probing.sweep import read_summary
+
+    print(sweep_table(read_summary(result.folder), sweep.fields))
     print(result.line())
     if args.plot:
         from analysis.sweep_plots import plot_sweep

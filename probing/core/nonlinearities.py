@@ -32,7 +32,7 @@ signal, eq. (10): q = (a~/a) p + b~.  With q(+a) and q(-a) the two output levels
     a~ = (q(+a) - q(-a)) / 2,        b~ = (q(+a) + q(-a)) / 2.
 
 :meth:`Nonlinearity.apparent` gives (a~, b~) in closed form, case by case as in
-the paper (with the errata of NOTES.md), and :func:`compensate` undoes the effect
+the paper (with the errata of docs/method.md), and :func:`compensate` undoes the effect
 on the probing output, eq. (11).  The rate limit has no such form; its admissible
 rates follow eq. (21), :meth:`RateLimit.admits`.
 """
@@ -262,7 +262,7 @@ class Deadband(_Memoryless):
     Notes
     -----
     y = x - upper for x > upper, 0 for lower <= x <= upper, x - lower for x < lower
-    (the printed ``p + d-`` is discontinuous at d-; NOTES.md erratum).
+    (the printed ``p + d-`` is discontinuous at d-; erratum, docs/method.md).
 
     Apparent probe (a~, b~) for +-a, the paper's cases (case a, "d+ < -a or d- > a",
     cannot happen since d- <= 0 <= d+):
@@ -344,7 +344,7 @@ class Saturation(_Memoryless):
     ====  ===========================  ===================  ===================
 
     Case e is checked first (the paper prints a~ = a there; the output is constant,
-    so a~ = 0: NOTES.md erratum).
+    so a~ = 0: erratum, docs/method.md).
     """
 
     lower: float
@@ -393,7 +393,7 @@ class Relay(_Memoryless):
     Notes
     -----
     At x == S the output is the midpoint (l+ + l-)/2 (the printed (l+ - l-)/2 is a
-    typo: NOTES.md erratum).  Apparent probe (a~, b~) for +-a:
+    typo: erratum, docs/method.md).  Apparent probe (a~, b~) for +-a:
 
     ===========  ===================  ====================
     condition    a~                   b~

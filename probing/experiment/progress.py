@@ -39,6 +39,8 @@ class Progress:
         Force the bar on or off; default: on when ``stream`` is a terminal.
     lines : bool
         When the bar is off, write one line per :meth:`advance` with a message.
+    intro : str
+        With ``lines``, the first line (default: ``0/<total> <unit>``).
     """
 
     def __init__(
@@ -50,6 +52,7 @@ class Progress:
         enabled: bool | None = None,
         *,
         lines: bool = False,
+        intro: str = "",
     ) -> None:
         self.stream = stream or sys.stderr
         self.total, self.label, self.unit = total, label, unit
@@ -68,7 +71,7 @@ class Progress:
             dynamic_ncols=True,
         )
         if self.lines:
-            print(f"{label}: 0/{total} {unit}", file=self.stream, flush=True)
+            print(f"{label}: {intro or f'0/{total} {unit}'}", file=self.stream, flush=True)
 
     def eta_s(self) -> float | None:
         """Seconds left at the mean rate so far, or None before the first item."""
@@ -108,9 +111,10 @@ def progress_bar(
     enabled: bool | None = None,
     *,
     lines: bool = False,
+    intro: str = "",
 ) -> Iterator[Progress]:
     """A :class:`Progress` that is closed on leaving the block."""
-    bar = Progress(total, label, unit, stream, enabled, lines=lines)
+    bar = Progress(total, label, unit, stream, enabled, lines=lines, intro=intro)
     try:
         yield bar
     finally:

@@ -373,10 +373,10 @@ def _execute(
     stream: TextIO | None,
 ) -> None:
     """Run ``todo`` on the pool, counting into ``result`` and reporting each finished run."""
-    head = f"{len(todo)} runs to do"
+    intro = f"{len(todo)} runs to do"
     if result.skipped or result.failed:
-        head += f" ({result.skipped} points already done, {result.failed} recorded as failed)"
-    with progress_bar(len(todo), f"{name} ({head})", "runs", stream, progress, lines=True) as bar:
+        intro += f"; {result.skipped} points already done, {result.failed} recorded as failed"
+    with progress_bar(len(todo), name, "runs", stream, progress, lines=True, intro=intro) as bar:
         if not todo:
             return
         failed = 0

@@ -30,6 +30,24 @@ def test_estimator_noise_matches_monte_carlo(order: int) -> None:
     assert np.sqrt(np.mean(theory**2)) > (2.0 if m > 100 else 1.5) * naive
 
 
+@pytest.mark.parametrize("order", [3, 5, 7])
+def test_estimator_noise_equals_the_correlators_exact_response_to_unit_impulses(order: int):
+    """Period 1's h is linear in the 2M samples of periods 0 and 1: h = W u.  Pushing a unit
+    impulse at each sample through the streaming correlator gives W column by column, and
+    std(h_i) = sigma ||W[i, :]|| exactly; the closed form must agree tap by tap."""
+    ref = mls(order)
+    m, a, sigma = ref.size, 0.3, 0.05
+    w = np.empty((m, 2 * m))
+    for k in range(2 * m):
+        u = np.zeros(2 * m)
+        u[k] = 1.0
+        corr = StreamingCorrelator(ref, a, keep=2)
+        corr.push(u)
+        w[:, k] = corr.pop_periods().h[1]
+    exact = sigma * np.linalg.norm(w, axis=1)
+    np.testing.assert_allclose(estimator_noise_std(ref, a, sigma), exact, rtol=1e-12)
+
+
 def test_estimator_noise_scales_linearly() -> None:
     ref = mls(5)
     base = estimator_noise_std(ref, 1.0, 1.0)

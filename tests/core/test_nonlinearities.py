@@ -429,9 +429,9 @@ def test_apparent_matches_measurement(nl, amplitude):
         pytest.param(Deadband(-0.5 / 3, 0.5 / 3), (0.5 * 2 / 3, 0.0), id="fig4a-deadband"),
         # Fig. 4b: U+ = 0, U- < -a gives a~ = a/2, b~ = -a/2
         pytest.param(Saturation(-1.0, 0.0), (0.25, -0.25), id="fig4b-saturation"),
-        # NOTES.md: backlash b_l = a/2 gives a~ = 3a/4
+        # docs/fig4.md: backlash b_l = a/2 gives a~ = 3a/4
         pytest.param(Backlash(0.25), (0.375, 0.0), id="notes-backlash"),
-        # NOTES.md: relay levels +-a/2 about S = 0
+        # docs/fig4.md: relay levels +-a/2 about S = 0
         pytest.param(Relay(0.0, -0.25, 0.25), (0.25, 0.0), id="notes-relay"),
         # eqs. (14)-(15) with d+ = 0.2, d- = -0.1
         pytest.param(Deadband(-0.1, 0.2), (0.5 - 0.1 - 0.05, -0.05), id="eq14-15"),

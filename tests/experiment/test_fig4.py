@@ -112,19 +112,63 @@ def test_compensation_recovers_baseline(results, which):
 
 
 @pytest.mark.jsbsim
-def test_runs_are_skipped_and_plot_replots_without_simulating(results, tmp_path, monkeypatch):
+def test_runs_are_skipped_and_plot_replots_without_simulating(
+    results, tmp_path, monkeypatch, capsys
+):
     def no_simulation(*args, **kwargs):
         raise AssertionError("simulated although the Parquet was stored")
 
     monkeypatch.setattr(fig4_runs, "run_scenario", no_simulation)
     fig4_runs.run_set(SETS["737"], results["737"], sweep_rate_limit=False, log=lambda *_: None)
-    figures = tmp_path / "figs"
-    assert cli_main(["plot", "fig4", str(results["737"]), "--figures", str(figures)]) == 0
-    for name in ("fig4-737.png", "fig4-737.pdf", "fig4-737_compensated.png"):
-        assert (figures / name).stat().st_size > 10_000
+    drawn = {}
+    for k in range(2):  # twice: the same results give the same bytes (git status stays clean)
+        figures = tmp_path / f"figs{k}"
+        assert cli_main(["plot", "fig4", str(results["737"]), "--figures", str(figures)]) == 0
+        out = capsys.readouterr().out
+        assert sum("wall time" in line.lower() for line in out.splitlines()) == 1
+        names = ("fig4-737.png", "fig4-737.pdf", "fig4-737_compensated.png")
+        drawn[k] = {n: (figures / n).read_bytes() for n in names}
+        drawn[k]["summary.md"] = (results["737"] / "summary.md").read_bytes()
+    assert drawn[0] == drawn[1]
+    assert b"Wall time" not in drawn[0]["summary.md"]
     summary = (results["737"] / "summary.csv").read_text().splitlines()
     assert summary[0].startswith("panel,nonlinearity,parameters,predicted_gain,measured_gain")
     assert len(summary) == 1 + 7 + 1  # seven panels and the saturation remedy row
+
+
+def _line(ax, label):
+    (line,) = [ln for ln in ax.get_lines() if ln.get_label() == label]
+    return np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+
+
+@pytest.mark.jsbsim
+def test_figures_show_the_probing_outputs_and_eq_11(results):
+    """The panels plot the settled mean z of each run over the baseline's, and eq. (11)
+    computed here from the apparent input; the compensated figure plots eq. (11) undone."""
+    from analysis import fig4_plots
+
+    data = fig4.collect(results["737"])
+    z0 = data.baseline.z.mean(axis=0)
+    figs = fig4_plots.figures(data)
+    panels = {p.key: p for p in data.panels}
+    for ax, p in zip(figs[""].axes, data.panels, strict=False):
+        x, y = _line(ax, "no nonlinearity")
+        np.testing.assert_allclose(x, np.arange(511) * 0.01)
+        np.testing.assert_allclose(y, 1e3 * z0)
+        np.testing.assert_allclose(_line(ax, "with nonlinearity")[1], 1e3 * p.run.z.mean(axis=0))
+        if p.key in ZERO_OFFSET:
+            a_t, b_t = p.run.scenario.build_nonlinearity().apparent(A)
+            expected = (a_t / A) * z0 + b_t * z0.sum() / A
+            np.testing.assert_allclose(_line(ax, "predicted, eq. (11)")[1], 1e3 * expected)
+    sat = panels["b_saturation"]
+    assert sat.predicted_gain == 0.5
+    comp = figs["_compensated"]
+    deadband = next(ax for ax in comp.axes if ax.get_title(loc="left").startswith("(a) deadband"))
+    y = _line(deadband, "compensated")[1]
+    np.testing.assert_allclose(y, 1e3 * panels["a_deadband"].compensated_z)
+    assert np.linalg.norm(y - 1e3 * z0) / np.linalg.norm(1e3 * z0) < 0.01
+    for fig in figs.values():
+        fig.clf()
 
 
 def test_plot_without_results_fails_cleanly(tmp_path, capsys):

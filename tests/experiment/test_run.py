@@ -327,3 +327,104 @@ def frames_of(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     return pd.read_parquet(folder / "probing.parquet"), pd.read_parquet(
         folder / "timeseries.parquet"
     )
+
+
+# ------------------------------------------------------------------ the run against its files
+def _settled_means(folder: Path, scn) -> dict[str, np.ndarray]:
+    """Mean settled h_est per channel, read independently of the run: pandas on the file;
+    NaN for a channel without a settled period whose h is finite at every tap."""
+    df = pd.read_parquet(folder / "probing.parquet")
+    df = df[df.period >= scn.settle_periods]
+    out = {}
+    for channel, rows in df.groupby("channel"):
+        h = rows.pivot(index="period", columns="tap", values="h_est").to_numpy()
+        h = h[np.all(np.isfinite(h), axis=1)]
+        out[channel] = h.mean(axis=0) if len(h) else np.full(h.shape[1], np.nan)
+    return out
+
+
+def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_channel(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sensor that reads NaN once leaves its channel without a finite settled period
+    (the FFT correlator carries the NaN on); the other channel is untouched.  Each channel
+    averages over its own settled periods: the count used to follow channel 0 only, which
+    turned the dead channel's empty sum into a mean of exactly zero."""
+    import probing.sim.plant as plant_module
+
+    step = plant_module.Plant.step
+    calls = {"probed": 0}
+
+    def step_with_a_dead_sensor(self, cmd_norm, nodes, out, elevator_deg=None):
+        step(self, cmd_norm, nodes, out, elevator_deg)
+        if cmd_norm is not None:  # the probed aircraft, one period per call
+            calls["probed"] += 1
+            if calls["probed"] == 4:
+                out[5, 1] = np.nan  # one sample of q_rad_s in period 3
+
+    monkeypatch.setattr(plant_module.Plant, "step", step_with_a_dead_sensor)
+    scn = scenario(
+        **{
+            "probe.order": 6,
+            "probe.periods": 7,
+            "probe.settle_periods": 1,
+            "output.channels": ["theta_rad", "q_rad_s"],
+        }
+    )
+    result = run_scenario(scn, tmp_path, progress=False, twin_cache=False)
+    means = _settled_means(result.out_dir, scn)
+    assert np.all(np.isfinite(means["theta_rad"])) and np.all(np.isnan(means["q_rad_s"]))
+    for channel in scn.channels:
+        np.testing.assert_allclose(result.h_est[channel], means[channel], rtol=1e-12)
+
+
+def test_z_is_eq5_on_measured_minus_reference_sampled_at_the_end_of_each_bit(
+    tmp_path: Path,
+) -> None:
+    """With 3 steps per bit, z of every complete period is the sliding correlation (eq. 5)
+    of the end-of-bit samples of measured - reference from timeseries.parquet."""
+    from probing.core.prbs import mls
+
+    scn = scenario(
+        **{
+            "probe.order": 5,
+            "probe.bit_duration_s": 0.03,
+            "probe.periods": 4,
+            "probe.settle_periods": 1,
+            "output.channels": ["theta_rad", "q_rad_s"],
+            "disturbance.sensor_noise": {"q_rad_s": 1e-5},
+            "disturbance.turbulence": "light",
+        }
+    )
+    result = run_scenario(scn, tmp_path, progress=False)
+    ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
+    pr = pd.read_parquet(result.out_dir / "probing.parquet")
+    sigma, m, spb = mls(5), 31, 3
+    for channel in scn.channels:
+        y = (ts[channel] - ts[f"{channel}_reference"]).to_numpy()[spb - 1 :: spb]
+        z = np.correlate(y, sigma, mode="valid")  # z[k] for sample k = M-1 .. end
+        for period in range(1, scn.periods):
+            # sample j of period p carries tap j+1; its last sample carries tap 0
+            samples = period * m + (np.arange(m) - 1) % m
+            expected = z[samples - (m - 1)]
+            got = pr[(pr.channel == channel) & (pr.period == period)].z.to_numpy()
+            np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-15)
+
+
+def test_sensor_noise_on_one_channel_changes_only_that_channel(tmp_path: Path) -> None:
+    common = {
+        "probe.order": 5,
+        "probe.periods": 3,
+        "probe.settle_periods": 1,
+        "output.channels": ["theta_rad", "q_rad_s"],
+    }
+    quiet = run_scenario(scenario(**common, name="quiet"), tmp_path, progress=False)
+    noisy_scn = scenario(**common, name="noisy", **{"disturbance.sensor_noise": {"q_rad_s": 1e-4}})
+    noisy = run_scenario(noisy_scn, tmp_path, progress=False)
+    a, b = (pd.read_parquet(r.out_dir / "timeseries.parquet") for r in (quiet, noisy))
+    pd.testing.assert_series_equal(a.theta_rad, b.theta_rad, check_exact=True)
+    assert 0.5e-4 < float((b.q_rad_s - a.q_rad_s).std()) < 2e-4
+    pa_, pb_ = (pd.read_parquet(r.out_dir / "probing.parquet") for r in (quiet, noisy))
+    theta = pa_.channel == "theta_rad"
+    pd.testing.assert_frame_equal(pa_[theta], pb_[theta], check_exact=True)
+    assert not np.allclose(pa_[~theta].z, pb_[~theta].z)

@@ -141,3 +141,18 @@ def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> 
         plant.fdm.resume_integration()
     slope = (trim.elevator_deg - below) / 1e-4
     assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)
+
+
+def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection() -> None:
+    """The A320 scales nose-up and nose-down commands differently, so its surface map has a
+    kink at 0 deg: the calibration grid must hold that point, or deflections near 0 are off
+    by a hundredth of a degree."""
+    plant = Plant("A320", 0.01)
+    plant.trim(15000, speed_kcas=280)
+    asked = np.array([-0.0004, -0.0001, 0.0, 0.0001, 0.0004, 0.003, -0.003])
+    realised = np.empty(asked.size)
+    out = np.empty((asked.size, 1))
+    for k in range(asked.size):  # one step each, from wherever the last left the surface
+        plant.step(plant.elevator_command(asked[k : k + 1]), plant.channel_nodes(["theta_rad"]),
+                   out[k : k + 1], realised[k : k + 1])  # fmt: skip
+    np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)

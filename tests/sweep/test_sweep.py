@@ -3,6 +3,7 @@ real kill, Dask against the local pool, failed points, the dataset view."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -268,7 +269,20 @@ def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path)
 @pytest.mark.jsbsim
 @pytest.mark.slow
 def test_dask_local_cluster_equals_local_pool(reference_run: Path, tmp_path: Path) -> None:
-    result = run_sweep(load_sweep(SMALL), tmp_path, jobs=2, executor="dask", progress=False)
+    """Same results as the local pool, and no warning when Dask's usual port 8787 is taken
+    (another cluster, or a notebook's dashboard)."""
+    import socket
+    import warnings
+
+    with socket.socket() as busy, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            busy.bind(("", 8787))
+            busy.listen()
+        except OSError:  # someone else holds it already: the same situation
+            pass
+        result = run_sweep(load_sweep(SMALL), tmp_path, jobs=2, executor="dask", progress=False)
+    assert not [str(w.message) for w in caught if "8787" in str(w.message)]
     assert (result.done, result.failed, result.errors) == (6, 0, 0)
     assert_same_results(tmp_path / "backlash-small", reference_run)
 
@@ -293,11 +307,17 @@ def test_failed_point_is_recorded_and_the_sweep_goes_on(
     assert "trim failed" in summary["message"][1]
     assert summary["measured_gain"][0] == pytest.approx(0.8, rel=1e-3)  # 1 - d/a
     assert np.isnan(summary["measured_gain"][1])
-    # A rerun keeps the failure without retrying; --retry-failed tries again.
+    # A rerun keeps the failure without retrying; --retry-failed tries again, which
+    # rewrites the failure record (a retry that did nothing would leave it as it was).
+    record = out / "envelope" / "failed" / f"{summary['point_id'][1]}.json"
+    stale = {**json.loads(record.read_text()), "message": "written before the retry"}
+    record.write_text(json.dumps(stale))
     assert cli_main(["sweep", str(path), "--out", str(out)]) == 0
     assert "0 done, 1 skipped (already done), 1 failed" in capsys.readouterr().out
+    assert json.loads(record.read_text())["message"] == "written before the retry"
     assert cli_main(["sweep", str(path), "--out", str(out), "--retry-failed"]) == 0
-    assert "1 done" not in capsys.readouterr().out
+    assert "0 done, 1 skipped (already done), 1 failed" in capsys.readouterr().out
+    assert "trim failed" in json.loads(record.read_text())["message"]
 
 
 def test_a_second_sweep_on_the_same_folder_is_refused(tmp_path: Path) -> None:
@@ -357,3 +377,109 @@ def test_summary_from_parquet_equals_summary_from_point_files(
         info_file.write_text(json.dumps(info))
     sweep = load_sweep(SMALL)
     pd.testing.assert_frame_equal(summarise(sweep, copy), summarise(sweep, reference_run))
+
+
+# ------------------------------------------------------------------ references, resume, lock
+def test_reference_is_the_point_without_its_nonlinearity_turbulence_seed_included(
+    tmp_path: Path,
+) -> None:
+    path = write_sweep(
+        tmp_path,
+        'name = "gusty"\n[fixed]\n"disturbance.turbulence" = "light"\n"disturbance.seed" = 7\n'
+        '[grid]\n"nonlinearity.type" = ["backlash"]\n"nonlinearity.width_deg" = [0.001, 0.002]\n',
+    )
+    for p in load_sweep(path).points:
+        expected = p.scenario.replace({"nonlinearity.type": "none"})
+        assert p.reference == expected and p.reference_id == expected.digest()
+        assert (p.reference.turbulence, p.reference.seed) == ("light", 7)
+
+
+@pytest.mark.jsbsim
+def test_resume_removes_stale_temporary_folders_and_the_lock(
+    reference_run: Path, tmp_path: Path
+) -> None:
+    import shutil
+
+    copy = tmp_path / "backlash-small"
+    shutil.copytree(reference_run, copy)
+    stale = [copy / "points" / ".tmp-point_id=0123-99-deadbeef", copy / "references" / ".tmp-x"]
+    for folder in stale:
+        folder.mkdir()
+        (folder / "probing.parquet").write_bytes(b"half a file")
+    result = run_sweep(load_sweep(SMALL), tmp_path, jobs=1, progress=False)
+    assert (result.done, result.skipped) == (0, 6)
+    assert not any(folder.exists() for folder in stale)
+    assert not (copy / ".lock").exists()
+
+
+@pytest.mark.jsbsim
+def test_naive_standard_error_of_a_noisy_point(tmp_path: Path) -> None:
+    """h_stderr_naive = sigma / (a sqrt(M P)), P the settled periods, for the noisy channel."""
+    path = write_sweep(
+        tmp_path,
+        'name = "noisy"\n[grid]\n"disturbance.sensor_noise.theta_rad" = [1e-4]\n'
+        '"probe.amplitude_deg" = [0.01, 0.02]\n',
+    )
+    run_sweep(load_sweep(path), tmp_path / "out", jobs=1, progress=False)
+    summary = read_summary(tmp_path / "out" / "noisy")
+    m, p = 31, 4 - 2  # base-737-small: order 5, 4 periods of which 2 settle
+    for _, row in summary.iterrows():
+        a = row["probe.amplitude_deg"]
+        assert row["h_stderr_naive"] == pytest.approx(1e-4 / (a * np.sqrt(m * p)), rel=1e-12)
+        assert row["h_stderr"] > 0
+
+
+# ------------------------------------------------------------------ the summary for other tools
+@pytest.mark.jsbsim
+def test_summary_columns_carry_units(reference_run: Path) -> None:
+    schema = pq.read_schema(reference_run / "summary.parquet")
+    units = json.loads(schema.metadata[b"probing.units"])
+    assert units["h_rms"] == {"theta_rad": "rad/deg"}
+    assert units["h_stderr"] == {"theta_rad": "rad/deg"}
+    assert units["predicted_offset_deg"] == "deg" and units["wall_s"] == "s"
+    assert units["measured_gain"] == "1"
+    field = schema.field("h_stderr_theory")
+    assert field.metadata[b"unit"] == b"<channel>/deg" and field.metadata[b"description"]
+    assert b"one row per point" in schema.metadata[b"probing.description"]
+
+
+def _docs_snippet(language: str, heading: str) -> str:
+    text = (ROOT / "docs" / "sweeps.md").read_text(encoding="utf-8")
+    section = text[text.index(heading) :]
+    return section.split(f"```{language}\n", 1)[1].split("```", 1)[0]
+
+
+@pytest.mark.jsbsim
+def test_the_documented_joins_work_in_pandas_and_duckdb(reference_run: Path) -> None:
+    import duckdb
+
+    folder = str(reference_run)
+    code = _docs_snippet("python", "### Joining").replace("results/sweeps/backlash-width", folder)
+    namespace: dict = {}
+    exec(compile(code, "docs/sweeps.md", "exec"), namespace)  # our own documentation
+    theta = namespace["theta"]
+    assert len(theta) == 6 * 4 * 31  # points x periods x taps of the summary's channel
+    assert not [c for c in theta.columns if c.endswith(("_x", "_y"))]
+    assert set(theta["nonlinearity.width_deg"]) == {0.0, 0.0025, 0.005, 0.0075, 0.01, 0.015}
+    sql = _docs_snippet("sql", "### Joining").replace("results/sweeps/backlash-width", folder)
+    rows = duckdb.sql(sql).fetchall()
+    assert len(rows) == 6 * 4 * 31
+    gains = {
+        row[0]: row[1]
+        for row in duckdb.sql(f"SELECT DISTINCT point_id, measured_gain FROM ({sql})").fetchall()
+    }
+    summary = read_summary(reference_run)
+    assert gains == dict(zip(summary["point_id"], summary["measured_gain"], strict=True))
+
+
+@pytest.mark.jsbsim
+def test_sweep_prints_a_rounded_table_of_what_is_stored_as_computed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert cli_main(["sweep", str(SMALL), "--out", str(tmp_path), "-j", "2"]) == 0
+    out = capsys.readouterr().out
+    stored = read_summary(tmp_path / "backlash-small")["predicted_gain"][1]
+    assert stored == (0.01 - 0.0025 / 2) / 0.01 == 0.8750000000000001  # a~/a as computed
+    row = next(line.split() for line in out.splitlines() if line.startswith("1 "))
+    assert row[:5] == ["1", "backlash", "0.0025", "done", "0.875"]
+    assert "0.8750000000000001" not in out

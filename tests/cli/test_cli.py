@@ -1,0 +1,315 @@
+"""The command line as a new user meets it: one clear line and exit code 2 for bad input,
+nothing written, nothing of JSBSim's on stdout, help that reads as plain text.
+
+Each test here stands for a defect found by trying the project from a fresh clone.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from probing.cli import build_parser
+from probing.cli import main as cli_main
+
+ROOT = Path(__file__).resolve().parents[2]
+BASELINE = ROOT / "scenarios" / "baseline-737.toml"
+SMALL_SWEEP = ROOT / "tests" / "data" / "sweeps" / "backlash-small.toml"
+
+
+def probing(*args: str, cwd: Path = ROOT, timeout: float = 180) -> subprocess.CompletedProcess:
+    """``python -m probing ARGS`` in a fresh process (real stdout and stderr)."""
+    return subprocess.run(
+        [sys.executable, "-m", "probing", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+
+
+def assert_one_line_error(res: subprocess.CompletedProcess, code: int, *needles: str) -> str:
+    assert "Traceback" not in res.stderr, res.stderr
+    assert res.returncode == code, (res.returncode, res.stderr)
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith("probing: error: "), lines[0]
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+def unwritable(tmp_path: Path) -> Path:
+    """A folder nothing can be created in, whoever runs the tests (root writes anywhere
+    except in /proc)."""
+    if os.geteuid() == 0:
+        return Path("/proc/probing-test-out")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    return locked / "out"
+
+
+def tree(path: Path) -> list[str]:
+    return sorted(str(p.relative_to(path)) for p in path.rglob("*"))
+
+
+# ------------------------------------------------------------------ 1. output folders
+def test_run_out_a_file_is_one_line_exit_2_and_the_file_is_untouched(tmp_path: Path) -> None:
+    target = tmp_path / "notes.txt"
+    target.write_text("mine")
+    res = probing("run", str(BASELINE), "--out", str(target))
+    assert_one_line_error(res, 2, "--out", str(target), "is a file")
+    assert res.stdout == "" and target.read_text() == "mine"
+    assert tree(tmp_path) == ["notes.txt"]
+
+
+def test_run_out_below_a_file_and_unwritable(tmp_path: Path) -> None:
+    (tmp_path / "f").write_text("")
+    res = probing("run", str(BASELINE), "--out", str(tmp_path / "f" / "sub"))
+    assert_one_line_error(res, 2, "--out", "below a file")
+    res = probing("run", str(BASELINE), "--out", str(unwritable(tmp_path)))
+    assert_one_line_error(res, 2, "--out", "cannot write")
+    assert tree(tmp_path) in (["f"], ["f", "locked"])
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["truth", str(BASELINE), "--out", "{file}"],
+        ["sweep", str(SMALL_SWEEP), "--out", "{file}"],
+        ["sweep", str(SMALL_SWEEP), "--out", "{dir}/o", "--plot", "--figures", "{file}"],
+        ["fig4", "--out", "{file}"],
+        ["fig4", "--out", "{dir}/o", "--figures", "{file}"],
+        ["fig4", "--out", "{dir}/o", "--copy-summary", "{file}/summary.md"],
+        ["plot", "sweep", "{dir}", "--figures", "{file}"],
+        ["modes", "--figure", "{file}/gtm_modes"],
+    ],
+    ids=lambda a: " ".join(a[:1] + [x for x in a if x.startswith("--")]),
+)
+def test_every_output_option_refuses_a_file(
+    args: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    target = tmp_path / "taken"
+    target.write_text("mine")
+    argv = [a.format(file=target, dir=tmp_path) for a in args]
+    assert cli_main(argv) == 2
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and err.startswith("probing: error: --"), err
+    assert "is a file" in err or "below a file" in err
+    assert out == ""
+    assert tree(tmp_path) == ["taken"] and target.read_text() == "mine"
+
+
+def test_fig4_with_a_missing_scenario_folder(tmp_path: Path) -> None:
+    res = probing("fig4", "--scenarios", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o"))
+    assert_one_line_error(res, 2, str(tmp_path / "nowhere"), "--scenarios")
+    assert res.stdout == "" and tree(tmp_path) == []
+
+
+def test_fig4_with_an_incomplete_scenario_folder(tmp_path: Path) -> None:
+    (tmp_path / "set").mkdir()
+    (tmp_path / "set" / "baseline.toml").write_text(BASELINE.read_text())
+    res = probing("fig4", "--scenarios", str(tmp_path / "set"), "--out", str(tmp_path / "o"))
+    assert_one_line_error(res, 2, "a_deadband.toml")
+    assert tree(tmp_path) == ["set", "set/baseline.toml"]
+
+
+def test_plot_fig4_of_a_missing_folder_says_so_on_stderr(tmp_path: Path) -> None:
+    res = probing("plot", "fig4", str(tmp_path / "nothing"), "--figures", str(tmp_path / "f"))
+    assert_one_line_error(res, 2, "not a results folder of probing fig4")
+    assert res.stdout == "" and tree(tmp_path) == []
+
+
+# ------------------------------------------------------------------ 2. Dask scheduler
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_unreachable_scheduler_is_one_line_exit_2_and_writes_nothing(tmp_path: Path) -> None:
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    res = probing(
+        "sweep", str(SMALL_SWEEP), "--out", str(tmp_path / "out"), "--executor", "dask",
+        "--scheduler", address, "--connect-timeout-s", "1",
+    )  # fmt: skip
+    assert_one_line_error(res, 2, "--scheduler", address, "no Dask scheduler answered")
+    assert res.stdout == ""
+    assert not (tmp_path / "out").exists()  # no lock, no points/, no sweep.json
+
+
+def test_a_bad_scheduler_address_is_one_line_exit_2(tmp_path: Path) -> None:
+    res = probing(
+        "sweep", str(SMALL_SWEEP), "--out", str(tmp_path / "out"), "--executor", "dask",
+        "--scheduler", "nonsense://", "--connect-timeout-s", "1",
+    )  # fmt: skip
+    assert_one_line_error(res, 2, "--scheduler")
+    assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------------------------ 3. JSBSim's chatter
+@pytest.mark.jsbsim
+def test_trim_failure_shows_our_message_with_jsbsim_reason_and_nothing_on_stdout(
+    tmp_path: Path,
+) -> None:
+    """At 180 KCAS the 737 cannot be trimmed clean; JSBSim says why ("Sorry, wdot doesn't
+    appear to be trimmable"), which used to go to stdout."""
+    scn = tmp_path / "slow.toml"
+    scn.write_text(BASELINE.read_text().replace("speed_kcas = 280", "speed_kcas = 180"))
+    res = probing("run", str(scn), "--out", str(tmp_path / "out"))
+    assert res.stdout == ""
+    assert_one_line_error(res, 1, "trim failed for 737", "speed_kcas = 180", "wdot")
+    assert not (tmp_path / "out").exists()
+    res = probing("design", "--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "180")
+    assert res.stdout == ""
+    assert_one_line_error(res, 1, "trim failed for 737", "wdot")
+
+
+# ------------------------------------------------------------------ 4. figures stay under --out
+@pytest.mark.jsbsim
+def test_sweep_plot_draws_under_its_output_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)  # a figures/ relative to where the user stands must not appear
+    out = tmp_path / "elsewhere"
+    assert cli_main(["sweep", str(SMALL_SWEEP), "--out", str(out), "-j", "1", "--plot"]) == 0
+    printed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("wrote")]
+    figures = out / "backlash-small" / "figures"
+    assert printed == [f"wrote {figures / 'sweep_backlash-small'}.{ext}" for ext in ("png", "pdf")]
+    assert not (tmp_path / "figures").exists()
+
+
+# ------------------------------------------------------------------ 5. committed figures
+def test_committed_pdfs_carry_no_creation_date() -> None:
+    """A date makes every redraw differ from the committed file (git status not clean)."""
+    pdfs = sorted((ROOT / "figures").glob("*.pdf"))
+    assert pdfs
+    for pdf in pdfs:
+        assert b"/CreationDate" not in pdf.read_bytes(), pdf.name
+
+
+# ------------------------------------------------------------------ 7. design validation
+DESIGN = {"--aircraft": ["737"], "--altitude-ft": ["15000"], "--speed-kcas": ["280"]}
+
+
+@pytest.mark.parametrize(
+    ("option", "values"),
+    [
+        ("--altitude-ft", ["-5"]),
+        ("--altitude-ft", ["0"]),
+        ("--speed-kcas", ["nan"]),
+        ("--amplitude-deg", ["0"]),
+        ("--noise-sigma", ["-1"]),
+        ("--dt-s", ["0.5"]),
+        ("--aircraft", ["no-such-plane"]),
+        ("--deadband-deg", ["0.1", "0.2"]),
+        ("--saturation-deg", ["2", "1"]),
+        ("--rate-limit-deg-s", ["0"]),
+        ("--target-se", ["-1"]),
+        ("--deadband-margin", ["nan"]),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else v,
+)
+def test_design_validates_as_the_scenario_schema_does(
+    option: str, values: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Refused before anything is trimmed, naming the option."""
+    flags = {**DESIGN, option: values}
+    argv = ["design", *[x for flag, vals in flags.items() for x in (flag, *vals)]]
+    assert cli_main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith(f"probing: error: {option}: "), err
+
+
+@pytest.mark.jsbsim
+def test_design_refuses_more_periods_than_a_scenario_holds(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["design", "--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
+    assert cli_main([*argv, "--noise-sigma", "1e-3", "--target-se", "1e-9"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and "probe.periods" in err and "100000" in err
+
+
+# ------------------------------------------------------------------ 8. sweep progress
+@pytest.mark.jsbsim
+def test_sweep_reports_each_point_on_stderr(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert cli_main(["sweep", str(SMALL_SWEEP), "--out", str(tmp_path), "-j", "2"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "backlash-small: 7 runs to do"
+    progress = err[1:]
+    assert len(progress) == 7  # 6 points and the shared reference, one line each
+    for k, line in enumerate(progress, start=1):
+        assert line.startswith(f"backlash-small: {k}/7 runs, 0 failed")
+        assert " done in " in line
+    assert all("ETA" in line for line in progress[:-1])
+    assert cli_main(["sweep", str(SMALL_SWEEP), "--out", str(tmp_path)]) == 0
+    assert capsys.readouterr().err.splitlines() == [
+        "backlash-small: 0 runs to do; 6 points already done, 0 recorded as failed"
+    ]
+
+
+def test_progress_comes_from_tqdm() -> None:
+    import probing.experiment.progress as progress
+
+    assert progress.tqdm.__module__.startswith("tqdm")
+    assert not (ROOT / "probing" / "progress.py").exists()
+
+
+# ------------------------------------------------------------------ 9. help and docs
+def test_help_is_plain_text_and_states_defaults() -> None:
+    parser = build_parser()
+    top = parser.format_help()
+    assert "``" not in top and ":mod:" not in top
+    for command in ("run", "truth", "sweep", "fig4", "plot", "design", "modes"):
+        assert command in top
+    subs = parser._subparsers._group_actions[0].choices
+    run_help = subs["run"].format_help()
+    assert "(default: results)" in run_help
+    truth_help = subs["truth"].format_help()
+    assert "scenario TOML file" in truth_help and "(default: results)" in truth_help
+    for name, sub in subs.items():
+        for action in sub._actions:
+            if action.dest != "help":
+                assert action.help, f"probing {name} {action.dest} has no help"
+
+
+def test_docs_do_not_point_outside_the_repository() -> None:
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        text = page.read_text(encoding="utf-8")
+        assert "../shared" not in text and "NOTES.md" not in text, page.name
+    assert "## Errata" in (ROOT / "docs" / "method.md").read_text(encoding="utf-8")
+
+
+def test_every_summary_column_is_documented() -> None:
+    from probing.sweep.summary import SUMMARY_COLUMNS
+
+    text = (ROOT / "docs" / "sweeps.md").read_text(encoding="utf-8")
+    for column in SUMMARY_COLUMNS:
+        assert f"`{column}`" in text, column
+
+
+def test_example_says_how_to_run_it() -> None:
+    text = (ROOT / "scenarios" / "examples" / "build_and_run.py").read_text()
+    assert ".venv/bin/python scenarios/examples/build_and_run.py" in text
+
+
+# ------------------------------------------------------------------ 11. set-up noise
+def test_license_is_an_spdx_expression() -> None:
+    """A table license makes setuptools print a deprecation banner during make setup."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["license"] == "MIT"
+    build = tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]
+    assert any(r.startswith("setuptools>=77") for r in build["requires"])

@@ -1,0 +1,71 @@
+"""The files of a run for other tools: every column says its unit, every file says what it is."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import load_scenario
+from probing.experiment.truth import compute_truth
+
+ROOT = Path(__file__).resolve().parents[2]
+FILES = ("probing.parquet", "timeseries.parquet", "truth.parquet", "prediction.parquet")
+
+
+@pytest.fixture(scope="module")
+def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    scn = load_scenario(ROOT / "scenarios" / "baseline-737.toml").replace(
+        {"probe.order": 5, "probe.periods": 3, "probe.settle_periods": 1}
+    )
+    out = tmp_path_factory.mktemp("storage")
+    run_scenario(scn, out, progress=False)
+    compute_truth(scn, out)
+    return out / scn.name
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("name", FILES)
+def test_every_column_has_a_unit_and_a_description(run_folder: Path, name: str) -> None:
+    schema = pq.read_schema(run_folder / name)
+    for field in schema:
+        meta = field.metadata or {}
+        assert b"unit" in meta and meta[b"description"], (name, field.name)
+    assert schema.metadata[b"probing.description"]
+
+
+@pytest.mark.jsbsim
+def test_units_resolve_per_channel(run_folder: Path) -> None:
+    schema = pq.read_schema(run_folder / "probing.parquet")
+    units = json.loads(schema.metadata[b"probing.units"])
+    assert units["lag_s"] == "s"
+    assert (
+        units["z"]
+        == units["zeta"]
+        == {
+            "theta_rad": "rad",
+            "q_rad_s": "rad/s",
+            "alpha_rad": "rad",
+            "nz_g": "g",
+        }
+    )
+    assert units["h_est"]["q_rad_s"] == "rad/s/deg" and units["h_est"]["theta_rad"] == "rad/deg"
+    assert schema.field("h_est").metadata[b"unit"] == b"<channel>/deg"
+    ts = json.loads(pq.read_schema(run_folder / "timeseries.parquet").metadata[b"probing.units"])
+    assert ts["nz_g"] == ts["nz_g_reference"] == "g" and ts["elevator_deg"] == "deg"
+    truth = json.loads(pq.read_schema(run_folder / "truth.parquet").metadata[b"probing.units"])
+    assert truth["h_lin"]["alpha_rad"] == "rad/deg"
+
+
+@pytest.mark.jsbsim
+def test_prediction_says_what_it_is(run_folder: Path) -> None:
+    meta = pq.read_schema(run_folder / "prediction.parquet").metadata
+    text = meta[b"probing.description"].decode()
+    assert text.startswith("predicted probing output") and "probing.parquet" in text
+    assert (
+        meta[b"probing.scenario_digest"]
+        == pq.read_schema(run_folder / "probing.parquet").metadata[b"probing.scenario_digest"]
+    )

@@ -1,0 +1,55 @@
+"""What the layering promises a user: the core and scenario validation load no simulator,
+no plotting and no tables; the public API is at the top.  (The import rules themselves are
+import-linter contracts in pyproject.toml, checked by make lint.)"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("jsbsim", "matplotlib", "pandas")
+
+
+def loaded_after(code: str) -> dict[str, bool]:
+    """Run ``code`` in a fresh interpreter; which of :data:`HEAVY` it imported."""
+    probe = (
+        f"{code}\nimport json, sys\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
+    ).stdout
+    return json.loads(out.splitlines()[-1])
+
+
+def test_the_public_api_is_at_the_top_and_light() -> None:
+    code = (
+        "from probing import Probe, mls, StreamingCorrelator, Deadband, Saturation, Relay, "
+        "HysteresisRelay, Backlash, RateLimit, compensate\n"
+        "import probing\nassert probing.__version__ != 'unknown'"
+    )
+    assert loaded_after(code) == dict.fromkeys(HEAVY, False)
+
+
+def test_validating_a_scenario_or_a_sweep_loads_no_simulator() -> None:
+    code = (
+        "from probing.experiment.scenario import load_scenario\n"
+        "load_scenario('scenarios/baseline-737.toml')\n"
+        "from probing.sweep import load_sweep\n"
+        "load_sweep('scenarios/sweeps/backlash-width.toml')"
+    )
+    assert loaded_after(code) == dict.fromkeys(HEAVY, False)
+
+
+def test_one_version_string() -> None:
+    import tomllib
+    from importlib.metadata import version
+
+    import probing
+
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    assert probing.__version__ == version("probing") == pyproject
+    sources = [p for p in ROOT.glob("probing/**/*.py") if f'"{pyproject}"' in p.read_text()]
+    assert sources == []  # the version is written in pyproject.toml only
