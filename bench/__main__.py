@@ -622,7 +622,7 @@ def render_twin_cache(r: dict) -> Rendered:
         f"## Reference-twin cache ({r['simulated_s'] / 60:.0f} simulated minutes, backlash)",
         "",
         "Two points of a backlash sweep (widths 0.003 and 0.004 deg) share one unprobed twin "
-        "(`probing.twins`): the first simulates and stores it, the second reads it back. "
+        "(`probing.sim.twins`): the first simulates and stores it, the second reads it back. "
         f"Steps simulated: {r['steps_cold']} vs {r['steps_warm']}; per-repeat speed-ups "
         f"{', '.join(f'{s:.2f}' for s in r['speedups'])}. The saving is below 2x because "
         "the probed aircraft's per-run costs (trim, Parquet, correlator) remain.",

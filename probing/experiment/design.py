@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from probing.core.nonlinearities import Deadband, RateLimit
+from probing.core.nonlinearities import RateLimit
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import make_plant
@@ -170,37 +170,32 @@ def design(
 ) -> Design:
     """The recommendation from the settling times and the request's bounds (pure function).
 
+    ``request`` holds values as :meth:`DesignRequest.validate` accepts them; the rules here
+    are the design's own (a saturation must contain the trim, a deadband must be cleared
+    inside it, ...).
+
     Raises
     ------
     DesignError
         When no (n, t0, a, P) meets every rule; the message names the conflict.
     """
+    r = request
     reasons: dict[str, str] = {}
     warnings: list[str] = []
-    dt_s, deadband_deg, saturation_deg = request.dt_s, request.deadband_deg, request.saturation_deg
-    rate_limit_deg_s, noise_sigma, target_se = (
-        request.rate_limit_deg_s,
-        request.noise_sigma,
-        request.target_se,
-    )
-    default_amplitude_deg, deadband_margin = request.amplitude_deg, request.deadband_margin
-    if not (math.isfinite(dt_s) and dt_s > 0):
-        raise DesignError(f"dt_s must be > 0, got {dt_s}")
     # ---- amplitude
     sat_room = math.inf
-    if saturation_deg is not None:
-        lo, up = saturation_deg
+    if r.saturation_deg is not None:
+        lo, up = r.saturation_deg
         if not lo < 0.0 < up:
             raise DesignError(
                 f"saturation [{lo:g}, {up:g}] deg does not contain the trim (0): "
                 "the probe cannot get through both ways"
             )
         sat_room = min(-lo, up)
-    if deadband_deg is not None:
-        lo, up = deadband_deg
-        Deadband(lo, up)  # its own rules (lower <= 0 <= upper): ParameterError
+    if r.deadband_deg is not None:
+        lo, up = r.deadband_deg
         half = max(-lo, up)
-        need = deadband_margin * half
+        need = r.deadband_margin * half
         if half >= sat_room:
             raise DesignError(
                 f"deadband (half width {half:g} deg) is wider than the saturation margin "
@@ -208,35 +203,35 @@ def design(
             )
         if need > sat_room:
             raise DesignError(
-                f"amplitude {need:g} deg (= {deadband_margin:g} x deadband {half:g} deg) "
+                f"amplitude {need:g} deg (= {r.deadband_margin:g} x deadband {half:g} deg) "
                 f"exceeds the saturation margin {sat_room:g} deg; lower --deadband-margin "
                 "or widen the saturation"
             )
-        a = min(max(need, default_amplitude_deg), sat_room)
+        a = min(max(need, r.amplitude_deg), sat_room)
         reasons["amplitude_deg"] = (
-            f"clears the deadband: a >= {deadband_margin:g} x {half:g} deg"
-            + (f", inside saturation margin {sat_room:g} deg" if saturation_deg else "")
+            f"clears the deadband: a >= {r.deadband_margin:g} x {half:g} deg"
+            + (f", inside saturation margin {sat_room:g} deg" if r.saturation_deg else "")
             + f"; apparent a~ = {a - half:.3g} deg for a symmetric band"
         )
     else:
-        a = min(default_amplitude_deg, sat_room)
-        reasons["amplitude_deg"] = f"default {default_amplitude_deg:g} deg" + (
-            f", capped by saturation margin {sat_room:g} deg" if a < default_amplitude_deg else ""
+        a = min(r.amplitude_deg, sat_room)
+        reasons["amplitude_deg"] = f"default {r.amplitude_deg:g} deg" + (
+            f", capped by saturation margin {sat_room:g} deg" if a < r.amplitude_deg else ""
         )
     # ---- bit duration
     steps = 1
-    if rate_limit_deg_s is not None:
-        rate = RateLimit(rate_limit_deg_s)
+    if r.rate_limit_deg_s is not None:
+        rate = RateLimit(r.rate_limit_deg_s)
         t_min = rate.shortest_bit_s(a)
-        steps = max(1, math.ceil(t_min / dt_s - 1e-9))
+        steps = max(1, math.ceil(t_min / r.dt_s - 1e-9))
         reasons["bit_duration_s"] = (
             f"eq. (21) r_l >= 2a/t0: t0 >= 2a/r_l = {t_min:.4g} s, rounded up to "
-            f"{steps} x dt; 2a/t0 = {RateLimit.bound(a, steps * dt_s):.4g} <= "
-            f"r_l = {rate_limit_deg_s:g} deg/s"
+            f"{steps} x dt; 2a/t0 = {RateLimit.bound(a, steps * r.dt_s):.4g} <= "
+            f"r_l = {r.rate_limit_deg_s:g} deg/s"
         )
     else:
         reasons["bit_duration_s"] = "no rate limit: one simulation step per bit"
-    t0 = steps * dt_s
+    t0 = steps * r.dt_s
     if math.isfinite(short_period_settling_s) and t0 > short_period_settling_s / 10:
         warnings.append(
             f"t0 = {t0:g} s is longer than a tenth of the short-period settling time "
@@ -265,10 +260,10 @@ def design(
             f"{memory:.3g} s: its tail folds into the taps (eq. 8); use drift = 'reference'"
         )
     # ---- periods
-    if noise_sigma > 0 and target_se is not None:
-        p = max(1, math.ceil((noise_sigma / (a * target_se)) ** 2 / m))
+    if r.noise_sigma > 0 and r.target_se is not None:
+        p = max(1, math.ceil((r.noise_sigma / (a * r.target_se)) ** 2 / m))
         reasons["periods"] = (
-            f"sigma / (a sqrt(M P)) <= {target_se:g} needs P = {p} averaged periods, "
+            f"sigma / (a sqrt(M P)) <= {r.target_se:g} needs P = {p} averaged periods, "
             f"plus {settle_periods} settling"
         )
     else:
@@ -276,7 +271,7 @@ def design(
         reasons["periods"] = (
             f"no noise target: {p} averaged periods, plus {settle_periods} settling"
         )
-    se = noise_sigma / (a * math.sqrt(m * p)) if noise_sigma > 0 else 0.0
+    se = r.noise_sigma / (a * math.sqrt(m * p)) if r.noise_sigma > 0 else 0.0
     return Design(
         order=order,
         bits_per_period=m,

@@ -118,6 +118,11 @@ class _Rig:
         """Simulation steps of one probe period."""
         return self.probe.length * self.probe.steps_per_bit(self.scn.dt_s)
 
+    @property
+    def chunk_periods(self) -> int:
+        """Periods post-processed together: about :data:`CHUNK_STEPS` steps, at least one."""
+        return max(1, CHUNK_STEPS // self.period_steps)
+
     def metadata(self) -> dict[bytes, bytes]:
         """The key-value metadata of the run's files."""
         scn = self.scn
@@ -156,7 +161,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     x_period = rig.probe.samples(scn.dt_s, 1)
     sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
     rng = np.random.default_rng(scn.seed)
-    chunk = max(1, CHUNK_STEPS // n_steps)
+    chunk = rig.chunk_periods
     out = np.empty((chunk * n_steps, n_ch))
     ref = np.empty((chunk * n_steps, n_ch))
     elevator = np.empty(chunk * n_steps)
@@ -349,7 +354,7 @@ def run_scenario(
     drift = (
         _Detrended(probe, scn.detrend_order)
         if scn.drift == "detrend"
-        else _Streaming(probe, len(channels), max(1, CHUNK_STEPS // rig.period_steps) * m)
+        else _Streaming(probe, len(channels), rig.chunk_periods * m)
     )
     settled = SettledMean(channels, m, scn.settle_periods)
     lag_s = np.arange(m) * probe.bit_duration_s
