@@ -175,7 +175,8 @@ def _rate_limit(data: Fig4Data) -> Any:
     floor = 1e-7
     for i, (t0, grp) in enumerate(sweep.groupby("bit_duration_s")):
         color = f"C{i}"
-        label = f"t0 = {t0:g} s ({round(t0 / dt)} step/bit), 2a/t0 = {2 * a / t0:g} deg/s"
+        bound = RateLimit.bound(a, t0)
+        label = f"t0 = {t0:g} s ({round(t0 / dt)} step/bit), 2a/t0 = {bound:g} deg/s"
         ax1.loglog(
             grp["ratio"],
             np.maximum(grp["shape_error_z"], floor),

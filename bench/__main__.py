@@ -162,7 +162,7 @@ PROFILE_GROUPS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("Parquet output (pyarrow, storage)", ("pyarrow", "storage.py")),
     ("correlator (FFT overlap-add)", ("correlator.py", "scipy/fft", "pocketfft")),
     ("reference-twin cache I/O", ("twins.py", "BufferedWriter", "BufferedReader")),
-    ("model load, trim, calibration", ("plant.py", "xml/etree", "ElementTree")),
+    ("model load, trim, calibration", ("plant.py", "aircraft.py", "xml/etree", "ElementTree")),
     ("provenance (git revision)", ("subprocess", "selectors", "'poll'", "storage.py:git")),
 )
 

@@ -185,8 +185,8 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
     return _simulating(job, str(scen_dir))
 
 
-def _check_fig4_outputs(results: Path, args: argparse.Namespace) -> None:
-    _out_folder(results, "--out")
+def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
+    _out_folder(results, option)
     _out_folder(args.figures, "--figures")
     if args.copy_summary is not None:
         _out_folder(args.copy_summary.parent, "--copy-summary")
@@ -226,7 +226,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         return 0
     if args.figures is None:
         args.figures = Path("figures")
-    _check_fig4_outputs(args.results, args)
+    _check_fig4_outputs(args.results, args, "RESULTS")  # summary.csv and .md go there
     return _finish_fig4(args.results, args, time.perf_counter())
 
 

@@ -169,8 +169,8 @@ class _Dask:
                     f"{timeout_s:g} s ({reason})"
                 ) from None
         else:
-            # Port 0: the scheduler's HTTP server (dashboard) takes a free port instead of
-            # warning that 8787 is busy.
+            # Port 0: the scheduler's HTTP server (the dashboard, whose link is printed) takes
+            # a free port instead of warning that 8787 is busy.
             self.cluster = LocalCluster(
                 n_workers=jobs,
                 threads_per_worker=1,
@@ -179,6 +179,7 @@ class _Dask:
                 silence_logs=logging.ERROR,
             )
             self.client = Client(self.cluster)
+            print(f"Dask dashboard: {self.client.dashboard_link}", file=sys.stderr, flush=True)
 
     def close(self) -> None:
         self.client.close()

@@ -13,7 +13,6 @@ import pytest
 from probing.core.prbs import Probe
 from probing.sim.errors import TrimError
 from probing.sim.flight import Flight
-from probing.sim.plant import Plant
 from probing.sim.truth import linear_pulse_response, single_pulse_response
 
 pytestmark = pytest.mark.jsbsim
@@ -28,9 +27,9 @@ def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
 
 # --------------------------------------------------------------- the plant
 @pytest.mark.parametrize("model", ["737", "A320"])
-def test_elevator_deflection_is_exact(model: str) -> None:
+def test_elevator_deflection_is_exact(model: str, new_plant) -> None:
     """trim + NL(probe) reaches the surface exactly, also through the A320's asymmetric map."""
-    plant = Plant(model, 0.01)
+    plant = new_plant(model, 0.01)
     trim = plant.trim(15000, speed_kcas=280)
     lo, hi = plant.elevator_range_deg
     # The stock maps are piecewise linear and (for the A320) asymmetric about zero.
@@ -46,23 +45,23 @@ def test_elevator_deflection_is_exact(model: str) -> None:
     np.testing.assert_allclose(realised, surface, rtol=0, atol=1e-12)
 
 
-def test_a320_map_is_asymmetric() -> None:
-    plant = Plant("A320", 0.01)
+def test_a320_map_is_asymmetric(new_plant) -> None:
+    plant = new_plant("A320", 0.01)
     plant.trim(15000, speed_kcas=280)
     up = plant.elevator_command(np.array([10.0])) - plant.elevator_command(np.array([0.0]))
     down = plant.elevator_command(np.array([0.0])) - plant.elevator_command(np.array([-10.0]))
     assert abs(up[0] - down[0]) > 0.01 * abs(up[0])
 
 
-def test_elevator_outside_range_is_refused() -> None:
-    plant = Plant("737", 0.01)
+def test_elevator_outside_range_is_refused(new_plant) -> None:
+    plant = new_plant("737", 0.01)
     plant.trim(15000, speed_kcas=280)
     with pytest.raises(ValueError, match="outside the model's range"):
         plant.elevator_command(np.array([plant.elevator_range_deg[1] + 1.0]))
 
 
-def test_trim_failure_names_the_condition() -> None:
-    plant = Plant("737", 0.01)
+def test_trim_failure_names_the_condition(new_plant) -> None:
+    plant = new_plant("737", 0.01)
     with pytest.raises(TrimError, match=r"737 at altitude_ft = 15000, speed_kcas = 40"):
         plant.trim(15000, speed_kcas=40)
 
@@ -126,9 +125,9 @@ def test_single_pulse_matches_linearisation() -> None:
     assert rel_l2(pulse["q_rad_s"][:300], q_lin[:300]) < 0.02
 
 
-def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> None:
+def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface(new_plant) -> None:
     """The slope used to scale FGLinearization's DeCmd column, checked on the FCS itself."""
-    plant = Plant("A320", 0.01)
+    plant = new_plant("A320", 0.01)
     trim = plant.trim(15000, speed_kcas=280)
     plant.fdm.suspend_integration()
     try:
@@ -143,11 +142,11 @@ def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface() -> 
     assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)
 
 
-def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection() -> None:
+def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection(new_plant) -> None:
     """The A320 scales nose-up and nose-down commands differently, so its surface map has a
     kink at 0 deg: the calibration grid must hold that point, or deflections near 0 are off
     by a hundredth of a degree."""
-    plant = Plant("A320", 0.01)
+    plant = new_plant("A320", 0.01)
     plant.trim(15000, speed_kcas=280)
     asked = np.array([-0.0004, -0.0001, 0.0, 0.0001, 0.0004, 0.003, -0.003])
     realised = np.empty(asked.size)
