@@ -11,46 +11,12 @@ nor pandas.
 
 from importlib.metadata import PackageNotFoundError, version
 
-from probing.core import (
-    NONLINEARITIES,
-    Backlash,
-    Deadband,
-    HysteresisRelay,
-    NoApparentFormError,
-    Nonlinearity,
-    ParameterError,
-    PeriodEstimates,
-    Probe,
-    RateLimit,
-    Relay,
-    Saturation,
-    StreamingCorrelator,
-    build_nonlinearity,
-    compensate,
-    mls,
-)
+from probing import core
+from probing.core import *  # noqa: F403 (the public API is the core's: probing.core.__all__)
 
 try:
     __version__ = version("probing")  # the one version string: pyproject.toml's
 except PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "unknown"
 
-__all__ = [
-    "NONLINEARITIES",
-    "Backlash",
-    "Deadband",
-    "HysteresisRelay",
-    "NoApparentFormError",
-    "Nonlinearity",
-    "ParameterError",
-    "PeriodEstimates",
-    "Probe",
-    "RateLimit",
-    "Relay",
-    "Saturation",
-    "StreamingCorrelator",
-    "__version__",
-    "build_nonlinearity",
-    "compensate",
-    "mls",
-]
+__all__ = [*core.__all__, "__version__"]

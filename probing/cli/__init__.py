@@ -279,7 +279,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 
 def _modes_dict(modes: Any) -> dict[str, float]:
-    return {k: modes.__getattribute__(k) for k in ("sp_wn", "sp_zeta", "ph_wn", "ph_zeta")}
+    return {k: getattr(modes, k) for k in ("sp_wn", "sp_zeta", "ph_wn", "ph_zeta")}
 
 
 def _design_table(d: Any) -> str:

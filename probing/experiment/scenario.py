@@ -28,7 +28,6 @@ from probing.sim.flight import SPEED_KINDS, TURBULENCE_SEVERITY, Flight
 __all__ = [
     "DRIFT_MODES",
     "MAX_PERIODS",
-    "NAME_RE",
     "SECTIONS",
     "Scenario",
     "ScenarioError",
@@ -37,7 +36,6 @@ __all__ = [
     "load_scenario",
     "parse_scenario",
     "read_toml",
-    "set_dotted",
 ]
 
 DRIFT_MODES = ("reference", "detrend", "none")
@@ -45,7 +43,7 @@ DRIFT_MODES = ("reference", "detrend", "none")
 MAX_PERIODS = 100_000
 #: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
 _MAX_DEG, _MAX_DEG_S = 90.0, 1e6
-NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 #: Section -> its fields (None: a top-level value).
 SECTIONS: dict[str, set[str] | None] = {
     "name": None,
@@ -188,11 +186,11 @@ class Scenario:
         merged = {**(changes or {}), **kwargs}
         data = copy.deepcopy(self.to_dict())
         for key in sorted(merged, key=lambda k: k != "nonlinearity.type"):
-            set_dotted(data, key, merged[key])
+            _set_dotted(data, key, merged[key])
         return parse_scenario(data)
 
 
-def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
     """Set ``data["a"]["b"] = value`` for ``key = "a.b"``.
 
     A new nonlinearity type drops the old parameters; a new speed drops the other speeds.
@@ -309,7 +307,7 @@ def check_name(name: Any, source: str | None = None) -> str:
     ScenarioError
         Field ``name``.
     """
-    if not isinstance(name, str) or not NAME_RE.match(name) or name in (".", ".."):
+    if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
         raise ScenarioError(
             "name",
             f"must be a plain file name (letters, digits, '.', '_', '-'), got {name!r}",

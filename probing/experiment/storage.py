@@ -32,6 +32,8 @@ import pyarrow.parquet as pq
 from probing.sim.channels import unit_of
 
 __all__ = [
+    "CHANNEL_UNIT",
+    "PER_DEG",
     "PROBING_SCHEMA",
     "ROW_GROUP_ROWS",
     "TRUTH_SCHEMA",
