@@ -42,6 +42,7 @@ import pandas as pd
 from matplotlib.colors import LogNorm, TwoSlopeNorm
 
 from analysis.figures import RC, save_figure
+from analysis.seeds import QUANTITIES, has_seeds, seed_statistics
 from probing.core.metrics import predicted_apparent
 from probing.core.nonlinearities import NONLINEARITIES
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
@@ -60,7 +61,7 @@ __all__ = [
 ]
 
 #: Figure layouts, in the order they are tried by :func:`classify` (``other`` last).
-KINDS = ("flight_grid", "noise", "rate_limit", "nonlinearity", "other")
+KINDS = ("flight_grid", "noise", "seeds", "rate_limit", "nonlinearity", "other")
 FAILED_STATUSES = ("failed", "error")
 SHAPE_FLOOR = 1e-9  # shape errors of exactly 0 are drawn here on log axes
 N_DENSE = 200
@@ -223,7 +224,8 @@ def classify(data: SweepData) -> str:
     """Which figure a sweep gets: one of :data:`KINDS`.
 
     ``flight_grid`` when exactly the altitude and one speed vary; ``noise`` when a sensor
-    noise level varies; ``rate_limit`` when every point has a rate limit and its rate (or
+    noise level varies; ``seeds`` when the points repeat over 3 or more seeds
+    (:mod:`analysis.seeds`); ``rate_limit`` when every point has a rate limit and its rate (or
     r / (2a/t0)) varies; ``nonlinearity`` when only numeric parameters of one nonlinearity
     type vary; ``other`` otherwise.
     """
@@ -233,6 +235,8 @@ def classify(data: SweepData) -> str:
         return "flight_grid"
     if any(f.startswith("disturbance.sensor_noise.") for f in varying):
         return "noise"
+    if has_seeds(data):
+        return "seeds"
     nl_type = data.nl_type()
     if nl_type == "rate_limit":
         ratios = data.summary.get("rate_ratio", pd.Series(dtype=float)).to_numpy(dtype=float)
@@ -696,11 +700,36 @@ def _plot_rate_limit(data: SweepData) -> Any:
 
 
 # ------------------------------------------------------------------ 3. noise
-def _plot_noise(data: SweepData) -> Any:
+def _noise_frame(data: SweepData) -> tuple[pd.DataFrame, str]:
+    """One row per point, or per group of seeds: the naive rule, the measured and the
+    predicted standard error of h, and what "measured" means."""
     df = data.summary
+    if not has_seeds(data):
+        frame = df.assign(measured=df["h_stderr"], predicted=df["predicted_h_stderr"])
+        return frame, "measured: period-to-period spread / √P (not the seed-to-seed error)"
+    channel = str(df["channel"].iloc[0])
+    by_index = df.set_index("index")
+    rows = []
+    for s in seed_statistics(data):
+        if s.channel == channel:
+            first = by_index.loc[s.indices[0]]
+            rows.append({**first.to_dict(), "index": s.indices[0], "status": "done",
+                         "measured": s.measured["h_stderr"],
+                         "predicted": s.predicted["h_stderr"]})  # fmt: skip
+    frame = pd.DataFrame(rows) if rows else df.iloc[:0].assign(measured=[], predicted=[])
+    seeds = len({v.get("disturbance.seed") for v in data.values.values()})
+    return frame, (
+        f"measured: standard deviation over the same {seeds} seeds at every point (the "
+        f"noise scales as {SIGMA}/a: one draw, sampling error "
+        f"{100 / math.sqrt(2 * (seeds - 1)):.0f} %)"
+    )
+
+
+def _plot_noise(data: SweepData) -> Any:
+    df, meaning = _noise_frame(data)
     naive = df["h_stderr_naive"].to_numpy(dtype=float)
-    meas = df["h_stderr"].to_numpy(dtype=float)
-    theory = df["h_stderr_theory"].to_numpy(dtype=float)
+    meas = df["measured"].to_numpy(dtype=float)
+    theory = df["predicted"].to_numpy(dtype=float)
     channel = str(df["channel"].iloc[0]) if "channel" in df and len(df) else "?"
     unit = CHANNELS[channel].unit if channel in CHANNELS else "output unit"
     noise_fields = [f for f in data.varying if f.startswith("disturbance.sensor_noise.")]
@@ -735,7 +764,7 @@ def _plot_noise(data: SweepData) -> Any:
                 "--",
                 color=C_THEORY,
                 lw=0.8,
-                label="closed form of eq. (9) (+)",
+                label=f"noise model, {_estimators(data)} (+)",
             )
         r_naive = np.median(meas[usable] / naive[usable])
         r_theory = np.median(meas[th] / theory[th]) if th.any() else math.nan
@@ -743,14 +772,19 @@ def _plot_noise(data: SweepData) -> Any:
             0.98,
             0.03,
             f"median measured / naive = {r_naive:.3g}\n"
-            f"median measured / closed form = {r_theory:.3f}",
+            f"median measured / noise model = {r_theory:.3f}",
             transform=ax1.transAxes,
             ha="right",
             va="bottom",
             fontsize=7,
             bbox={"fc": "white", "ec": "0.8", "lw": 0.5},
         )
-        ax2.axhline(1.0, color=C_THEORY, ls="--", lw=0.8, label="= closed form")
+        ax2.axhline(1.0, color=C_THEORY, ls="--", lw=0.8, label="= noise model")
+        ax2.axhspan(0.75, 1.25, color="0.92", lw=0, label="within 25 %")
+        ratio = meas[th] / theory[th] if th.any() else np.array([1.0])
+        ax2.set_ylim(
+            min(0.5, 0.9 * float(np.nanmin(ratio))), max(1.5, 1.1 * float(np.nanmax(ratio)))
+        )
     skipped = int(len(df) - usable.sum() - failed.sum() - missing.sum())
     notes = []
     if failed.any():
@@ -776,15 +810,75 @@ def _plot_noise(data: SweepData) -> Any:
         ax.set_xlabel(f"{SIGMA} / (a √(M P))  [{units}]")
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax1.set_ylabel(f"standard error of mean h  [{units}]")
-    ax1.set_title("standard error of h (o measured, + closed form)", loc="left")
+    ax1.set_title("standard error of h (o measured, + noise model)", loc="left")
     if ax1.get_legend_handles_labels()[0]:
         ax1.legend(frameon=False, loc="upper left")
-    ax2.set_ylabel("measured / closed-form standard error")
-    ax2.set_title("measured over closed form (> 1: spread not from noise)", loc="left")
+    ax2.set_ylabel("measured / predicted standard error")
+    ax2.set_title("measured over predicted (> 1: spread not from noise)", loc="left")
     if ax2.get_legend_handles_labels()[0]:
         ax2.legend(frameon=False, loc="best")
-    context = _context(data) + "".join(f"; {n}" for n in notes)
+    context = _context(data) + "".join(f"; {n}" for n in [meaning, *notes])
     fig.suptitle(_title(data, context), fontsize=8, x=0.01, ha="left")
+    return fig
+
+
+def _estimators(data: SweepData) -> str:
+    """The estimator(s) of the sweep's points, for labels."""
+    names = {s.estimator for i in data.values if (s := data.scenario(i)) is not None}
+    return ", ".join(sorted(names)) + " estimator" + ("s" if len(names) > 1 else "")
+
+
+# ------------------------------------------------------------------ seeds
+SEED_TITLES = {
+    "h_stderr": "scatter of mean h_est, RMS over taps",
+    "z_stderr": "scatter of mean z, RMS over taps",
+    "gain_stderr": "scatter of the gain",
+}
+
+
+def _plot_seeds(data: SweepData) -> Any:
+    """Measured (dots, sampling error bars) against predicted (bars) scatter, per group of
+    seeds (columns: h, z, gain; rows: the channels)."""
+    stats = seed_statistics(data)
+    channels = list(dict.fromkeys(s.channel for s in stats)) or ["?"]
+    labels = list(dict.fromkeys(s.label for s in stats))
+    fig, axes = plt.subplots(
+        len(channels),
+        len(QUANTITIES),
+        figsize=(2.2 * len(QUANTITIES) + 0.6, 2.3 * len(channels) + 0.9),
+        constrained_layout=True,
+        squeeze=False,
+    )
+    x = np.arange(len(labels))
+    for row, channel in enumerate(channels):
+        unit = CHANNELS[channel].unit if channel in CHANNELS else "?"
+        units = {"h_stderr": f"{unit}/deg", "z_stderr": unit, "gain_stderr": "1"}
+        mine = {s.label: s for s in stats if s.channel == channel}
+        for col, q in enumerate(QUANTITIES):
+            ax = axes[row, col]
+            meas = np.array([mine[lab].measured[q] if lab in mine else np.nan for lab in labels])
+            pred = np.array([mine[lab].predicted[q] if lab in mine else np.nan for lab in labels])
+            err = np.array([mine[lab].sampling_error if lab in mine else np.nan for lab in labels])
+            ax.bar(x, pred, width=0.6, color="0.85", edgecolor="0.4", label="predicted")
+            ax.errorbar(x, meas, yerr=meas * err, fmt="o", color=C_MEAS, ms=4, label="measured")
+            for xi, m_, p_ in zip(x, meas, pred, strict=True):
+                if np.isfinite(m_) and np.isfinite(p_) and p_ > 0:
+                    ax.annotate(f"{m_ / p_:.2f}", (xi, m_), xytext=(0, 5),
+                                textcoords="offset points", ha="center", fontsize=6)  # fmt: skip
+            positive = np.concatenate([v[np.isfinite(v) & (v > 0)] for v in (meas, pred)])
+            if positive.size:
+                ax.set_yscale("log")
+                ax.set_ylim(positive.min() / 3, positive.max() * 4)
+            ax.set_xticks(x, labels, rotation=30, ha="right", fontsize=6)
+            ax.set_title(f"{channel}: {SEED_TITLES[q]}", loc="left", fontsize=7)
+            ax.set_ylabel(units[q])
+    axes[0, 0].legend(frameon=False, loc="lower left", fontsize=6)
+    seeds = stats[0].seeds if stats else 0
+    line = (
+        f"{_context(data)}; {seeds} seeds per group; numbers: measured / predicted; "
+        "error bars: sampling error of a standard deviation over the seeds"
+    )
+    fig.suptitle(_title(data, line), fontsize=8, x=0.01, ha="left")
     return fig
 
 
@@ -940,6 +1034,7 @@ def _plot_other(data: SweepData) -> Any:
 
 
 _DRAW = {
+    "seeds": _plot_seeds,
     "nonlinearity": _plot_nonlinearity,
     "rate_limit": _plot_rate_limit,
     "noise": _plot_noise,

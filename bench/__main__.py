@@ -760,6 +760,20 @@ def render_sweeps(r: dict) -> Rendered:
 
 
 # ------------------------------------------------------------------------ report
+def bench_bias(args: argparse.Namespace) -> dict:
+    """Predicted vs measured slow-mode bias (``bench.noise_bias``)."""
+    from bench.noise_bias import bench_noise_bias
+
+    return bench_noise_bias(quick=args.quick)
+
+
+def render_bias(r: dict) -> Rendered:
+    from bench.noise_bias import render_noise_bias
+
+    rows, lines = render_noise_bias(r)
+    return Rendered([Row(q, v, b, ratio) for q, v, b, ratio in rows], lines)
+
+
 SECTIONS: list[Section] = [
     Section("step_loop", "Step-loop efficiency", bench_step_loop, render_step_loop),
     Section("correlator", "Correlator", bench_correlator, render_correlator),
@@ -768,6 +782,7 @@ SECTIONS: list[Section] = [
     Section("twin_cache", "Reference-twin cache", bench_twin_cache, render_twin_cache),
     Section("sweep_scaling", "Sweep scaling", bench_sweeps, render_sweeps),
     Section("fig4", "make fig4", bench_fig4, render_fig4),
+    Section("bias", "Slow-mode bias", bench_bias, render_bias),
 ]
 
 

@@ -156,11 +156,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     print(sweep_table(read_summary(result.folder), sweep.fields))
     print(result.line())
     if args.plot:
-        from analysis.sweep_plots import plot_sweep
-
-        for path in plot_sweep(result.folder, figures):
-            print(f"wrote {path}")
+        _plot_sweep_folder(result.folder, figures)
     return 1 if result.errors else 0
+
+
+def _plot_sweep_folder(folder: Path, figures: Path) -> None:
+    """Draw a sweep's figure; for a sweep over seeds also print its measured/predicted table."""
+    from analysis.seeds import has_seeds, seed_statistics, seed_table
+    from analysis.sweep_plots import NotASweepError, load_sweep_data, plot_sweep
+
+    try:
+        paths = plot_sweep(folder, figures)
+    except NotASweepError as exc:
+        raise UsageError(str(exc)) from None
+    for path in paths:
+        print(f"wrote {path}")
+    data = load_sweep_data(folder)
+    if has_seeds(data):
+        print("seed-to-seed scatter, measured / predicted (ratio):")
+        print(seed_table(seed_statistics(data)))
 
 
 # ------------------------------------------------------------------ fig4, plot
@@ -213,16 +227,9 @@ def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int
 
 def _cmd_plot(args: argparse.Namespace) -> int:
     if args.target == "sweep":
-        from analysis.sweep_plots import NotASweepError, plot_sweep
-
         figures = args.figures if args.figures is not None else args.results / "figures"
         _out_folder(figures, "--figures")
-        try:
-            paths = plot_sweep(args.results, figures)
-        except NotASweepError as exc:
-            raise UsageError(str(exc)) from None
-        for path in paths:
-            print(f"wrote {path}")
+        _plot_sweep_folder(args.results, figures)
         return 0
     if args.figures is None:
         args.figures = Path("figures")
@@ -248,14 +255,23 @@ def _cmd_design(args: argparse.Namespace) -> int:
         saturation_deg=tuple(args.saturation_deg) if args.saturation_deg else None,
         rate_limit_deg_s=args.rate_limit_deg_s,
         noise_sigma=args.noise_sigma,
-        target_se=args.target_se,
+        turbulence=args.turbulence,
+        channel=args.channel,
+        estimator=args.estimator,
+        target_gain_se=args.target_gain_se,
+        detect_gain_change=args.detect_gain_change,
+        false_alarm=args.false_alarm,
+        detection_probability=args.detection_probability,
+        target_h_se=args.target_h_se,
         amplitude_deg=args.amplitude_deg,
         deadband_margin=args.deadband_margin,
+        settle_periods=args.settle_periods,
+        calibration_seeds=args.calibration_seeds,
     )
 
     def job() -> int:
         try:
-            d, modes, scn = recommend(request)
+            d, modes, _ = recommend(request)
         except DesignInputError as exc:
             raise UsageError(str(exc)) from None
         except DesignError as exc:
@@ -264,7 +280,6 @@ def _cmd_design(args: argparse.Namespace) -> int:
             return _error(f"infeasible: {exc}", 2)
         if args.json:
             payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
-            payload["scenario"] = scn.to_dict()
             print(json.dumps(payload, indent=2))
             return 0
         print(
@@ -283,21 +298,32 @@ def _modes_dict(modes: Any) -> dict[str, float]:
 
 
 def _design_table(d: Any) -> str:
+    from analysis.tables import fmt
+    from probing.sim.channels import unit_of
+
+    unit = unit_of(d.channel)
     rows = [
         ("order", f"{d.order} (M = {d.bits_per_period})", d.reasons["order"]),
         ("bit_duration_s", f"{d.bit_duration_s:g}", d.reasons["bit_duration_s"]),
         ("amplitude_deg", f"{d.amplitude_deg:.4g}", d.reasons["amplitude_deg"]),
-        (
-            "periods",
-            f"{d.periods} ({d.settle_periods} settling)",
-            d.reasons["periods"] + f"; predicted se {d.predicted_se:.3g} rad/deg",
-        ),
+        ("estimator", d.estimator, d.reasons["estimator"]),
+        ("periods", f"{d.periods} ({d.settle_periods} settling)", d.reasons["periods"]),
     ]
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     lines = [f"{'parameter':<{w0}}  {'value':<{w1}}  reason"]
     lines += [f"{a:<{w0}}  {b:<{w1}}  {c}" for a, b, c in rows]
+    lines.append(
+        f"predicted on {d.channel} (seed-to-seed): gain se {fmt(d.predicted_gain_stderr, 3)}, "
+        f"h se {fmt(d.predicted_h_stderr, 3)} {unit}/deg, z se {fmt(d.predicted_z_stderr, 3)} "
+        f"{unit}; bias of h (slow modes) {fmt(d.predicted_h_bias, 3)} {unit}/deg"
+    )
     lines += [f"warning: {w}" for w in d.warnings]
+    lines += [
+        "",
+        "scenario (probing design ... --json gives it as scenario_toml):",
+        d.scenario_toml,
+    ]
     return "\n".join(lines)
 
 
@@ -448,6 +474,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
+    from probing.core.noise import ESTIMATORS
+    from probing.sim.channels import CHANNEL_NAMES
+    from probing.sim.flight import TURBULENCE_SEVERITY
+
     parser.add_argument("--aircraft", required=True, help="JSBSim model, e.g. gtm_t2 or 737")
     parser.add_argument("--altitude-ft", type=float, required=True, help="trim altitude (ft)")
     parser.add_argument("--speed-kcas", type=float, required=True, help="trim speed (kt CAS)")
@@ -472,10 +502,48 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
         "--rate-limit-deg-s", type=float, default=None, metavar="R", help="rate limit (deg/s)"
     )
     parser.add_argument(
-        "--noise-sigma", type=float, default=0.0, help="output noise on theta, rad (1 sigma)"
+        "--channel", choices=CHANNEL_NAMES, default="theta_rad", help="the output to estimate"
     )
     parser.add_argument(
-        "--target-se", type=float, default=None, help="target standard error of h per tap (rad/deg)"
+        "--noise-sigma", type=float, default=0.0, help="sensor noise on the channel (1 sigma)"
+    )
+    parser.add_argument(
+        "--turbulence",
+        choices=list(TURBULENCE_SEVERITY),
+        default="none",
+        help="turbulence level; what the reference twin does not cancel is measured",
+    )
+    parser.add_argument(
+        "--calibration-seeds", type=int, default=8, help="turbulence runs to measure it on"
+    )
+    parser.add_argument(
+        "--estimator",
+        choices=list(ESTIMATORS),
+        default=None,
+        help="the estimator (default: the one with the smallest predicted scatter)",
+    )
+    target = parser.add_mutually_exclusive_group()
+    target.add_argument(
+        "--target-gain-se", type=float, default=None, help="standard error of the gain"
+    )
+    target.add_argument(
+        "--detect-gain-change",
+        type=float,
+        default=None,
+        metavar="CHANGE",
+        help="a gain change to detect (with --false-alarm and --detection-probability)",
+    )
+    target.add_argument(
+        "--target-h-se",
+        type=float,
+        default=None,
+        help="standard error of h, RMS over taps (channel unit per deg)",
+    )
+    parser.add_argument(
+        "--false-alarm", type=float, default=0.01, help="false-alarm probability (two-sided)"
+    )
+    parser.add_argument(
+        "--detection-probability", type=float, default=0.9, help="detection probability"
     )
     parser.add_argument(
         "--amplitude-deg", type=float, default=0.005, help="amplitude without a deadband (deg)"
@@ -483,7 +551,10 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--deadband-margin", type=float, default=3.0, help="a >= margin x deadband half width"
     )
-    parser.add_argument("--json", action="store_true", help="print JSON for scripts")
+    parser.add_argument(
+        "--settle-periods", type=int, default=2, help="periods left out before averaging"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

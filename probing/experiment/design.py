@@ -1,32 +1,44 @@
-"""``probing design``: recommend order n, bit duration t0 and amplitude a for an experiment.
+"""``probing design``: recommend a probing experiment that keeps its promise on precision.
 
-The rules, each printed with the recommendation it produced:
+The rules, each printed with the value it produced:
 
-* **Memory**: T = M t0 must cover the pulse response.  The settling time is 4/(zeta wn) of the
-  short period of the linearised model at the trim (JSBSim ``FGLinearization``, states Vt,
-  alpha, theta, q).  The phugoid is usually much slower; when its settling time exceeds T the
-  recommendation says so (its tail folds into the taps, eq. (8); use the drift reference).
-* **Amplitude**: a clears the deadband, a >= margin * max(|d-|, d+), and stays inside the
-  saturation margins, a <= min(-U-, U+) (both relative to trim).  Without a deadband the
-  default amplitude (0.005 deg, the paper's) is used, capped by the saturation.
-* **Rate limit**: eq. (21), r_l >= 2a/t0, so t0 >= 2a/r_l, rounded up to a multiple of dt.
-* **Periods**: with output noise sigma the standard error of a tap of h is
-  sigma / (a sqrt(M P)) for P averaged periods; P is the smallest meeting the target.
+* **Memory**: T = M t0 covers the short period's settling 4/(zeta wn) from JSBSim's
+  linearisation at the trim.  The phugoid is usually far slower: its tail folds into the taps
+  (eq. 8) and its transient biases the settled estimates, which is predicted and reported
+  (``predicted_h_bias``).
+* **Amplitude**: a clears the deadband (a >= margin x its half width), stays inside the
+  saturation margins (a <= min(-U-, U+)), and trim +- a stays inside the elevator's range.
+* **Bit duration**: eq. (21), r_l >= 2a/t0, so t0 >= 2a/r_l, rounded up to a multiple of dt.
+* **Estimator**: the one with the smallest predicted scatter of the target (the gain: ``ac``,
+  which leaves out the DC direction the probe hardly excites; h: ``cyclic``), unless given.
+* **Periods**: the fewest whose predicted seed-to-seed scatter (the exact noise model of
+  :mod:`probing.experiment.noise`, sensor noise plus the turbulence the reference twin does
+  not cancel) meets the target, after the settling periods.
 
-The request is validated by the scenario schema itself (:class:`DesignRequest`): every value a
-scenario would refuse is refused here, naming the option.  The recommendation is a scenario,
-validated the same way, so a design that no scenario can hold (more periods than the schema
-allows) is infeasible.  Infeasible requests exit with code 2 and the reason.
+The target is a standard error of the gain (``--target-gain-se``), a gain change to detect
+at a false-alarm and a detection probability (``--detect-gain-change``: the gain's standard
+error must be at most change / (z(1 - alpha/2) + z(1 - beta)), against a baseline known
+without noise), or a standard error of h (``--target-h-se``).
+
+The request is validated by the scenario schema itself (:class:`DesignRequest`), and the
+recommendation is a scenario, validated the same way, so a design no scenario can hold (more
+periods than the schema allows) is infeasible: exit code 2 with the reason.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numpy as np
+from scipy.stats import norm
+
+from probing.core.noise import sample_autocovariance
 from probing.core.nonlinearities import RateLimit
-from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
+from probing.experiment.noise import ChannelPrediction, predict, scatter_models
+from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError, parse_scenario
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import make_plant
 
@@ -35,8 +47,12 @@ __all__ = [
     "DesignError",
     "DesignInputError",
     "DesignRequest",
-    "design",
+    "ProbeShape",
+    "detectable_stderr",
+    "fewest_periods",
+    "probe_shape",
     "recommend",
+    "turbulence_residual",
 ]
 
 
@@ -52,24 +68,6 @@ class DesignInputError(ValueError):
         super().__init__(f"{option}: {message}")
 
 
-@dataclass
-class Design:
-    """A recommended probing set-up and the reasons for each value."""
-
-    order: int
-    bits_per_period: int
-    bit_duration_s: float
-    memory_s: float
-    amplitude_deg: float
-    periods: int
-    settle_periods: int
-    predicted_se: float
-    short_period_settling_s: float
-    phugoid_settling_s: float
-    reasons: dict[str, str] = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-
-
 #: Scenario field -> the ``probing design`` option that sets it.
 _OPTIONS = {
     "name": "--aircraft",
@@ -78,16 +76,19 @@ _OPTIONS = {
     "condition.speed_kcas": "--speed-kcas",
     "simulation.dt_s": "--dt-s",
     "probe.amplitude_deg": "--amplitude-deg",
-    "disturbance.sensor_noise.theta_rad": "--noise-sigma",
+    "probe.settle_periods": "--settle-periods",
+    "output.channels": "--channel",
+    "output.estimator": "--estimator",
+    "disturbance.turbulence": "--turbulence",
 }
 
 
 @dataclass(frozen=True)
 class DesignRequest:
-    """What ``probing design`` is asked: the aircraft, the condition and the nonlinearities.
+    """What ``probing design`` is asked: aircraft, condition, nonlinearities, noise, target.
 
-    Attributes are in the units of their names; ``noise_sigma`` is the output noise of
-    theta (rad, 1 sigma), ``target_se`` the wanted standard error of a tap of h (rad/deg).
+    Attributes are in the units of their names; ``noise_sigma`` is the sensor noise of
+    ``channel`` (its unit, 1 sigma); ``target_h_se`` is in the channel's unit per deg.
     """
 
     aircraft: str
@@ -98,12 +99,22 @@ class DesignRequest:
     saturation_deg: tuple[float, float] | None = None
     rate_limit_deg_s: float | None = None
     noise_sigma: float = 0.0
-    target_se: float | None = None
+    turbulence: str = "none"
+    channel: str = "theta_rad"
+    estimator: str | None = None
+    target_gain_se: float | None = None
+    detect_gain_change: float | None = None
+    false_alarm: float = 0.01
+    detection_probability: float = 0.9
+    target_h_se: float | None = None
     amplitude_deg: float = 0.005
     deadband_margin: float = 3.0
+    settle_periods: int = 2
+    calibration_seeds: int = 8
 
     def base(self) -> dict[str, Any]:
         """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
+        noise = {self.channel: self.noise_sigma} if self.noise_sigma else {}
         return {
             "name": "design",
             "aircraft": {"model": self.aircraft},
@@ -113,13 +124,33 @@ class DesignRequest:
                 "order": 9,
                 "bit_duration_s": self.dt_s,
                 "amplitude_deg": self.amplitude_deg,
-                "periods": 3,
-                "settle_periods": 2,
+                "periods": max(self.settle_periods + 1, 2),
+                "settle_periods": self.settle_periods,
             },
             "nonlinearity": {"type": "none"},
-            "output": {"channels": ["theta_rad"], "drift": "reference"},
-            "disturbance": {"sensor_noise": {"theta_rad": self.noise_sigma}},
+            "output": {
+                "channels": [self.channel],
+                "drift": "reference",
+                "estimator": self.estimator or "streaming",
+            },
+            "disturbance": {"turbulence": self.turbulence, "sensor_noise": noise},
         }
+
+    def nonlinearities(self) -> list[tuple[str, dict[str, Any]]]:
+        """The nonlinearities asked about, as (option, scenario changes), in order."""
+        out = []
+        if self.deadband_deg is not None:
+            lo, up = self.deadband_deg
+            change = {"type": "deadband", "lower_deg": lo, "upper_deg": up}
+            out.append(("--deadband-deg", change))
+        if self.saturation_deg is not None:
+            lo, up = self.saturation_deg
+            change = {"type": "saturation", "lower_deg": lo, "upper_deg": up}
+            out.append(("--saturation-deg", change))
+        if self.rate_limit_deg_s is not None:
+            change = {"type": "rate_limit", "rate_deg_s": self.rate_limit_deg_s}
+            out.append(("--rate-limit-deg-s", change))
+        return out
 
     def validate(self) -> Scenario:
         """Check every value as the scenario schema does; the base scenario.
@@ -129,55 +160,166 @@ class DesignRequest:
         DesignInputError
             Naming the option and the rule, for the first invalid value.
         """
+        data = self.base()
         try:
-            scn = parse_scenario(self.base())
+            scn = parse_scenario(data)
         except ScenarioError as exc:
             option = _OPTIONS.get(exc.field, exc.field)
+            if exc.field.startswith("disturbance.sensor_noise"):
+                option = "--noise-sigma"
             raise DesignInputError(option, exc.message) from None
-        nonlinearities = (
-            ("--deadband-deg", "deadband", ("lower_deg", "upper_deg"), self.deadband_deg),
-            ("--saturation-deg", "saturation", ("lower_deg", "upper_deg"), self.saturation_deg),
-            ("--rate-limit-deg-s", "rate_limit", ("rate_deg_s",), self._rate()),
-        )
-        for option, kind, names, values in nonlinearities:
-            if values is None:
-                continue
-            change = {"nonlinearity.type": kind}
-            change.update({f"nonlinearity.{n}": v for n, v in zip(names, values, strict=True)})
+        for option, change in self.nonlinearities():
             try:
-                scn.replace(change)
+                scn.replace({f"nonlinearity.{k}": v for k, v in change.items()})
             except ScenarioError as exc:
                 raise DesignInputError(option, f"{exc.field}: {exc.message}") from None
-        for option, value in (
-            ("--target-se", self.target_se),
+        positive = (
+            ("--target-gain-se", self.target_gain_se),
+            ("--detect-gain-change", self.detect_gain_change),
+            ("--target-h-se", self.target_h_se),
             ("--deadband-margin", self.deadband_margin),
-        ):
+        )
+        for option, value in positive:
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise DesignInputError(option, f"must be a number > 0, got {value:g}")
+        for option, value in (
+            ("--false-alarm", self.false_alarm),
+            ("--detection-probability", self.detection_probability),
+        ):
+            if not 0 < value < 1:
+                raise DesignInputError(option, f"must be a probability in (0, 1), got {value:g}")
+        targets = [t for t in (self.target_gain_se, self.detect_gain_change, self.target_h_se) if t]
+        if len(targets) > 1:
+            raise DesignInputError(
+                "--target-gain-se", "give one target: a gain standard error, a gain change "
+                "to detect, or a standard error of h"
+            )  # fmt: skip
+        if targets and self.noise_sigma == 0 and self.turbulence == "none":
+            raise DesignInputError(
+                "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
+            )
+        if not 1 <= self.calibration_seeds <= 100:
+            raise DesignInputError("--calibration-seeds", "must be from 1 to 100")
         return scn
 
-    def _rate(self) -> tuple[float] | None:
-        return None if self.rate_limit_deg_s is None else (self.rate_limit_deg_s,)
+    @property
+    def target(self) -> tuple[str, float] | None:
+        """("gain", its standard error) or ("h", its standard error) or None."""
+        if self.detect_gain_change is not None:
+            return "gain", detectable_stderr(
+                self.detect_gain_change, self.false_alarm, self.detection_probability
+            )
+        if self.target_gain_se is not None:
+            return "gain", self.target_gain_se
+        if self.target_h_se is not None:
+            return "h", self.target_h_se
+        return None
 
 
-def design(
+@dataclass
+class ProbeShape:
+    """Order, bit duration and amplitude, with the reasons and warnings of the rules."""
+
+    order: int
+    bit_duration_s: float
+    amplitude_deg: float
+    reasons: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def bits_per_period(self) -> int:
+        """M = 2**order - 1."""
+        return 2**self.order - 1
+
+    @property
+    def memory_s(self) -> float:
+        """T = M t0, s."""
+        return self.bits_per_period * self.bit_duration_s
+
+
+@dataclass
+class Design:
+    """A recommended probing set-up, its predicted quality and the reasons for each value."""
+
+    order: int
+    bits_per_period: int
+    bit_duration_s: float
+    memory_s: float
+    amplitude_deg: float
+    periods: int
+    settle_periods: int
+    estimator: str
+    channel: str
+    predicted_gain_stderr: float
+    predicted_h_stderr: float
+    predicted_z_stderr: float
+    predicted_h_bias: float
+    short_period_settling_s: float
+    phugoid_settling_s: float
+    scenario_toml: str
+    reasons: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    estimators: dict[str, float] = field(default_factory=dict)
+
+
+def detectable_stderr(change: float, false_alarm: float, detection_probability: float) -> float:
+    """The gain standard error at which a gain change ``change`` is detected with
+    ``detection_probability`` by a two-sided test of false-alarm probability ``false_alarm``.
+
+    Examples
+    --------
+    >>> round(detectable_stderr(0.05, 0.01, 0.9), 5)  # 0.05 / (2.576 + 1.282)
+    0.01296
+    """
+    return change / (norm.ppf(1 - false_alarm / 2) + norm.ppf(detection_probability))
+
+
+def fewest_periods(scatter: Callable[[int], float], target: float, max_periods: int) -> int:
+    """The fewest settled periods P in 1..``max_periods`` with ``scatter(P) <= target``.
+
+    ``scatter`` must fall with P (the mean of more periods).  Raises DesignError when even
+    ``max_periods`` do not meet the target.
+
+    Examples
+    --------
+    >>> fewest_periods(lambda p: 1 / p**0.5, 0.1, 1000)
+    100
+    """
+    if scatter(max_periods) > target:
+        raise DesignError(
+            f"{max_periods} settled periods give {scatter(max_periods):.3g}, more than the "
+            f"target {target:.3g}"
+        )
+    lo, hi = 1, max_periods  # scatter(hi) <= target
+    if scatter(lo) <= target:
+        return lo
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if scatter(mid) <= target:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def probe_shape(
     request: DesignRequest,
     *,
     short_period_settling_s: float,
     phugoid_settling_s: float,
+    surface_room_deg: tuple[float, float] | None = None,
     max_order: int = 16,
-    settle_periods: int = 2,
-) -> Design:
-    """The recommendation from the settling times and the request's bounds (pure function).
+) -> ProbeShape:
+    """Order, bit duration and amplitude by the rules of the module docstring (pure).
 
-    ``request`` holds values as :meth:`DesignRequest.validate` accepts them; the rules here
-    are the design's own (a saturation must contain the trim, a deadband must be cleared
-    inside it, ...).
+    ``surface_room_deg`` is how far the elevator can move below and above its trim (deg);
+    ``request`` holds values :meth:`DesignRequest.validate` accepts.
 
     Raises
     ------
     DesignError
-        When no (n, t0, a, P) meets every rule; the message names the conflict.
+        When no amplitude, bit duration or order meets every rule; the message names the
+        conflict.
     """
     r = request
     reasons: dict[str, str] = {}
@@ -192,37 +334,38 @@ def design(
                 "the probe cannot get through both ways"
             )
         sat_room = min(-lo, up)
+    room = sat_room if surface_room_deg is None else min(sat_room, *surface_room_deg)
+    limit = "saturation margin" if room == sat_room else "elevator's range about trim"
     if r.deadband_deg is not None:
         lo, up = r.deadband_deg
         half = max(-lo, up)
         need = r.deadband_margin * half
-        if half >= sat_room:
+        if half >= room:
             raise DesignError(
-                f"deadband (half width {half:g} deg) is wider than the saturation margin "
-                f"({sat_room:g} deg): no amplitude clears one and stays inside the other"
+                f"deadband (half width {half:g} deg) is wider than the {limit} "
+                f"({room:g} deg): no amplitude clears one and stays inside the other"
             )
-        if need > sat_room:
+        if need > room:
             raise DesignError(
                 f"amplitude {need:g} deg (= {r.deadband_margin:g} x deadband {half:g} deg) "
-                f"exceeds the saturation margin {sat_room:g} deg; lower --deadband-margin "
+                f"exceeds the {limit} {room:g} deg; lower --deadband-margin "
                 "or widen the saturation"
             )
-        a = min(max(need, r.amplitude_deg), sat_room)
+        a = min(max(need, r.amplitude_deg), room)
         reasons["amplitude_deg"] = (
             f"clears the deadband: a >= {r.deadband_margin:g} x {half:g} deg"
-            + (f", inside saturation margin {sat_room:g} deg" if r.saturation_deg else "")
+            + (f", inside the {limit} {room:g} deg" if math.isfinite(room) else "")
             + f"; apparent a~ = {a - half:.3g} deg for a symmetric band"
         )
     else:
-        a = min(r.amplitude_deg, sat_room)
+        a = min(r.amplitude_deg, room)
         reasons["amplitude_deg"] = f"default {r.amplitude_deg:g} deg" + (
-            f", capped by saturation margin {sat_room:g} deg" if a < r.amplitude_deg else ""
+            f", capped by the {limit} {room:g} deg" if a < r.amplitude_deg else ""
         )
     # ---- bit duration
     steps = 1
     if r.rate_limit_deg_s is not None:
-        rate = RateLimit(r.rate_limit_deg_s)
-        t_min = rate.shortest_bit_s(a)
+        t_min = RateLimit(r.rate_limit_deg_s).shortest_bit_s(a)
         steps = max(1, math.ceil(t_min / r.dt_s - 1e-9))
         reasons["bit_duration_s"] = (
             f"eq. (21) r_l >= 2a/t0: t0 >= 2a/r_l = {t_min:.4g} s, rounded up to "
@@ -248,53 +391,69 @@ def design(
                 f"covering {short_period_settling_s:.3g} s with t0 = {t0:g} s needs order > "
                 f"{max_order}"
             )
-    m = 2**order - 1
-    memory = m * t0
+    shape = ProbeShape(order, t0, a, reasons, warnings)
     reasons["order"] = (
-        f"T = M t0 = {memory:.3g} s >= short-period settling 4/(zeta wn) = "
+        f"T = M t0 = {shape.memory_s:.3g} s >= short-period settling 4/(zeta wn) = "
         f"{short_period_settling_s:.3g} s"
     )
-    if phugoid_settling_s > memory:
+    if phugoid_settling_s > shape.memory_s:
         warnings.append(
             f"the phugoid (settling {phugoid_settling_s:.3g} s) is not covered by T = "
-            f"{memory:.3g} s: its tail folds into the taps (eq. 8); use drift = 'reference'"
+            f"{shape.memory_s:.3g} s: its tail folds into the taps (eq. 8) and its transient "
+            "biases the settled estimates (predicted_h_bias)"
         )
-    # ---- periods
-    if r.noise_sigma > 0 and r.target_se is not None:
-        p = max(1, math.ceil((r.noise_sigma / (a * r.target_se)) ** 2 / m))
-        reasons["periods"] = (
-            f"sigma / (a sqrt(M P)) <= {r.target_se:g} needs P = {p} averaged periods, "
-            f"plus {settle_periods} settling"
-        )
-    else:
-        p = 4
-        reasons["periods"] = (
-            f"no noise target: {p} averaged periods, plus {settle_periods} settling"
-        )
-    se = r.noise_sigma / (a * math.sqrt(m * p)) if r.noise_sigma > 0 else 0.0
-    return Design(
-        order=order,
-        bits_per_period=m,
-        bit_duration_s=t0,
-        memory_s=memory,
-        amplitude_deg=a,
-        periods=p + settle_periods,
-        settle_periods=settle_periods,
-        predicted_se=se,
-        short_period_settling_s=short_period_settling_s,
-        phugoid_settling_s=phugoid_settling_s,
-        reasons=reasons,
-        warnings=warnings,
+    return shape
+
+
+def turbulence_residual(scn: Scenario, seeds: int, periods: int = 4) -> dict[str, np.ndarray]:
+    """The turbulence the reference twin does not cancel, as an autocovariance per channel.
+
+    The twin flies the same gusts, so measured - reference holds only the gusts' nonlinear
+    interaction with the probe.  It is measured: noise-free runs of the scenario (settling
+    plus ``periods`` periods) at ``seeds`` seeds in turbulence, minus the same run in calm
+    air, bit samples of the settled part, pooled autocovariance.
+    """
+    import tempfile
+
+    import pandas as pd
+
+    from probing.experiment.run import run_scenario
+
+    short = scn.replace(
+        {
+            "probe.periods": scn.settle_periods + periods,
+            "disturbance.sensor_noise": {},
+            "output.drift": "reference",
+        }
     )
+    spb, first = short.steps_per_bit, short.settle_periods * short.bits_per_period
+
+    def deviation(s: Scenario, folder: str) -> pd.DataFrame:
+        result = run_scenario(s, folder, progress=False, twin_cache=False)
+        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
+        return pd.DataFrame({c: ts[c] - ts[f"{c}_reference"] for c in s.channels})
+
+    with tempfile.TemporaryDirectory(prefix="probing-turbulence-") as tmp:
+        calm = deviation(short.replace({"disturbance.turbulence": "none", "name": "calm"}), tmp)
+        runs = [
+            deviation(short.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}), tmp)
+            for k in range(seeds)
+        ]
+    out = {}
+    for channel in scn.channels:
+        residual = np.array([(run[channel] - calm[channel]).to_numpy() for run in runs])
+        bits = residual[:, spb - 1 :: spb][:, first:]
+        out[channel] = sample_autocovariance(bits - bits.mean(), 4 * short.bits_per_period)
+    return out
 
 
 def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenario]:
-    """Validate the request, trim and linearise the aircraft, apply the rules.
+    """Validate the request, trim and linearise the aircraft, apply the rules, predict.
 
     Returns
     -------
     Design
-        The recommendation and its reasons.
+        The recommendation, its predictions and reasons.
     LongitudinalModes
         The modes at the trim.
     Scenario
@@ -307,28 +466,239 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     probing.sim.errors.TrimError
         When the aircraft cannot be trimmed at the condition.
     DesignError
-        When no design meets every rule, or the design is no valid scenario.
+        When no design meets every rule or the target, or the design is no valid scenario.
     """
     base = request.validate()
-    modes = longitudinal_modes(make_plant(base.flight))
-    d = design(
+    plant = make_plant(base.flight)
+    lo, hi = plant.elevator_range_deg
+    trim = plant.trim_result.elevator_deg
+    modes = longitudinal_modes(plant)
+    shape = probe_shape(
         request,
         short_period_settling_s=modes.short_period_settling_s,
         phugoid_settling_s=modes.phugoid_settling_s,
+        surface_room_deg=(trim - lo, hi - trim),
     )
+    scn = _scenario(request, base, shape, request.estimator or "streaming", 1)
+    acov = turbulence_residual(scn, request.calibration_seeds) if scn.turbulence != "none" else {}
+    target = request.target
+    estimator, scores = _estimator(request, scn, acov, target)
+    scn = _scenario(request, base, shape, estimator, 4)
+    reference = _noise_free_reference(scn)
+    pred = predict(scn, extra_acov=acov, reference=reference)[request.channel]
+    if target is not None:
+        scn, reference, pred = _meet(request, shape, scn, reference, acov, target)
+    periods = scn.settled_periods
+    reasons = dict(shape.reasons)
+    reasons["estimator"] = _estimator_reason(request, estimator, scores, target)
+    reasons["periods"] = _periods_reason(request, periods, pred, target, acov)
+    design = Design(
+        order=shape.order,
+        bits_per_period=shape.bits_per_period,
+        bit_duration_s=shape.bit_duration_s,
+        memory_s=shape.memory_s,
+        amplitude_deg=shape.amplitude_deg,
+        periods=scn.periods,
+        settle_periods=scn.settle_periods,
+        estimator=estimator,
+        channel=request.channel,
+        predicted_gain_stderr=pred.gain_stderr,
+        predicted_h_stderr=pred.h_stderr,
+        predicted_z_stderr=pred.z_stderr,
+        predicted_h_bias=pred.h_bias,
+        short_period_settling_s=modes.short_period_settling_s,
+        phugoid_settling_s=modes.phugoid_settling_s,
+        scenario_toml=_toml(scn, request),
+        reasons=reasons,
+        warnings=list(shape.warnings) + _notes(request, pred),
+        estimators=scores,
+    )
+    return design, modes, scn
+
+
+# ------------------------------------------------------------------ helpers of recommend
+def _scenario(
+    request: DesignRequest, base: Scenario, shape: ProbeShape, estimator: str, periods: int
+) -> Scenario:
+    """The scenario of a probe shape (the first nonlinearity asked about, if any)."""
+    changes: dict[str, Any] = {
+        "probe.order": shape.order,
+        "probe.bit_duration_s": shape.bit_duration_s,
+        "probe.amplitude_deg": shape.amplitude_deg,
+        "probe.periods": request.settle_periods + periods,
+        "output.estimator": estimator,
+    }
+    nonlinearities = request.nonlinearities()
+    if nonlinearities:
+        changes.update({f"nonlinearity.{k}": v for k, v in nonlinearities[0][1].items()})
     try:
-        scn = base.replace(
-            {
-                "probe.order": d.order,
-                "probe.bit_duration_s": d.bit_duration_s,
-                "probe.amplitude_deg": d.amplitude_deg,
-                "probe.periods": d.periods,
-                "probe.settle_periods": d.settle_periods,
-            }
-        )
+        return base.replace(changes)
     except ScenarioError as exc:
-        raise DesignError(
-            f"the design is no valid scenario: {exc.field}: {exc.message} "
-            f"({d.reasons.get(exc.field.removeprefix('probe.'), '')})"
-        ) from None
-    return d, modes, scn
+        raise DesignError(f"the design is no valid scenario: {exc.field}: {exc.message}") from None
+
+
+def _with_periods(scn: Scenario, periods: int) -> Scenario:
+    """``scn`` with ``periods`` settled periods (after its settling periods)."""
+    try:
+        return scn.replace({"probe.periods": scn.settle_periods + periods})
+    except ScenarioError as exc:
+        raise DesignError(f"the design is no valid scenario: {exc.field}: {exc.message}") from None
+
+
+def _score(p: ChannelPrediction, kind: str) -> float:
+    return p.gain_stderr if kind == "gain" else p.h_stderr
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+#: Candidates, the preferred first on a tie (no noise: the smaller bias wins).
+_CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming")}
+
+
+def _estimator(
+    request: DesignRequest, scn: Scenario, acov: dict, target: tuple[str, float] | None
+) -> tuple[str, dict[str, float]]:
+    """The estimator with the smallest predicted scatter of the target, one settled period
+    each (``ac`` does not estimate h itself, so it is no candidate for an h target)."""
+    kind = target[0] if target else "gain"
+    scores = {}
+    for name in _CANDIDATES[kind]:
+        candidate = replace(scn, estimator=name)
+        scores[name] = _score(predict(candidate, extra_acov=acov)[request.channel], kind)
+    if request.estimator is not None:
+        return request.estimator, scores
+    finite = [k for k in _CANDIDATES[kind] if math.isfinite(scores[k])]
+    if not finite:
+        return _CANDIDATES[kind][0], scores
+    return min(finite, key=lambda k: (scores[k], _CANDIDATES[kind].index(k))), scores
+
+
+def _meet(
+    request: DesignRequest,
+    shape: ProbeShape,
+    scn: Scenario,
+    reference: dict[str, np.ndarray],
+    acov: dict,
+    target: tuple[str, float],
+) -> tuple[Scenario, dict[str, np.ndarray], ChannelPrediction]:
+    """The fewest settled periods that meet the target, with the gain's reference flown as
+    long (its slow-mode bias, hence the direction the gain projects on, depends on the
+    length): search with the reference, fly the reference at the length found, search again,
+    until the length no longer moves; then lengthen until the prediction meets the target."""
+    kind, goal = target
+    channel = request.channel
+    limit = MAX_PERIODS - request.settle_periods
+
+    def scatter(p: int, h_ref: np.ndarray) -> float:
+        model = scatter_models(_with_periods(scn, p), acov)[channel]
+        return model.gain_std(h_ref) if kind == "gain" else _rms(model.h_std())
+
+    tried: set[int] = set()
+    while True:
+        try:
+            h_ref = reference[channel]
+            periods = fewest_periods(lambda p, h_ref=h_ref: scatter(p, h_ref), goal, limit)
+        except DesignError as exc:
+            raise DesignError(_too_tight(request, shape, kind, goal, exc)) from None
+        done = periods in tried or periods == scn.settled_periods
+        tried.add(periods)
+        scn = _with_periods(scn, periods)
+        reference = _noise_free_reference(scn)
+        pred = predict(scn, extra_acov=acov, reference=reference)[channel]
+        if done or len(tried) >= 6:
+            break
+    while _score(pred, kind) > goal and scn.settled_periods < limit:
+        grow = (_score(pred, kind) / goal) ** 2
+        periods = min(limit, max(scn.settled_periods + 1, math.ceil(scn.settled_periods * grow)))
+        scn = _with_periods(scn, periods)
+        reference = _noise_free_reference(scn)
+        pred = predict(scn, extra_acov=acov, reference=reference)[channel]
+    return scn, reference, pred
+
+
+def _noise_free_reference(scn: Scenario) -> dict[str, np.ndarray]:
+    """Mean settled h of a noise-free, calm run of ``scn`` without its nonlinearity: what the
+    gain is measured against (the slow modes' bias included, as a baseline flight has it)."""
+    import tempfile
+
+    from probing.experiment.run import run_scenario
+
+    bare = scn.replace(
+        {
+            "name": "design-reference",
+            "nonlinearity.type": "none",
+            "disturbance.sensor_noise": {},
+            "disturbance.turbulence": "none",
+        }
+    )
+    with tempfile.TemporaryDirectory(prefix="probing-design-") as tmp:
+        return run_scenario(bare, tmp, progress=False).h_est
+
+
+def _too_tight(
+    request: DesignRequest, shape: ProbeShape, kind: str, goal: float, exc: DesignError
+) -> str:
+    what = "gain standard error" if kind == "gain" else f"standard error of h on {request.channel}"
+    return (
+        f"the target {what} {goal:.3g} is out of reach: {exc}; the scatter falls as 1/a, so "
+        f"a larger amplitude than {shape.amplitude_deg:g} deg (--amplitude-deg) or less "
+        "noise would be needed"
+    )
+
+
+def _estimator_reason(
+    request: DesignRequest, estimator: str, scores: dict[str, float], target: Any
+) -> str:
+    kind = target[0] if target else "gain"
+    listing = ", ".join(f"{k} {v:.3g}" for k, v in scores.items())
+    how = "given" if request.estimator else "smallest predicted"
+    return f"{how} {'gain' if kind == 'gain' else 'h'} scatter per settled period: {listing}"
+
+
+def _periods_reason(
+    request: DesignRequest, periods: int, pred: ChannelPrediction, target: Any, acov: dict
+) -> str:
+    sources = "sensor noise" + (" + turbulence the twin leaves" if acov else "")
+    if target is None:
+        settle = request.settle_periods
+        return f"no precision target: {periods} settled periods, plus {settle} settling"
+    kind, goal = target
+    got = pred.gain_stderr if kind == "gain" else pred.h_stderr
+    text = "gain" if kind == "gain" else "h"
+    if request.detect_gain_change is not None:
+        text += (
+            f" (a change of {request.detect_gain_change:g} at false alarm "
+            f"{request.false_alarm:g}, detection {request.detection_probability:g})"
+        )
+    return (
+        f"{periods} settled periods bring the {text} scatter from {sources} to {got:.4g} "
+        f"<= {goal:.4g}, plus {request.settle_periods} settling"
+    )
+
+
+def _notes(request: DesignRequest, pred: ChannelPrediction) -> list[str]:
+    notes = []
+    if len(request.nonlinearities()) > 1:
+        notes.append(
+            f"a scenario holds one nonlinearity: the scenario carries the "
+            f"{request.nonlinearities()[0][1]['type']}; the bounds of all were applied"
+        )
+    if math.isfinite(pred.h_bias) and pred.h_bias > pred.h_stderr:
+        notes.append(
+            f"the slow modes' transient biases h by {pred.h_bias:.3g} (RMS), more than its "
+            f"scatter {pred.h_stderr:.3g}: more settling periods (--settle-periods) reduce it"
+        )
+    return notes
+
+
+def _toml(scn: Scenario, request: DesignRequest) -> str:
+    """The scenario as a file ``probing run`` accepts as is."""
+    import tomli_w
+
+    header = (
+        f"# probing design --aircraft {request.aircraft} --altitude-ft {request.altitude_ft:g} "
+        f"--speed-kcas {request.speed_kcas:g} ...\n"
+    )
+    return header + tomli_w.dumps(scn.to_dict())

@@ -28,6 +28,7 @@ from typing import TextIO
 import numpy as np
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.noise import cyclic_estimates, detrend
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
 from probing.experiment.progress import progress_bar
@@ -229,19 +230,13 @@ class _Streaming:
 
 
 class _Detrended:
-    """Drift mode ``detrend``: each period's z windows reach back one period, so the bit
-    samples of periods p-1 and p are detrended together (least-squares polynomial of
-    ``order``) and correlated afresh; period 0 has no estimate."""
+    """Drift mode ``detrend`` with the streaming estimator: each period's z windows reach
+    back one period, so the bit samples of periods p-1 and p are detrended together
+    (least-squares polynomial of ``order``) and correlated afresh; period 0 has no estimate."""
 
     def __init__(self, probe: Probe, order: int) -> None:
         self.probe, self.order = probe, order
         self.prev: np.ndarray | None = None
-
-    def _detrend(self, y: np.ndarray) -> np.ndarray:
-        t = np.linspace(-1.0, 1.0, y.shape[0])
-        basis = np.vander(t, self.order + 1)
-        coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
-        return y - basis @ coef
 
     def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
         m = self.probe.length
@@ -250,7 +245,7 @@ class _Detrended:
         for i in range(y_bits.shape[0] // m):
             bits = y_bits[i * m : (i + 1) * m]
             if self.prev is not None:
-                window = self._detrend(np.vstack((self.prev, bits)))
+                window = detrend(np.vstack((self.prev, bits)), self.order)
                 per_channel = []
                 for j in range(n_ch):
                     fresh = _correlator(self.probe, 2 * m)
@@ -264,6 +259,35 @@ class _Detrended:
             np.array([[e[x] for e in pc] for pc in rows]).reshape(-1, n_ch, m) for x in range(3)
         )
         return _Estimates(np.array(periods, dtype=np.int64), z, zeta, h)
+
+
+class _Cyclic:
+    """Estimators ``cyclic`` and ``ac``: each period from its own samples alone (detrended
+    first with drift mode ``detrend``), so every period, period 0 included, has an estimate."""
+
+    def __init__(self, probe: Probe, dc: bool, detrend_order: int | None) -> None:
+        self.probe, self.dc, self.detrend_order = probe, dc, detrend_order
+
+    def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
+        m = self.probe.length
+        count = y_bits.shape[0] // m
+        y = y_bits.reshape(count, m, -1)  # (P, M, C)
+        if self.detrend_order is not None:
+            y = np.stack([detrend(period, self.detrend_order) for period in y])
+        z, zeta, h = cyclic_estimates(
+            np.moveaxis(y, 1, 2), self.probe.reference(), self.probe.amplitude_deg, self.dc
+        )  # (P, C, M)
+        return _Estimates(np.arange(first, first + count, dtype=np.int64), z, zeta, h)
+
+
+def _drift_correction(scn: Scenario, probe: Probe, push_bits: int) -> object:
+    """The object that turns a chunk's deviations into estimates, by estimator and drift."""
+    detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    if scn.estimator != "streaming":
+        return _Cyclic(probe, scn.estimator == "cyclic", detrend_order)
+    if detrend_order is not None:
+        return _Detrended(probe, detrend_order)
+    return _Streaming(probe, len(scn.channels), push_bits)
 
 
 # ------------------------------------------------------------------ settled averaging
@@ -351,11 +375,7 @@ def run_scenario(
     rig = _Rig.build(scn, twin_cache)
     probe, channels = rig.probe, list(scn.channels)
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
-    drift = (
-        _Detrended(probe, scn.detrend_order)
-        if scn.drift == "detrend"
-        else _Streaming(probe, len(channels), rig.chunk_periods * m)
-    )
+    drift = _drift_correction(scn, probe, rig.chunk_periods * m)
     settled = SettledMean(channels, m, scn.settle_periods)
     lag_s = np.arange(m) * probe.bit_duration_s
     folder = Path(folder) if folder is not None else Path(out) / scn.name

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER
 from probing.sim.aircraft import find_aircraft
@@ -52,7 +53,7 @@ SECTIONS: dict[str, set[str] | None] = {
     "simulation": {"dt_s"},
     "probe": {"order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"},
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
-    "output": {"channels", "drift", "detrend_order"},
+    "output": {"channels", "drift", "detrend_order", "estimator"},
     "disturbance": {"turbulence", "sensor_noise", "seed"},
 }
 _REQUIRED = {
@@ -96,6 +97,7 @@ class Scenario:
     channels: tuple[str, ...] = ("theta_rad",)
     drift: str = "reference"
     detrend_order: int = 1
+    estimator: str = "streaming"
     turbulence: str = "none"
     sensor_noise: dict[str, float] = field(default_factory=dict)
     seed: int = 0
@@ -116,6 +118,17 @@ class Scenario:
     def total_steps(self) -> int:
         """Simulation steps of the whole run (one aircraft)."""
         return self.periods * self.bits_per_period * self.steps_per_bit
+
+    @property
+    def first_estimated_period(self) -> int:
+        """The first period with an estimate: the streaming estimator (and detrending, which
+        reads the period before) needs the previous period; the cyclic ones do not."""
+        return 1 if self.estimator == "streaming" else 0
+
+    @property
+    def settled_periods(self) -> int:
+        """Periods averaged into the settled estimate (when none is lost to a NaN)."""
+        return self.periods - max(self.settle_periods, self.first_estimated_period)
 
     @property
     def flight(self) -> Flight:
@@ -152,6 +165,8 @@ class Scenario:
         out: dict[str, Any] = {"channels": list(self.channels), "drift": self.drift}
         if self.drift == "detrend" or self.detrend_order != 1:
             out["detrend_order"] = self.detrend_order
+        if self.estimator != "streaming":  # the default is left out: digests stay as they were
+            out["estimator"] = self.estimator
         return {
             "name": self.name,
             "aircraft": {"model": self.model},
@@ -368,6 +383,11 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     detrend_order = (
         _integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
     )
+    estimator = (
+        _choice(out, "output", "estimator", tuple(ESTIMATORS))
+        if "estimator" in out
+        else "streaming"
+    )
 
     dist = data.get("disturbance", {})
     turbulence = (
@@ -405,6 +425,7 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         channels=tuple(channels),
         drift=drift,
         detrend_order=detrend_order,
+        estimator=estimator,
         turbulence=turbulence,
         sensor_noise=noise,
         seed=seed,

@@ -46,7 +46,7 @@ CHANNELS: dict[str, Channel] = {
         Channel("alpha_rad", "aero/alpha-rad", "rad", "angle of attack", "Alpha"),
         Channel("nz_g", "accelerations/Nz", "g", "normal load factor"),
         Channel("h_ft", "position/h-sl-ft", "ft", "altitude above sea level"),
-        Channel("vt_fps", "velocities/vt-fps", "ft/s", "true airspeed"),
+        Channel("vt_fps", "velocities/vt-fps", "ft/s", "true airspeed", "Vt"),
         Channel("gamma_rad", "flight-path/gamma-rad", "rad", "flight-path angle"),
         Channel("u_fps", "velocities/u-fps", "ft/s", "body x velocity"),
         Channel("w_fps", "velocities/w-fps", "ft/s", "body z velocity"),

@@ -1,4 +1,5 @@
-"""Longitudinal modes of a trimmed aircraft from JSBSim's linearisation.
+"""JSBSim's linearisation of a trimmed aircraft: longitudinal modes, and the linear response
+to an elevator history (what the probing output should be without noise, and its transient).
 
 ``FGLinearization`` suspends JSBSim's time step while it linearises: the servos then sit at
 their command, so the linear model is the bare airframe (servo dynamics excluded).
@@ -7,13 +8,23 @@ their command, so the linear model is the bare airframe (servo dynamics excluded
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import cont2discrete, fftconvolve
 
+from probing.sim.channels import CHANNELS
 from probing.sim.plant import Plant
 
-__all__ = ["LONG_STATES", "LongitudinalModes", "longitudinal_matrix", "longitudinal_modes"]
+__all__ = [
+    "LONG_STATES",
+    "LinearResponse",
+    "LongitudinalModes",
+    "linear_response",
+    "longitudinal_matrix",
+    "longitudinal_modes",
+]
 
 #: FGLinearization's names of the longitudinal states.
 LONG_STATES = ("Vt", "Alpha", "Theta", "Q")
@@ -92,3 +103,107 @@ def longitudinal_matrix(plant: Plant) -> np.ndarray:
 def longitudinal_modes(plant: Plant) -> LongitudinalModes:
     """Short period and phugoid of a trimmed plant (eigenvalues of :func:`longitudinal_matrix`)."""
     return LongitudinalModes.from_eigenvalues(np.linalg.eigvals(longitudinal_matrix(plant)))
+
+
+@dataclass(frozen=True)
+class LinearResponse:
+    """The linearised aircraft at its trim, stepped as JSBSim steps it, per deg of elevator.
+
+    Discretised with zero-order hold at the step ``dt_s``.  JSBSim moves the surface in the
+    step its command is written but the airframe responds one step later, so the output read
+    after step k is ``C x(k) + D u(k-1)`` with ``x(k+1) = A x(k) + B u(k)`` (the one-step delay
+    of ``docs/method.md``).  Only channels with a linearised output
+    (:data:`probing.sim.channels.CHANNELS`) are covered.
+
+    Attributes
+    ----------
+    a : numpy.ndarray
+        (n, n) state transition over one step.
+    b : numpy.ndarray
+        (n,) input column, per deg of elevator surface.
+    c, d : numpy.ndarray
+        (C, n) and (C,) outputs of the channels.
+    channels : tuple of str
+        The channels, in the order of the rows of ``c``.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    channels: tuple[str, ...]
+    actuator: np.ndarray  # realised surface per deg asked, after each step of a one-step pulse
+
+    def surface(self, u: np.ndarray, periodic: bool = False) -> np.ndarray:
+        """The realised surface (deg) for the asked deviation ``u`` (deg), through the
+        actuator: from rest, or cyclically for one period of a periodic ``u``."""
+        u = np.asarray(u, dtype=float)
+        if not periodic:
+            return fftconvolve(u, self.actuator)[: u.size]
+        fir = np.zeros(u.size)
+        np.add.at(fir, np.arange(self.actuator.size) % u.size, self.actuator)
+        return np.fft.irfft(np.fft.rfft(u) * np.fft.rfft(fir), u.size)
+
+    def step_response(self, n: int) -> np.ndarray:
+        """Output after each of ``n`` steps for a one-step unit pulse of the *realised*
+        surface at step 0, (n, C)."""
+        out = np.zeros((n, len(self.channels)))
+        x = self.b.copy()
+        if n > 1:
+            out[1] = self.c @ x + self.d
+        for k in range(2, n):
+            x = self.a @ x
+            out[k] = self.c @ x
+        return out
+
+    def respond(self, u: np.ndarray) -> np.ndarray:
+        """Output after each step for the asked elevator deviation ``u`` (deg) from rest, (N, C)."""
+        u = self.surface(u)
+        pulse = self.step_response(u.size)
+        return np.stack(
+            [fftconvolve(u, pulse[:, j])[: u.size] for j in range(pulse.shape[1])], axis=1
+        )
+
+    def periodic(self, u: np.ndarray) -> np.ndarray:
+        """Periodic steady-state output for ``u`` (deg, one period of steps) repeated forever,
+        over one period, (N, C)."""
+        u = self.surface(u, periodic=True)
+        n = u.size
+        drive = np.zeros_like(self.b)  # x(N) - A^N x(0) over one period
+        a_n = np.eye(self.a.shape[0])
+        for k in range(n):
+            drive = self.a @ drive + self.b * u[k]
+            a_n = self.a @ a_n
+        x = np.linalg.solve(np.eye(self.a.shape[0]) - a_n, drive)  # x(0) = x(N)
+        out = np.empty((n, len(self.channels)))
+        for k in range(n):
+            out[k] = self.c @ x + self.d * u[k - 1]  # u[-1]: the period before
+            x = self.a @ x + self.b * u[k]
+        return out
+
+
+def linear_response(plant: Plant, channels: Sequence[str]) -> LinearResponse:
+    """:class:`LinearResponse` of a trimmed plant: the longitudinal states (Vt, alpha, theta,
+    q) and the channels among them (``theta_rad``, ``q_rad_s``, ``alpha_rad``, ``vt_fps``).
+
+    The realised surface follows the asked one through the model's actuator, measured on the
+    plant itself (:meth:`~probing.sim.plant.Plant.actuator_pulse_response`); the plant is
+    stepped for that, so use it for nothing else afterwards.  The altitude, heading and
+    position states are left out: they integrate the others (the
+    full model has an eigenvalue at 1, so no periodic steady state) and feed back on pitch
+    only through the density gradient.  The elevator input ``DeCmd`` is converted to per deg
+    of surface with the model's own command-to-surface slope at the trim.
+    """
+    lin = plant.linearise()
+    gain = plant.elevator_gain_deg_per_norm()
+    iu = lin["u_names"].index("DeCmd")
+    covered = tuple(c for c in channels if CHANNELS[c].linear_output in LONG_STATES)
+    x = [list(lin["x_names"]).index(n) for n in LONG_STATES]
+    rows = [list(lin["y_names"]).index(CHANNELS[c].linear_output) for c in covered]
+    a_mat = np.asarray(lin["A"])[np.ix_(x, x)]
+    b_mat = np.asarray(lin["B"])[x][:, [iu]] / gain
+    c = np.asarray(lin["C"])[np.ix_(rows, x)]
+    d = np.asarray(lin["D"])[rows, iu] / gain
+    ad, bd, *_ = cont2discrete((a_mat, b_mat, c, d[:, None]), plant.dt_s, "zoh")
+    actuator = plant.actuator_pulse_response()  # last: it steps the plant
+    return LinearResponse(np.asarray(ad), np.asarray(bd)[:, 0], c, d, covered, actuator)

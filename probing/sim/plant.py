@@ -377,6 +377,22 @@ class Plant:
         self.fdm.set_dt(self.dt_s)
         return result
 
+    def actuator_pulse_response(self, n_steps: int = 200, height_deg: float = 1e-3) -> np.ndarray:
+        """The realised surface after each step for a one-step pulse of the asked deflection,
+        per deg asked (1 at step 0 and 0 after for a surface without actuator dynamics; the
+        GTM's 5 Hz servo spreads it over about 0.2 s).
+
+        The pulse is small (``height_deg``) so a rate limit does not act.  The plant is
+        stepped: use it for nothing else afterwards.
+        """
+        assert self.trim_result is not None, "trim first"
+        surface = np.full(n_steps, self.trim_result.elevator_deg)
+        surface[0] += height_deg
+        out = np.empty((n_steps, 0))
+        realised = np.empty(n_steps)
+        self.step(self.elevator_command(surface), [], out, realised)
+        return (realised - self.trim_result.elevator_deg) / height_deg
+
     def elevator_gain_deg_per_norm(self) -> float:
         """Local slope d(surface deg)/d(command norm) at the trimmed command."""
         assert self._map_deg is not None, "trim first"

@@ -26,7 +26,7 @@ from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import write_json_atomic
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
-from probing.sweep.summary import settled_stats, summarise, write_summary
+from probing.sweep.summary import predictions, settled_stats, summarise, write_summary
 
 __all__ = [
     "EXECUTORS",
@@ -93,6 +93,7 @@ def execute_task(task: _Task) -> dict[str, Any]:
             "scenario": task.scenario.to_dict(),
             # Statistics of the first channel, computed here, in parallel, for the summary.
             "settled": settled_stats(tmp, task.scenario),
+            "predicted": predictions(task.scenario) if task.kind == "point" else {},
         }
         write_json_atomic(tmp / POINT_FILE, info)
         try:

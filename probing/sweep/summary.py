@@ -14,9 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from probing.core.metrics import estimator_noise_std, gain_and_shape, predicted_apparent
+from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import RateLimit
-from probing.core.prbs import mls
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import PER_DEG, metadata, provenance, read_settled, units
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
@@ -24,6 +23,7 @@ from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 __all__ = [
     "SUMMARY_COLUMNS",
     "open_dataset",
+    "predictions",
     "read_summary",
     "settled_stats",
     "summarise",
@@ -44,9 +44,15 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
     "measured_gain": ("1", "least-squares gain of the mean settled h_est on the reference's"),
     "shape_error": ("1", "||h - g h0|| / ||g h0||"),
     "h_rms": (PER_DEG, "RMS over taps of the mean settled h_est"),
-    "h_stderr": (PER_DEG, "standard error of the mean h_est from its spread, RMS over taps"),
+    "h_stderr": (
+        PER_DEG,
+        "period-to-period spread of h_est / sqrt(P), RMS over taps (not the seed-to-seed error)",
+    ),
     "h_stderr_naive": (PER_DEG, "sigma / (a sqrt(M P))"),
-    "h_stderr_theory": (PER_DEG, "closed form of the eq. (9) estimator's noise"),
+    "predicted_z_stderr": ("<channel>", "seed-to-seed std of the mean settled z, RMS over taps"),
+    "predicted_h_stderr": (PER_DEG, "seed-to-seed std of the mean settled h_est, RMS over taps"),
+    "predicted_gain_stderr": ("1", "seed-to-seed std of the least-squares gain"),
+    "predicted_h_bias": (PER_DEG, "the slow modes' transient in the settled h_est, RMS over taps"),
     "wall_s": ("s", "wall time of the point's run"),
     "steps_simulated": ("1", "JSBSim steps the point's run simulated"),
     "reference_id": ("", "point_id of the run without the nonlinearity"),
@@ -54,20 +60,47 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
 
 
 def settled_stats(folder: Path, scn: Scenario) -> dict[str, Any]:
-    """Mean settled h_est of the first channel, its period-to-period spread, period count.
+    """Mean settled h_est and z of the first channel, h's period-to-period spread, the count.
 
-    ``h_mean`` is stored as a list of floats (exact in JSON); ``h_spread`` is the per-tap
-    variance over the settled periods (ddof 1), RMS-averaged: sqrt(mean(var)).
+    ``h_mean`` and ``z_mean`` are stored as lists of floats (exact in JSON); ``h_spread`` is
+    the per-tap variance over the settled periods (ddof 1), RMS-averaged: sqrt(mean(var)).
     """
     channel = scn.channels[0]
-    h = read_settled(folder / "probing.parquet", channel, scn.settle_periods, scn.bits_per_period).h
+    path = folder / "probing.parquet"
+    settled = read_settled(path, channel, scn.settle_periods, scn.bits_per_period)
+    h = settled.h
     n_p = int(h.shape[0])
     return {
         "channel": channel,
         "periods": n_p,
         "h_mean": h.mean(axis=0).tolist() if n_p else None,
+        "z_mean": settled.z.mean(axis=0).tolist() if n_p else None,
         "h_spread": float(np.sqrt(np.mean(h.var(axis=0, ddof=1)))) if n_p > 1 else None,
     }
+
+
+def predictions(scn: Scenario) -> dict[str, Any]:
+    """The noise model's predictions for every channel (:func:`probing.experiment.noise.predict`):
+    the four numbers and the expected steady-state h (a list), for point.json; a prediction
+    that cannot be made (no linearised trim) is recorded as its error."""
+    from probing.experiment.noise import predict  # the linearisation: JSBSim
+
+    try:
+        found = predict(scn)
+    except Exception as exc:  # a point's prediction must not fail its run
+        return {"error": f"{exc.__class__.__name__}: {exc}"}
+    return {
+        channel: {
+            **p.to_dict(),
+            "h_steady": None if p.h_steady is None else p.h_steady.tolist(),
+        }
+        for channel, p in found.items()
+    }
+
+
+def _number(value: Any) -> float:
+    """A JSON number, or NaN for null (JSON has no NaN)."""
+    return math.nan if value is None else float(value)
 
 
 def _stats(folder: Path, scn: Scenario) -> dict[str, Any]:
@@ -84,17 +117,17 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     output channel, which the figures describe), ``predicted_gain`` (a~/a),
     ``predicted_offset_deg`` (b~), ``rate_ratio`` (r / (2a/t0), rate limits only),
     ``measured_gain`` and ``shape_error`` (least-squares fit of the mean settled h_est on the
-    reference's), ``h_rms``, ``h_stderr`` (standard error of the mean h_est from the spread
-    over the settled periods, RMS over taps), ``h_stderr_naive`` (sigma / (a sqrt(M P))),
-    ``h_stderr_theory`` (closed form of the eq. 9 estimator, :func:`estimator_noise_std`),
-    ``wall_s``, ``steps_simulated``, ``reference_id``.
+    reference's), ``h_rms``, ``h_stderr`` (the spread over the settled periods / sqrt(P), RMS
+    over taps), ``h_stderr_naive`` (sigma / (a sqrt(M P))), the noise model's
+    ``predicted_z_stderr``, ``predicted_h_stderr``, ``predicted_gain_stderr`` and
+    ``predicted_h_bias`` (:mod:`probing.experiment.noise`), ``wall_s``,
+    ``steps_simulated``, ``reference_id``.
     """
     import pandas as pd
 
     sweep_dir = Path(sweep_dir)
     points_dir, refs_dir, failed_dir = sweep_folders(sweep_dir)
     ref_cache: dict[str, np.ndarray | None] = {}
-    unit_noise: dict[int, float] = {}  # RMS over taps of the noise std for sigma = a = 1
 
     def mean_h(run_id: str, scn: Scenario) -> np.ndarray | None:
         if run_id not in ref_cache:
@@ -131,7 +164,10 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
             h_rms=math.nan,
             h_stderr=math.nan,
             h_stderr_naive=math.nan,
-            h_stderr_theory=math.nan,
+            predicted_z_stderr=math.nan,
+            predicted_h_stderr=math.nan,
+            predicted_gain_stderr=math.nan,
+            predicted_h_bias=math.nan,
             wall_s=math.nan,
             steps_simulated=0,
             reference_id=p.reference_id,
@@ -144,6 +180,9 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
                 status="done", wall_s=info["wall_s"], steps_simulated=info["steps_simulated"]
             )
             stats = _stats(folder, scn)
+            predicted = info.get("predicted", {}).get(channel) or {}
+            for key in ("z_stderr", "h_stderr", "gain_stderr", "h_bias"):
+                row[f"predicted_{key}"] = _number(predicted.get(key))
             n_p, m = stats["periods"], scn.bits_per_period
             if n_p:
                 h = np.asarray(stats["h_mean"], dtype=float)
@@ -152,13 +191,6 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
                     row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
                 sigma = scn.sensor_noise.get(channel, 0.0)
                 row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
-                # The closed form is linear in sigma / a: one O(M^2) evaluation per order.
-                if scn.order not in unit_noise:
-                    unit = estimator_noise_std(mls(scn.order), 1.0, 1.0)
-                    unit_noise[scn.order] = float(np.sqrt(np.mean(unit**2)))
-                row["h_stderr_theory"] = (
-                    sigma / scn.amplitude_deg * unit_noise[scn.order] / math.sqrt(n_p)
-                )
                 h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
                 if h0 is not None and np.dot(h0, h0) > 0:
                     row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)

@@ -112,7 +112,10 @@ def _write_sweep(
             h_rms=1e-3,
             h_stderr=1e-4,
             h_stderr_naive=0.0,
-            h_stderr_theory=0.0,
+            predicted_z_stderr=0.0,
+            predicted_h_stderr=0.0,
+            predicted_gain_stderr=0.0,
+            predicted_h_bias=0.0,
             wall_s=1.0,
             steps_simulated=4088,
             reference_id="ref",
@@ -227,7 +230,7 @@ def _noise(tmp: Path, failed: set[int]) -> Path:
                 {
                     "channel": "q_rad_s",
                     "h_stderr_naive": naive,
-                    "h_stderr_theory": 16.6 * naive,
+                    "predicted_h_stderr": 6.9 * naive,
                     "h_stderr": 16.6 * naive + 5e-5,
                     "status": "failed" if i in failed else "done",
                 }
@@ -370,7 +373,7 @@ def test_noise_figure_plots_measured_against_naive_and_closed_form(tmp_path):
         np.testing.assert_allclose(x, rows["h_stderr_naive"])
         np.testing.assert_allclose(y, rows["h_stderr"])
         x, y = _xy(ax2, f"a = {a:g} deg")
-        np.testing.assert_allclose(y, rows["h_stderr"] / rows["h_stderr_theory"])
+        np.testing.assert_allclose(y, rows["h_stderr"] / rows["predicted_h_stderr"])
     assert len(_xy(ax1, "a = 0.005 deg")[0]) == 1  # point 2 failed, point 0 has sigma = 0
     plt.close(fig)
 

@@ -213,7 +213,10 @@ DESIGN = {"--aircraft": ["737"], "--altitude-ft": ["15000"], "--speed-kcas": ["2
         ("--deadband-deg", ["0.1", "0.2"]),
         ("--saturation-deg", ["2", "1"]),
         ("--rate-limit-deg-s", ["0"]),
-        ("--target-se", ["-1"]),
+        ("--target-gain-se", ["-1"]),
+        ("--detect-gain-change", ["0"]),
+        ("--false-alarm", ["1.5"]),
+        ("--settle-periods", ["-1"]),
         ("--deadband-margin", ["nan"]),
     ],
     ids=lambda v: " ".join(v) if isinstance(v, list) else v,
@@ -235,10 +238,10 @@ def test_design_refuses_more_periods_than_a_scenario_holds(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     argv = ["design", "--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
-    assert cli_main([*argv, "--noise-sigma", "1e-3", "--target-se", "1e-9"]) == 2
+    assert cli_main([*argv, "--noise-sigma", "1e-3", "--target-h-se", "1e-9"]) == 2
     out, err = capsys.readouterr()
     assert out == ""
-    assert err.count("\n") == 1 and "probe.periods" in err and "100000" in err
+    assert err.count("\n") == 1 and "out of reach" in err and "99998" in err
 
 
 # ------------------------------------------------------------------ 8. sweep progress

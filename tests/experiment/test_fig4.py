@@ -1,9 +1,8 @@
 """Fig. 4 reproduction: scenario sets, gains against the apparent-input theory, compensation,
-replotting from Parquet, ``probing design`` and the build-and-run example."""
+replotting from Parquet, and the build-and-run example."""
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -16,7 +15,6 @@ from probing.cli import main as cli_main
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import RateLimit
 from probing.experiment import fig4 as fig4_runs
-from probing.experiment.design import DesignError, DesignRequest, design
 from probing.experiment.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -173,55 +171,6 @@ def test_figures_show_the_probing_outputs_and_eq_11(results):
 
 def test_plot_without_results_fails_cleanly(tmp_path, capsys):
     assert cli_main(["plot", "fig4", str(tmp_path)]) == 2
-
-
-# ------------------------------------------------------------------------------ design
-def _request(**kwargs) -> DesignRequest:
-    return DesignRequest(aircraft="737", altitude_ft=15000, speed_kcas=280, **kwargs)
-
-
-def test_design_rules():
-    d = design(
-        _request(
-            deadband_deg=(-0.002, 0.002),
-            saturation_deg=(-2.0, 2.0),
-            rate_limit_deg_s=0.5,
-            noise_sigma=1e-5,
-            target_se=1e-4,
-        ),
-        short_period_settling_s=1.4,
-        phugoid_settling_s=186.0,
-    )
-    assert d.amplitude_deg == pytest.approx(0.006)  # 3 x deadband half width
-    assert 2 * d.amplitude_deg / d.bit_duration_s <= 0.5  # eq. (21)
-    assert d.bit_duration_s == pytest.approx(0.03)
-    assert d.memory_s >= 1.4 and (2 ** (d.order - 1) - 1) * d.bit_duration_s < 1.4
-    assert d.predicted_se <= 1e-4
-    assert any("phugoid" in w for w in d.warnings)
-    with pytest.raises(DesignError, match="wider than the saturation margin"):
-        design(
-            _request(deadband_deg=(-0.01, 0.01), saturation_deg=(-0.005, 0.02)),
-            short_period_settling_s=1.4,
-            phugoid_settling_s=186.0,
-        )
-    with pytest.raises(DesignError, match="does not contain the trim"):
-        design(
-            _request(saturation_deg=(0.1, 1.0)),
-            short_period_settling_s=1.4,
-            phugoid_settling_s=1.0,
-        )
-
-
-@pytest.mark.jsbsim
-def test_design_cli_happy_path_and_refusal(capsys):
-    base = ["design", "--aircraft", "gtm_t2", "--altitude-ft", "800", "--speed-kcas", "75"]
-    assert cli_main([*base, "--rate-limit-deg-s", "0.5", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["feasible"] and out["order"] >= 5
-    assert 2 * out["amplitude_deg"] / out["bit_duration_s"] <= 0.5
-    code = cli_main([*base, "--deadband-deg", "-0.01", "0.01", "--saturation-deg", "-0.005", "1"])
-    assert code == 2
-    assert "wider than the saturation margin" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------------------- example

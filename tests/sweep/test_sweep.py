@@ -353,9 +353,11 @@ def test_provided_sweeps_are_valid_and_named_after_their_files() -> None:
         "probe.amplitude_deg",
         "condition.altitude_ft",
         "condition.speed_kcas",
+        "output.estimator",
+        "disturbance.seed",
     ):
         assert field in kinds
-    assert len(PROVIDED) == 8
+    assert len(PROVIDED) == 13
 
 
 @pytest.mark.jsbsim
@@ -438,7 +440,7 @@ def test_summary_columns_carry_units(reference_run: Path) -> None:
     assert units["h_stderr"] == {"theta_rad": "rad/deg"}
     assert units["predicted_offset_deg"] == "deg" and units["wall_s"] == "s"
     assert units["measured_gain"] == "1"
-    field = schema.field("h_stderr_theory")
+    field = schema.field("predicted_h_stderr")
     assert field.metadata[b"unit"] == b"<channel>/deg" and field.metadata[b"description"]
     assert b"one row per point" in schema.metadata[b"probing.description"]
 

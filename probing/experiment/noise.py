@@ -1,0 +1,234 @@
+"""What a scenario's estimates will be worth, before it runs: scatter and bias, per channel.
+
+Two things move an estimate away from the aircraft's pulse response, and they are kept apart:
+
+* **Scatter** (seed-to-seed): sensor noise, white per bit sample, and whatever a caller adds
+  as a measured autocovariance (turbulence: the part the reference twin does not cancel).
+  Exact for the estimator in use, from its own weights (:mod:`probing.core.noise`).
+* **Bias** (the same for every seed): the run starts from trim, so the slow modes' response
+  to the probe (and to the offset b~ of a nonlinearity) is not yet periodic in the settled
+  periods.  Computed on JSBSim's linearisation at the trim, with the model's own actuator
+  (:class:`probing.sim.linear.LinearResponse`): the settled estimates of the response from
+  rest minus those of the periodic steady state.
+
+Reported as RMS over the taps.  The gain's standard error is that of the least-squares gain
+of the mean settled h against the expected mean settled h of the same run without the
+nonlinearity (bias included): the scatter of the gain a sweep or a monitor measures against a
+noise-free baseline flown the same way.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from probing.core.noise import NoiseModel, noise_model, white
+from probing.core.prbs import Probe
+from probing.experiment.scenario import Scenario
+from probing.sim.flight import Flight
+from probing.sim.linear import LinearResponse, linear_response
+from probing.sim.plant import make_plant
+
+__all__ = ["ChannelPrediction", "linear_model", "measured_bias", "predict", "scatter_models"]
+
+
+@dataclass(frozen=True)
+class ChannelPrediction:
+    """Predicted quality of one channel's settled estimates.
+
+    Attributes
+    ----------
+    channel : str
+        The channel.
+    z_stderr : float
+        RMS over taps of the seed-to-seed standard deviation of the mean settled z
+        (channel unit).
+    h_stderr : float
+        The same for h_est (channel unit per deg).
+    gain_stderr : float
+        Standard deviation of the least-squares gain (dimensionless); NaN without a
+        linearised output for the channel.
+    h_bias : float
+        RMS over taps of E[mean settled h] minus its periodic steady state (channel unit per
+        deg); NaN without a linearised output.
+    h_steady : numpy.ndarray or None
+        The expected steady-state estimate (M,), None without a linearised output.
+    """
+
+    channel: str
+    z_stderr: float
+    h_stderr: float
+    gain_stderr: float
+    h_bias: float
+    h_steady: np.ndarray | None = None
+
+    def to_dict(self) -> dict[str, float]:
+        """The four numbers, for JSON."""
+        return {
+            "z_stderr": self.z_stderr,
+            "h_stderr": self.h_stderr,
+            "gain_stderr": self.gain_stderr,
+            "h_bias": self.h_bias,
+        }
+
+
+@functools.lru_cache(maxsize=16)
+def linear_model(flight: Flight, channels: tuple[str, ...]) -> LinearResponse:
+    """The linearisation of a flight (trimmed afresh), remembered for the process."""
+    return linear_response(make_plant(flight), channels)
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _decay_periods(lin: LinearResponse, steps_per_period: int) -> int:
+    """Periods after which the slowest mode has decayed by 1e-6 (the transient is gone)."""
+    slowest = float(np.max(np.abs(np.linalg.eigvals(lin.a))))
+    if slowest >= 1.0:
+        return 10**9
+    return max(1, math.ceil(math.log(1e-6) / math.log(slowest) / steps_per_period))
+
+
+def _deterministic(
+    scn: Scenario, lin: LinearResponse, h_rows: np.ndarray
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Per channel: E[mean settled h], its periodic steady state, and E[mean settled h] of
+    the bare probe (no nonlinearity: the gain's reference, bias included, as a baseline run
+    of the same length measures it).
+
+    Periods after the transient has decayed (:func:`_decay_periods`) are at the steady state:
+    only the ones before are simulated, so a long run costs no more than a short one.
+    """
+    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    m, spb = scn.bits_per_period, scn.steps_per_bit
+    steps = m * spb
+    two = h_rows.shape[1] == 2 * m
+    first = max(scn.settle_periods, scn.first_estimated_period)
+    n = min(scn.periods, first + _decay_periods(lin, steps) + 1)
+    x = probe.samples(scn.dt_s, n)
+    nl = scn.build_nonlinearity()
+    q = nl.apply(x, scn.dt_s) if nl else x
+
+    def settled_mean(y_bits: np.ndarray, y_steady: np.ndarray) -> np.ndarray:
+        per_period = []
+        for p in range(first, n):
+            lo = (p - 1) * m if two else p * m
+            per_period.append(h_rows @ y_bits[lo : (p + 1) * m])
+        steady_h = h_rows @ (np.tile(y_steady, 2) if two else y_steady)
+        late = scn.periods - n  # the periods not simulated: at the steady state
+        return (np.sum(per_period, axis=0) + late * steady_h) / (scn.periods - first)
+
+    y_rest = lin.respond(q)[spb - 1 :: spb]  # bit samples
+    y_ss = lin.periodic(q[-steps:])[spb - 1 :: spb]  # the last period repeats from then on
+    y_bare = lin.respond(x)[spb - 1 :: spb] if nl else y_rest
+    y_bare_ss = lin.periodic(x[:steps])[spb - 1 :: spb] if nl else y_ss
+    expected, steady, bare = {}, {}, {}
+    for j, channel in enumerate(lin.channels):
+        expected[channel] = settled_mean(y_rest[:, j], y_ss[:, j])
+        steady[channel] = h_rows @ (np.tile(y_ss[:, j], 2) if two else y_ss[:, j])
+        bare[channel] = settled_mean(y_bare[:, j], y_bare_ss[:, j])
+    return expected, steady, bare
+
+
+def scatter_models(
+    scn: Scenario, extra_acov: Mapping[str, np.ndarray] | None = None
+) -> dict[str, NoiseModel]:
+    """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
+    noise plus ``extra_acov`` through the scenario's estimator and drift mode."""
+    ref = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).reference()
+    detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    out = {}
+    for channel in scn.channels:
+        acov = white(scn.sensor_noise.get(channel, 0.0))
+        if extra_acov and channel in extra_acov:
+            extra = np.asarray(extra_acov[channel], dtype=float)
+            acov = np.pad(acov, (0, max(0, extra.size - acov.size)))
+            acov[: extra.size] += extra
+        out[channel] = noise_model(
+            ref, scn.amplitude_deg, scn.estimator, scn.settled_periods, acov, detrend_order
+        )
+    return out
+
+
+def predict(
+    scn: Scenario,
+    *,
+    extra_acov: Mapping[str, np.ndarray] | None = None,
+    linear: LinearResponse | None = None,
+    reference: Mapping[str, np.ndarray] | None = None,
+) -> dict[str, ChannelPrediction]:
+    """Scatter and bias of every channel's settled estimates for a scenario.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The scenario (its estimator, drift mode, probe, nonlinearity and sensor noise).
+    extra_acov : mapping, optional
+        Channel -> autocovariance of further noise on the bit samples, added to the sensor
+        noise (e.g. turbulence the twin does not cancel, measured by
+        :func:`probing.experiment.design.turbulence_residual`).
+    linear : LinearResponse, optional
+        The linearisation to use (default: :func:`linear_model` of the scenario's flight).
+    reference : mapping, optional
+        Channel -> the noise-free mean settled h the gain is measured against (e.g. from a
+        noise-free run without the nonlinearity); default: the linearisation's.
+
+    Returns
+    -------
+    dict
+        Channel -> :class:`ChannelPrediction`.
+    """
+    lin = linear if linear is not None else linear_model(scn.flight, scn.channels)
+    models = scatter_models(scn, extra_acov)
+    rows = next(iter(models.values())).h_rows
+    expected, steady, bare = _deterministic(scn, lin, rows)
+    out = {}
+    for channel, model in models.items():
+        h_ref = reference[channel] if reference and channel in reference else bare.get(channel)
+        gain = model.gain_std(h_ref) if h_ref is not None else math.nan
+        bias = _rms(expected[channel] - steady[channel]) if channel in expected else math.nan
+        out[channel] = ChannelPrediction(
+            channel,
+            _rms(model.z_std()),
+            _rms(model.h_std()),
+            gain,
+            bias,
+            steady.get(channel),
+        )
+    return out
+
+
+def measured_bias(scn: Scenario, extra_periods: int = 100) -> dict[str, float]:
+    """The bias measured on JSBSim itself: a noise-free run ``extra_periods`` longer, the mean
+    of its settled periods minus that of its last 10 (the periodic steady state, where the
+    aircraft has one), RMS over taps, per channel.  Checks :func:`predict`'s ``h_bias``."""
+    import tempfile
+
+    import pandas as pd
+
+    from probing.experiment.run import run_scenario
+
+    long = scn.replace(
+        {
+            "name": f"{scn.name}-bias",
+            "probe.periods": scn.periods + extra_periods,
+            "disturbance.sensor_noise": {},
+            "disturbance.turbulence": "none",
+        }
+    )
+    with tempfile.TemporaryDirectory(prefix="probing-bias-") as tmp:
+        result = run_scenario(long, tmp, progress=False)
+        df = pd.read_parquet(result.out_dir / "probing.parquet")
+    first = max(scn.settle_periods, scn.first_estimated_period)
+    out = {}
+    for channel, rows in df.groupby("channel"):
+        h = rows.pivot(index="period", columns="tap", values="h_est")
+        early = h.loc[first : scn.periods - 1].to_numpy().mean(axis=0)
+        late = h.iloc[-10:].to_numpy().mean(axis=0)
+        out[str(channel)] = _rms(early - late)
+    return out
