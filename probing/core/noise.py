@@ -182,14 +182,25 @@ def _variance(rows: np.ndarray, acov: np.ndarray, m: int, periods: int) -> np.nd
     docstring), each row's weights shifted by ``m`` samples from one period to the next."""
     rows = np.atleast_2d(rows)
     n_rows, width = rows.shape
+    out = np.zeros(n_rows)
+    if not np.any(acov):
+        return out
+    reach = (acov.size + width) // m + 1  # farther periods share no correlated samples
+    ds = np.arange(-min(periods - 1, reach), min(periods - 1, reach) + 1)
+    if ds.size * (2 * acov.size - 1) < width:  # short correlation: the few lags it meets
+        for d in ds:
+            for lag in range(-(acov.size - 1), acov.size):
+                tau = abs(lag - d * m)  # rows' autocorrelation is even in tau
+                if tau < width:
+                    c = np.einsum("ij,ij->i", rows[:, : width - tau], rows[:, tau:])
+                    out += (periods - abs(d)) * acov[abs(lag)] * c
+        return np.maximum(out, 0.0) / periods**2
     nfft = 1 << (2 * width - 1).bit_length()
     spec = np.fft.rfft(rows, nfft, axis=1)
     c = np.fft.irfft(np.abs(spec) ** 2, nfft, axis=1)
     taus = np.arange(-(width - 1), width)
     c = np.concatenate((c[:, nfft - width + 1 :], c[:, :width]), axis=1)  # tau = -(L-1)..L-1
-    reach = (acov.size + width) // m + 1  # farther periods share no correlated samples
-    out = np.zeros(n_rows)
-    for d in range(-min(periods - 1, reach), min(periods - 1, reach) + 1):
+    for d in ds:
         lag = np.abs(d * m + taus)
         r = np.where(lag < acov.size, acov[np.minimum(lag, acov.size - 1)], 0.0)
         out += (periods - abs(d)) * (c @ r)

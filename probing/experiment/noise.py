@@ -123,9 +123,10 @@ def _deterministic(
         late = scn.periods - n  # the periods not simulated: at the steady state
         return (np.sum(per_period, axis=0) + late * steady_h) / (scn.periods - first)
 
-    y_rest = lin.respond(q)[spb - 1 :: spb]  # bit samples
+    pulse = lin.step_response(x.size)
+    y_rest = lin.respond(q, pulse)[spb - 1 :: spb]  # bit samples
     y_ss = lin.periodic(q[-steps:])[spb - 1 :: spb]  # the last period repeats from then on
-    y_bare = lin.respond(x)[spb - 1 :: spb] if nl else y_rest
+    y_bare = lin.respond(x, pulse)[spb - 1 :: spb] if nl else y_rest
     y_bare_ss = lin.periodic(x[:steps])[spb - 1 :: spb] if nl else y_ss
     expected, steady, bare = {}, {}, {}
     for j, channel in enumerate(lin.channels):
@@ -133,6 +134,33 @@ def _deterministic(
         steady[channel] = h_rows @ (np.tile(y_ss[:, j], 2) if two else y_ss[:, j])
         bare[channel] = settled_mean(y_bare[:, j], y_bare_ss[:, j])
     return expected, steady, bare
+
+
+def _noise_free(scn: Scenario) -> Scenario:
+    """What the deterministic part depends on: the scenario without noise, seed and name."""
+    return scn.replace(
+        {
+            "name": "deterministic",
+            "disturbance.sensor_noise": {},
+            "disturbance.seed": 0,
+            "disturbance.turbulence": "none",
+        }
+    )
+
+
+_DETERMINISTIC: dict[str, tuple[dict, dict, dict]] = {}
+
+
+def _deterministic_of(scn: Scenario) -> tuple[dict, dict, dict]:
+    """:func:`_deterministic` on the flight's linearisation, remembered per noise-free
+    scenario (a sweep over seeds or noise levels computes it once per worker)."""
+    key = _noise_free(scn).to_json()
+    if key not in _DETERMINISTIC:
+        if len(_DETERMINISTIC) >= 64:
+            _DETERMINISTIC.clear()
+        rows = scatter_models(scn)[scn.channels[0]].h_rows
+        _DETERMINISTIC[key] = _deterministic(scn, linear_model(scn.flight, scn.channels), rows)
+    return _DETERMINISTIC[key]
 
 
 def scatter_models(
@@ -183,10 +211,11 @@ def predict(
     dict
         Channel -> :class:`ChannelPrediction`.
     """
-    lin = linear if linear is not None else linear_model(scn.flight, scn.channels)
     models = scatter_models(scn, extra_acov)
-    rows = next(iter(models.values())).h_rows
-    expected, steady, bare = _deterministic(scn, lin, rows)
+    if linear is None:  # the same for every seed and noise level: remembered
+        expected, steady, bare = _deterministic_of(scn)
+    else:
+        expected, steady, bare = _deterministic(scn, linear, models[scn.channels[0]].h_rows)
     out = {}
     for channel, model in models.items():
         h_ref = reference[channel] if reference and channel in reference else bare.get(channel)

@@ -146,20 +146,28 @@ class LinearResponse:
 
     def step_response(self, n: int) -> np.ndarray:
         """Output after each of ``n`` steps for a one-step unit pulse of the *realised*
-        surface at step 0, (n, C)."""
+        surface at step 0, (n, C): 0, then ``C B + D``, then ``C A^(k-1) B``.
+
+        Computed on the eigenvectors of A (four longitudinal modes), all steps at once.
+        """
         out = np.zeros((n, len(self.channels)))
-        x = self.b.copy()
-        if n > 1:
-            out[1] = self.c @ x + self.d
-        for k in range(2, n):
-            x = self.a @ x
-            out[k] = self.c @ x
+        if n < 2:
+            return out
+        lam, vec = np.linalg.eig(self.a)
+        left = self.c @ vec  # (C, n_states)
+        right = np.linalg.solve(vec, self.b)  # (n_states,)
+        powers = lam[None, :] ** np.arange(n - 1)[:, None]  # A^(k-1), k = 1 .. n-1
+        out[1:] = np.real((powers * right[None, :]) @ left.T)
+        out[1] += self.d
         return out
 
-    def respond(self, u: np.ndarray) -> np.ndarray:
-        """Output after each step for the asked elevator deviation ``u`` (deg) from rest, (N, C)."""
+    def respond(self, u: np.ndarray, pulse: np.ndarray | None = None) -> np.ndarray:
+        """Output after each step for the asked elevator deviation ``u`` (deg) from rest, (N, C).
+
+        ``pulse``: :meth:`step_response` of at least N steps, when the caller has it already.
+        """
         u = self.surface(u)
-        pulse = self.step_response(u.size)
+        pulse = self.step_response(u.size) if pulse is None else pulse[: u.size]
         return np.stack(
             [fftconvolve(u, pulse[:, j])[: u.size] for j in range(pulse.shape[1])], axis=1
         )

@@ -428,3 +428,42 @@ def test_sensor_noise_on_one_channel_changes_only_that_channel(tmp_path: Path) -
     theta = pa_.channel == "theta_rad"
     pd.testing.assert_frame_equal(pa_[theta], pb_[theta], check_exact=True)
     assert not np.allclose(pa_[~theta].z, pb_[~theta].z)
+
+
+@pytest.mark.parametrize(("estimator", "drift"), [("cyclic", "reference"), ("ac", "detrend")])
+def test_cyclic_estimators_read_each_period_from_the_files_samples(
+    tmp_path: Path, estimator: str, drift: str
+) -> None:
+    """The run's cyclic and ac estimates are the estimators applied to each period's own end-of-
+    bit samples of timeseries.parquet (detrended first with drift mode detrend), from period 0."""
+    from probing.core.noise import cyclic_estimates, detrend
+    from probing.core.prbs import mls
+
+    scn = scenario(
+        **{
+            "probe.order": 5,
+            "probe.bit_duration_s": 0.02,
+            "probe.periods": 4,
+            "probe.settle_periods": 1,
+            "output.channels": ["theta_rad", "q_rad_s"],
+            "output.estimator": estimator,
+            "output.drift": drift,
+            "disturbance.sensor_noise": {"q_rad_s": 1e-5},
+        }
+    )
+    result = run_scenario(scn, tmp_path, progress=False)
+    ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
+    pr = pd.read_parquet(result.out_dir / "probing.parquet")
+    assert sorted(pr.period.unique()) == [0, 1, 2, 3]
+    for channel in scn.channels:
+        base = ts[f"{channel}_reference"] if drift == "reference" else ts[channel].iloc[0] * 0
+        y = (ts[channel] - base).to_numpy()[1::2].reshape(4, 31)
+        if drift == "detrend":
+            y = np.stack([detrend(period[:, None], 1)[:, 0] for period in y])
+        z, zeta, h = cyclic_estimates(y, mls(5), 0.005, dc=estimator == "cyclic")
+        rows = pr[pr.channel == channel].sort_values(["period", "tap"])
+        for column, expected in (("z", z), ("zeta", zeta), ("h_est", h)):
+            got = rows[column].to_numpy()
+            np.testing.assert_allclose(got, expected.reshape(-1), rtol=1e-9, atol=1e-15)
+        settled = h[1:].mean(axis=0)
+        np.testing.assert_allclose(result.h_est[channel], settled, rtol=1e-9, atol=1e-15)
