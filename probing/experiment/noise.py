@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +57,9 @@ class ChannelPrediction:
         deg); NaN without a linearised output.
     h_steady : numpy.ndarray or None
         The expected steady-state estimate (M,), None without a linearised output.
+    h_expected : numpy.ndarray or None
+        E[mean settled h] (M,), bias included: what a noise-free run reports; None without
+        a linearised output.
     """
 
     channel: str
@@ -65,6 +68,7 @@ class ChannelPrediction:
     gain_stderr: float
     h_bias: float
     h_steady: np.ndarray | None = None
+    h_expected: np.ndarray | None = None
 
     def to_dict(self) -> dict[str, float]:
         """The four numbers, for JSON."""
@@ -82,6 +86,13 @@ def linear_model(flight: Flight, channels: tuple[str, ...]) -> LinearResponse:
     return linear_response(make_plant(flight), channels)
 
 
+@functools.lru_cache(maxsize=4)
+def _step_response(flight: Flight, channels: tuple[str, ...], steps: int) -> np.ndarray:
+    """:meth:`LinearResponse.step_response` of :func:`linear_model`, remembered: the same for
+    every nonlinearity and probe amplitude of a sweep."""
+    return linear_model(flight, channels).step_response(steps)
+
+
 def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
@@ -95,7 +106,10 @@ def _decay_periods(lin: LinearResponse, steps_per_period: int) -> int:
 
 
 def _deterministic(
-    scn: Scenario, lin: LinearResponse, h_rows: np.ndarray
+    scn: Scenario,
+    lin: LinearResponse,
+    h_rows: np.ndarray,
+    step_response: Callable[[int], np.ndarray] | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Per channel: E[mean settled h], its periodic steady state, and E[mean settled h] of
     the bare probe (no nonlinearity: the gain's reference, bias included, as a baseline run
@@ -103,6 +117,7 @@ def _deterministic(
 
     Periods after the transient has decayed (:func:`_decay_periods`) are at the steady state:
     only the ones before are simulated, so a long run costs no more than a short one.
+    ``step_response(n)``: ``lin.step_response(n)``, possibly remembered by the caller.
     """
     probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
     m, spb = scn.bits_per_period, scn.steps_per_bit
@@ -115,15 +130,17 @@ def _deterministic(
     q = nl.apply(x, scn.dt_s) if nl else x
 
     def settled_mean(y_bits: np.ndarray, y_steady: np.ndarray) -> np.ndarray:
-        per_period = []
-        for p in range(first, n):
-            lo = (p - 1) * m if two else p * m
-            per_period.append(h_rows @ y_bits[lo : (p + 1) * m])
+        # the estimate is linear: the sum over the simulated settled periods of their windows
+        # (each period's own bits, and the previous period's for streaming) is one product
+        per_period = y_bits[first * m : n * m].reshape(n - first, m).sum(axis=0)
+        if two:
+            previous = y_bits[(first - 1) * m : (n - 1) * m].reshape(n - first, m).sum(axis=0)
+            per_period = np.concatenate((previous, per_period))
         steady_h = h_rows @ (np.tile(y_steady, 2) if two else y_steady)
         late = scn.periods - n  # the periods not simulated: at the steady state
-        return (np.sum(per_period, axis=0) + late * steady_h) / (scn.periods - first)
+        return (h_rows @ per_period + late * steady_h) / (scn.periods - first)
 
-    pulse = lin.step_response(x.size)
+    pulse = (step_response or lin.step_response)(x.size)
     y_rest = lin.respond(q, pulse)[spb - 1 :: spb]  # bit samples
     y_ss = lin.periodic(q[-steps:])[spb - 1 :: spb]  # the last period repeats from then on
     y_bare = lin.respond(x, pulse)[spb - 1 :: spb] if nl else y_rest
@@ -159,7 +176,9 @@ def _deterministic_of(scn: Scenario) -> tuple[dict, dict, dict]:
         if len(_DETERMINISTIC) >= 64:
             _DETERMINISTIC.clear()
         rows = scatter_models(scn)[scn.channels[0]].h_rows
-        _DETERMINISTIC[key] = _deterministic(scn, linear_model(scn.flight, scn.channels), rows)
+        lin = linear_model(scn.flight, scn.channels)
+        pulse = functools.partial(_step_response, scn.flight, scn.channels)
+        _DETERMINISTIC[key] = _deterministic(scn, lin, rows, pulse)
     return _DETERMINISTIC[key]
 
 
@@ -228,6 +247,7 @@ def predict(
             gain,
             bias,
             steady.get(channel),
+            expected.get(channel),
         )
     return out
 
