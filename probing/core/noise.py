@@ -37,6 +37,7 @@ amplifies the noise in that one direction, which is common to all taps.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -221,6 +222,10 @@ class NoiseModel:
     m: int
     periods: int
     acov: np.ndarray
+
+    def with_noise(self, acov: np.ndarray) -> NoiseModel:
+        """The same estimator under other noise (autocovariance ``acov`` of the bit samples)."""
+        return dataclasses.replace(self, acov=np.atleast_1d(np.asarray(acov, dtype=float)))
 
     def z_std(self) -> np.ndarray:
         """Standard deviation of each tap of the mean settled z, shape (M,)."""

@@ -189,16 +189,19 @@ def scatter_models(
     noise plus ``extra_acov`` through the scenario's estimator and drift mode."""
     ref = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).reference()
     detrend_order = scn.detrend_order if scn.drift == "detrend" else None
-    out = {}
+    out: dict[str, NoiseModel] = {}
     for channel in scn.channels:
         acov = white(scn.sensor_noise.get(channel, 0.0))
         if extra_acov and channel in extra_acov:
             extra = np.asarray(extra_acov[channel], dtype=float)
             acov = np.pad(acov, (0, max(0, extra.size - acov.size)))
             acov[: extra.size] += extra
-        out[channel] = noise_model(
-            ref, scn.amplitude_deg, scn.estimator, scn.settled_periods, acov, detrend_order
-        )
+        if out:  # the estimator's weights are the same for every channel: only the noise differs
+            out[channel] = next(iter(out.values())).with_noise(acov)
+        else:
+            out[channel] = noise_model(
+                ref, scn.amplitude_deg, scn.estimator, scn.settled_periods, acov, detrend_order
+            )
     return out
 
 
