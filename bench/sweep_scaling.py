@@ -7,6 +7,7 @@ work: one reference run (which simulates the shared twin) and 16 points.
 
 from __future__ import annotations
 
+import json
 import os
 import statistics
 import subprocess
@@ -50,6 +51,27 @@ def _timed_sweep(path: Path, jobs: int, executor: str, twins: Path | None) -> fl
     return wall
 
 
+PREDICTION_CODE = """
+import json, sys, time
+from probing.sweep import load_sweep
+from probing.sweep.summary import predictions
+walls = []
+for point in load_sweep(sys.argv[1]).points:
+    t0 = time.perf_counter()
+    predictions(point.scenario)
+    walls.append(time.perf_counter() - t0)
+print(json.dumps(walls))
+"""
+
+
+def _prediction_walls(path: Path) -> list[float]:
+    """Wall time of each point's noise-model prediction, in order, in one fresh process (as
+    one worker computes them: the first pays the aircraft's linearisation)."""
+    cmd = [sys.executable, "-c", PREDICTION_CODE, str(path)]
+    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
 def bench_sweep_scaling(periods: int = 200, repeats: int = 3) -> dict:
     """Median wall time of the sweep with 1 and 2 local workers and with Dask (2 workers).
 
@@ -71,6 +93,7 @@ def bench_sweep_scaling(periods: int = 200, repeats: int = 3) -> dict:
             walls["dask-2"].append(_timed_sweep(path, 2, "dask", None))
             walls["warm-local-1"].append(_timed_sweep(path, 1, "local", warm_cache))
             walls["warm-local-2"].append(_timed_sweep(path, 2, "local", warm_cache))
+        predicted = _prediction_walls(path)
     med = {k: statistics.median(v) for k, v in walls.items()}
     runs = POINTS + 1  # the points and their shared reference
     return {
@@ -86,6 +109,9 @@ def bench_sweep_scaling(periods: int = 200, repeats: int = 3) -> dict:
         "dask_overhead_s": med["dask-2"] - med["local-2"],
         "dask_overhead_per_run_s": (med["dask-2"] - med["local-2"]) / runs,
         "dask_ratio": med["dask-2"] / med["local-2"],
+        "prediction_first_s": predicted[0],
+        "prediction_rest_s": statistics.median(predicted[1:]),
+        "prediction_total_s": sum(predicted),
     }
 
 
@@ -142,6 +168,12 @@ def render_sweep_scaling(r: dict) -> tuple[list[dict], list[str]]:
         "on two workers: ceiling 17/9 = 1.89x. Process start-up, imports (~0.3 s) and the "
         "summary (~0.2 s) are serial on top, and each worker's first run pays ~0.2 s of "
         "one-off costs (first model load).",
+        "- Each point also computes the noise model's prediction in its worker "
+        "(`probing.sweep.summary.predictions`), timed apart in one fresh process: the first "
+        f"point {r['prediction_first_s']:.2f} s (the aircraft loaded, trimmed and "
+        f"linearised, the step response), then {r['prediction_rest_s']:.3f} s per point "
+        f"({r['prediction_total_s']:.1f} s for the {r['points']} points). Every worker "
+        "pays the first-point cost once, so two workers pay it twice, in parallel.",
         f"- Dask overhead against the local pool: {r['dask_overhead_s']:.2f} s per sweep, "
         f"**{1000 * r['dask_overhead_per_run_s']:.0f} ms per run** over {r['runs']} runs "
         f"(ratio {r['dask_ratio']:.2f}); mostly starting the LocalCluster's scheduler and "

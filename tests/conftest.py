@@ -37,3 +37,41 @@ def new_plant() -> Callable[..., Any]:
         return Plant(model, dt_s, **kwargs)
 
     return make
+
+
+@pytest.fixture(scope="session")
+def toy_linear() -> Any:
+    """A made-up :class:`probing.sim.linear.LinearResponse`: a slow and a fast mode, two
+    outputs (one with feed-through), a three-step actuator."""
+    import numpy as np
+
+    from probing.sim.linear import LinearResponse
+
+    return LinearResponse(
+        a=np.array([[0.995, 0.01], [0.0, 0.9]]),
+        b=np.array([0.0, 1.0]),
+        c=np.array([[1.0, 0.0], [0.2, 1.0]]),
+        d=np.array([0.0, 0.3]),
+        channels=("theta_rad", "q_rad_s"),
+        actuator=np.array([0.6, 0.3, 0.1]),
+    )
+
+
+@pytest.fixture(scope="session")
+def stepped() -> Callable[..., Any]:
+    """``stepped(lin, asked)``: a LinearResponse stepped one step at a time, as its docstring
+    defines it (the actuator as a convolution, then x(k+1) = A x(k) + B u(k), output
+    C x(k) + D u(k-1)), from rest; shape (N, C).  The oracle of its vectorised methods."""
+    import numpy as np
+
+    def step(lin: Any, asked: Any) -> Any:
+        asked = np.asarray(asked, dtype=float)
+        u = np.convolve(asked, lin.actuator)[: asked.size]
+        x = np.zeros(lin.a.shape[0])
+        out = np.empty((asked.size, lin.c.shape[0]))
+        for k in range(asked.size):
+            out[k] = lin.c @ x + (lin.d * u[k - 1] if k else 0.0)
+            x = lin.a @ x + lin.b * u[k]
+        return out
+
+    return step

@@ -13,8 +13,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import fftconvolve
 
+from probing.core.convolution import causal_convolve
 from probing.core.correlator import StreamingCorrelator
 from probing.core.prbs import Probe
 from probing.experiment.scenario import Scenario
@@ -49,7 +49,7 @@ def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str
     bits = probe.bits(scn.periods)
     out = {}
     for channel, h in h_pulse.items():
-        y = fftconvolve(bits, h)[: bits.size]
+        y = causal_convolve(bits, h)
         corr = StreamingCorrelator(probe.reference(), probe.amplitude_deg)
         corr.push(y)
         est = corr.pop_periods()

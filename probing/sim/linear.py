@@ -12,8 +12,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import cont2discrete, fftconvolve
 
+from probing.core.convolution import causal_convolve
 from probing.sim.channels import CHANNELS
 from probing.sim.plant import Plant
 
@@ -24,6 +24,7 @@ __all__ = [
     "linear_response",
     "longitudinal_matrix",
     "longitudinal_modes",
+    "zoh",
 ]
 
 #: FGLinearization's names of the longitudinal states.
@@ -139,7 +140,7 @@ class LinearResponse:
         actuator: from rest, or cyclically for one period of a periodic ``u``."""
         u = np.asarray(u, dtype=float)
         if not periodic:
-            return fftconvolve(u, self.actuator)[: u.size]
+            return causal_convolve(u, self.actuator)
         fir = np.zeros(u.size)
         np.add.at(fir, np.arange(self.actuator.size) % u.size, self.actuator)
         return np.fft.irfft(np.fft.rfft(u) * np.fft.rfft(fir), u.size)
@@ -168,9 +169,7 @@ class LinearResponse:
         """
         u = self.surface(u)
         pulse = self.step_response(u.size) if pulse is None else pulse[: u.size]
-        return np.stack(
-            [fftconvolve(u, pulse[:, j])[: u.size] for j in range(pulse.shape[1])], axis=1
-        )
+        return causal_convolve(u, pulse)
 
     def periodic(self, u: np.ndarray) -> np.ndarray:
         """Periodic steady-state output for ``u`` (deg, one period of steps) repeated forever,
@@ -188,6 +187,24 @@ class LinearResponse:
             out[k] = self.c @ x + self.d * u[k - 1]  # u[-1]: the period before
             x = self.a @ x + self.b * u[k]
         return out
+
+
+def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-order-hold discretisation of dx/dt = A x + B u over one step ``dt_s`` (s).
+
+    The exponential of the block matrix [[A, B], [0, 0]] dt holds both A_d = e^(A dt) and
+    B_d = int_0^dt e^(A s) ds B (what :func:`scipy.signal.cont2discrete` computes for
+    ``"zoh"``; scipy.linalg is lighter to import than scipy.signal).
+    """
+    from scipy.linalg import expm
+
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    n = a.shape[0]
+    block = np.zeros((n + b.shape[1], n + b.shape[1]))
+    block[:n, :n], block[:n, n:] = a, b
+    e = expm(block * dt_s)
+    return e[:n, :n], e[:n, n:]
 
 
 def linear_response(plant: Plant, channels: Sequence[str]) -> LinearResponse:
@@ -212,6 +229,6 @@ def linear_response(plant: Plant, channels: Sequence[str]) -> LinearResponse:
     b_mat = np.asarray(lin["B"])[x][:, [iu]] / gain
     c = np.asarray(lin["C"])[np.ix_(rows, x)]
     d = np.asarray(lin["D"])[rows, iu] / gain
-    ad, bd, *_ = cont2discrete((a_mat, b_mat, c, d[:, None]), plant.dt_s, "zoh")
+    ad, bd = zoh(a_mat, b_mat, plant.dt_s)
     actuator = plant.actuator_pulse_response()  # last: it steps the plant
-    return LinearResponse(np.asarray(ad), np.asarray(bd)[:, 0], c, d, covered, actuator)
+    return LinearResponse(ad, bd[:, 0], c, d, covered, actuator)

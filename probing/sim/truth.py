@@ -17,10 +17,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.signal import cont2discrete
 
 from probing.sim.channels import CHANNELS
 from probing.sim.flight import Flight
+from probing.sim.linear import zoh
 from probing.sim.plant import make_plant
 
 __all__ = ["linear_pulse_response", "single_pulse_response"]
@@ -95,7 +95,7 @@ def linear_pulse_response(
     iu = lin["u_names"].index("DeCmd")
     a_mat, b_mat = lin["A"], lin["B"][:, [iu]] / gain  # per deg of surface
     out: dict[str, np.ndarray] = {}
-    ad, bd, *_ = cont2discrete((a_mat, b_mat, lin["C"], lin["D"]), bit_duration_s, "zoh")
+    ad, bd = zoh(np.asarray(a_mat), np.asarray(b_mat), bit_duration_s)
     x = np.empty((n_bits, a_mat.shape[0]))
     x[0] = bd[:, 0]
     for k in range(1, n_bits):

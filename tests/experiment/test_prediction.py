@@ -77,18 +77,6 @@ def test_predicted_bias_is_measured_on_a_longer_run(estimator: str, nonlinearity
         assert measured[channel] == pytest.approx(found[channel].h_bias, rel=0.15), channel
 
 
-def simulate(lin: LinearResponse, asked: np.ndarray) -> np.ndarray:
-    """The linear model stepped one step at a time, as its docstring defines it: the actuator
-    as a convolution, then x(k+1) = A x(k) + B u(k), output C x(k) + D u(k-1)."""
-    u = np.convolve(asked, lin.actuator)[: asked.size]
-    x = np.zeros(lin.a.shape[0])
-    out = np.empty((asked.size, lin.c.shape[0]))
-    for k in range(asked.size):
-        out[k] = lin.c @ x + (lin.d * u[k - 1] if k else 0.0)
-        x = lin.a @ x + lin.b * u[k]
-    return out
-
-
 def estimates(scn: Scenario, y_bits: np.ndarray) -> np.ndarray:
     """Each period's h by the run's own estimators (the correlator, cyclic_estimates), (P, M)."""
     sigma, m = mls(scn.order), scn.bits_per_period
@@ -102,20 +90,15 @@ def estimates(scn: Scenario, y_bits: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("estimator", ["streaming", "cyclic", "ac"])
-def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(estimator: str) -> None:
-    """On a made-up linear plant (a slow and a fast mode, a three-step actuator), predict's
+def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(
+    estimator: str, toy_linear: LinearResponse, stepped
+) -> None:
+    """On a made-up linear plant (conftest's toy_linear), predict's
     h_expected, h_steady and gain reference are the run's estimators applied to the plant
     stepped one step at a time: the settled periods of a run from rest, the last period of a
     run 300 periods long, and the bare probe's settled periods.  The run is long enough that
     predict simulates only the periods before the slow mode has decayed."""
-    lin = LinearResponse(
-        a=np.array([[0.995, 0.01], [0.0, 0.9]]),
-        b=np.array([0.0, 1.0]),
-        c=np.array([[1.0, 0.0], [0.2, 1.0]]),
-        d=np.array([0.0, 0.3]),
-        channels=("theta_rad", "q_rad_s"),
-        actuator=np.array([0.6, 0.3, 0.1]),
-    )
+    lin = toy_linear
     scn = load_scenario(ROOT / "scenarios" / "baseline-737.toml").replace(
         {
             "simulation.dt_s": 0.01,
@@ -135,7 +118,7 @@ def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(estimato
     spb, first = scn.steps_per_bit, 1
 
     def settled_and_last(asked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        y = simulate(lin, asked)[spb - 1 :: spb]
+        y = stepped(lin, asked)[spb - 1 :: spb]
         per_channel = [estimates(scn, y[:, j]) for j in range(2)]
         return (
             np.stack([h[first : scn.periods].mean(axis=0) for h in per_channel]),
