@@ -7,6 +7,8 @@ figures (inspectable: tests read the plotted data back), :func:`draw` saves them
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +17,7 @@ import numpy as np
 
 from analysis.fig4 import Fig4Data, PanelResult
 from analysis.figures import RC, save_figure
+from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
 
 __all__ = ["draw", "figures"]
@@ -215,20 +218,47 @@ def _rate_limit(data: Fig4Data) -> Any:
     return fig
 
 
+#: The figures, by the suffix of their file stem, with their builders and formats.
+_FIGURES = {
+    "": (lambda data: _panels(data), ("png", "pdf")),
+    "_compensated": (lambda data: _compensated(data), ("png",)),
+    "_rate_limit": (lambda data: _rate_limit(data), ("png",)),
+}
+
+
+def _suffixes(data: Fig4Data) -> list[str]:
+    """The figures ``data`` has: the rate-limit figure only with a rate-limit sweep."""
+    return [k for k in _FIGURES if k != "_rate_limit" or not data.sweep.empty]
+
+
 def figures(data: Fig4Data) -> dict[str, Any]:
     """The figures, by the suffix of their file stem: ``""`` (the panels), ``"_compensated"``
     and, with a rate-limit sweep, ``"_rate_limit"``.  Close them (or :func:`draw` them)."""
     with plt.rc_context(RC):
-        out = {"": _panels(data), "_compensated": _compensated(data)}
-        if not data.sweep.empty:
-            out["_rate_limit"] = _rate_limit(data)
-    return out
+        return {suffix: _FIGURES[suffix][0](data) for suffix in _suffixes(data)}
 
 
-def draw(data: Fig4Data, folder: Path, stem: str) -> list[Path]:
-    """Save ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``."""
-    paths: list[Path] = []
-    for suffix, fig in figures(data).items():
-        formats = ("png", "pdf") if suffix == "" else ("png",)
-        paths += save_figure(fig, Path(folder) / f"{stem}{suffix}", formats)
-    return paths
+def _draw_one(
+    task: tuple[str, tuple[str, ...]], data: Fig4Data, folder: Path, stem: str
+) -> list[Path]:
+    suffix, formats = task
+    with plt.rc_context(RC):
+        fig = _FIGURES[suffix][0](data)
+    return save_figure(fig, Path(folder) / f"{stem}{suffix}", formats)
+
+
+def draw(data: Fig4Data, folder: Path, stem: str, jobs: int | None = None) -> list[Path]:
+    """Save ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``.
+
+    The figures are drawn side by side in ``jobs`` forked children (default: one per core;
+    1 draws them here, one after the other); the bytes are the same either way.  A figure's
+    formats are saved by one child, in order: the PDF is laid out as the PNG drawn first
+    left it, so drawn alone it would differ.
+    """
+    tasks = [(s, _FIGURES[s][1]) for s in _suffixes(data)]
+    jobs = jobs or os.cpu_count() or 1
+    if jobs == 1 or not can_fork():
+        return [p for t in tasks for p in _draw_one(t, data, folder, stem)]
+    draw_one = functools.partial(_draw_one, data=data, folder=folder, stem=stem)
+    done = {o.index: o.get() for o in forked_map(draw_one, tasks, jobs)}
+    return [p for i in range(len(tasks)) for p in done[i]]

@@ -759,6 +759,21 @@ def render_sweeps(r: dict) -> Rendered:
     return Rendered([Row(**row) for row in rows], lines)
 
 
+# ------------------------------------------------------------- 6. per-point cost
+def bench_per_point(args: argparse.Namespace) -> dict:
+    """Groups of 1, 8, 64 points before and after one trim per group (``bench.per_point``)."""
+    from bench.per_point import bench_per_point as run
+
+    return run(quick=args.quick, repeats=args.repeats)
+
+
+def render_per_point(r: dict) -> Rendered:
+    from bench.per_point import render_per_point as render_section
+
+    rows, lines = render_section(r)
+    return Rendered([Row(**row) for row in rows], lines)
+
+
 # ------------------------------------------------------------------------ report
 def bench_bias(args: argparse.Namespace) -> dict:
     """Predicted vs measured slow-mode bias (``bench.noise_bias``)."""
@@ -781,6 +796,7 @@ SECTIONS: list[Section] = [
     Section("real_time", "Real-time factor", bench_real_time, render_real_time),
     Section("twin_cache", "Reference-twin cache", bench_twin_cache, render_twin_cache),
     Section("sweep_scaling", "Sweep scaling", bench_sweeps, render_sweeps),
+    Section("per_point", "Per-point cost", bench_per_point, render_per_point),
     Section("fig4", "make fig4", bench_fig4, render_fig4),
     Section("bias", "Slow-mode bias", bench_bias, render_bias),
 ]

@@ -12,6 +12,7 @@ drawn from the stored Parquet by :mod:`analysis.fig4`; see ``docs/fig4.md``.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -19,16 +20,17 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from probing.core.nonlinearities import RateLimit
+from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, ScenarioError, load_scenario
 from probing.experiment.storage import write_json_atomic
+from probing.sim.fork import TrimmedAircraft
 
 __all__ = [
     "BASELINE",
     "CHANNEL",
     "OFFSET_TWIN",
     "PANELS",
-    "ensure_run",
     "load_set",
     "offset_twin",
     "run_set",
@@ -64,14 +66,6 @@ def stored_digest(folder: Path) -> str | None:
     meta = pq.read_schema(path).metadata or {}
     value = meta.get(DIGEST_KEY)
     return value.decode() if value else None
-
-
-def ensure_run(scn: Scenario, out: Path, force: bool = False) -> tuple[float, bool]:
-    """Run ``scn`` into ``out/<name>`` unless it is already there; (wall s, simulated?)."""
-    if not force and stored_digest(out / scn.name) == scn.digest():
-        return 0.0, False
-    result = run_scenario(scn, out, progress=None)
-    return result.wall_s, True
 
 
 def offset_twin(sat: Scenario) -> Scenario:
@@ -148,37 +142,59 @@ def run_set(
     *,
     force: bool = False,
     sweep_rate_limit: bool = True,
+    jobs: int | None = None,
     log: Callable[[str], object] = print,
 ) -> dict:
     """Run a Fig. 4 set (skipping runs already stored) and write ``out/manifest.json``.
 
-    ``sweep_rate_limit=False`` leaves out the rate-limit sweep (and its figure).
+    ``sweep_rate_limit=False`` leaves out the rate-limit sweep (and its figure).  The runs
+    to do share one load and trim per flight condition and run ``jobs`` at a time (default:
+    one per core) in children forked from the trimmed aircraft
+    (:mod:`probing.experiment.batch`); the results are the same bytes as run one by one.
     """
     scenarios = load_set(scen_dir)
     scenarios[OFFSET_TWIN] = offset_twin(scenarios["b_saturation"])
     out.mkdir(parents=True, exist_ok=True)
-    sim_wall = 0.0
-    for key, scn in scenarios.items():
-        wall, ran = ensure_run(scn, out, force)
-        sim_wall += wall
-        status = f"ran in {wall:.2f} s" if ran else "stored"
-        log(f"  {key:<22} {scn.name:<36} {status}")
     sweep_dir = out / "rate_limit_sweep"
-    sweep = []
-    n_ran = 0
     todo = sweep_scenarios(scenarios["f_rate_limit"]) if sweep_rate_limit else []
-    for t0, ratio, scn in todo:
-        wall, ran = ensure_run(scn, sweep_dir, force)
-        sim_wall += wall
-        n_ran += ran
-        sweep.append({"bit_duration_s": t0, "ratio": ratio, "folder": scn.name})
-    log(f"  rate-limit sweep: {len(sweep)} runs, {n_ran} simulated")
-    log(f"  simulation: {sim_wall:.2f} s")
+    runs = [(key, scn, out) for key, scn in scenarios.items()]
+    runs += [(None, scn, sweep_dir) for _, _, scn in todo]
+    walls = _run_missing(runs, force, jobs or os.cpu_count() or 1)
+    for key, scn, _ in runs[: len(scenarios)]:
+        wall = walls.get(scn.name)
+        status = f"ran in {wall:.2f} s" if wall is not None else "stored"
+        log(f"  {key:<22} {scn.name:<36} {status}")
+    n_ran = sum(scn.name in walls for _, _, scn in todo)
+    log(f"  rate-limit sweep: {len(todo)} runs, {n_ran} simulated")
+    log(f"  simulation: {sum(walls.values()):.2f} s")
     manifest = {
         "set": Path(scen_dir).resolve().name,
         "scenarios_dir": str(scen_dir),
         "panels": {k: s.name for k, s in scenarios.items()},
-        "sweep": sweep,
+        "sweep": [
+            {"bit_duration_s": t0, "ratio": ratio, "folder": scn.name} for t0, ratio, scn in todo
+        ],
     }
     write_json_atomic(out / "manifest.json", manifest)
     return manifest
+
+
+def _run_missing(
+    runs: list[tuple[str | None, Scenario, Path]], force: bool, jobs: int
+) -> dict[str, float]:
+    """Run the scenarios not stored yet (all with ``force``), grouped by trimmed state;
+    scenario name -> wall time of its run (s).  The first failure is raised."""
+    missing = [
+        (scn, folder)
+        for _, scn, folder in runs
+        if force or stored_digest(folder / scn.name) != scn.digest()
+    ]
+
+    def work(item: tuple[Scenario, Path], aircraft: TrimmedAircraft | None) -> float:
+        scn, folder = item
+        return run_scenario(scn, folder, progress=False, aircraft=aircraft).wall_s
+
+    walls = {}
+    for i, outcome in run_grouped(missing, lambda item: item[0], work, jobs=jobs):
+        walls[missing[i][0].name] = outcome.get()
+    return walls

@@ -19,6 +19,7 @@ noise-free baseline flown the same way.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable, Mapping
@@ -26,10 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.forked import can_fork, forked_map
 from probing.core.noise import NoiseModel, noise_model, white
 from probing.core.prbs import Probe
 from probing.experiment.scenario import Scenario
 from probing.sim.flight import Flight
+from probing.sim.fork import TrimmedAircraft
 from probing.sim.linear import LinearResponse, linear_response
 from probing.sim.plant import make_plant
 
@@ -80,16 +83,58 @@ class ChannelPrediction:
         }
 
 
-@functools.lru_cache(maxsize=16)
-def linear_model(flight: Flight, channels: tuple[str, ...]) -> LinearResponse:
-    """The linearisation of a flight (trimmed afresh), remembered for the process."""
-    return linear_response(make_plant(flight), channels)
+def _calm(flight: Flight) -> Flight:
+    """The flight in calm air, seed 0: the linearisation at the trim does not depend on
+    turbulence or seed (it is taken before either acts), so flights that differ only in
+    them share one."""
+    return dataclasses.replace(flight, turbulence="none", seed=0)
+
+
+def linear_model(
+    flight: Flight, channels: tuple[str, ...], aircraft: TrimmedAircraft | None = None
+) -> LinearResponse:
+    """The linearisation of a flight at its trim, in calm air, remembered for the process.
+
+    Parameters
+    ----------
+    flight : Flight
+        The flight; its turbulence and seed do not matter.
+    channels : tuple of str
+        Output channels.
+    aircraft : TrimmedAircraft, optional
+        The flight's trimmed aircraft: linearise a forked copy of it instead of loading and
+        trimming afresh (the same numbers, one load less).
+    """
+    key = (_calm(flight), tuple(channels))
+    if key not in _LINEAR:
+        if len(_LINEAR) >= 16:
+            _LINEAR.clear()
+        if aircraft is not None and can_fork():
+            copy = functools.partial(_linearise_copy, aircraft=aircraft, channels=key[1])
+            (outcome,) = forked_map(copy, [key[0]])
+            _LINEAR[key] = outcome.get()
+        else:
+            _LINEAR[key] = linear_response(make_plant(key[0]), key[1])
+    return _LINEAR[key]
+
+
+_LINEAR: dict[tuple[Flight, tuple[str, ...]], LinearResponse] = {}
+
+
+def _linearise_copy(
+    flight: Flight, aircraft: TrimmedAircraft, channels: tuple[str, ...]
+) -> LinearResponse:
+    return linear_response(aircraft.plant_for(flight), channels)
+
+
+def _step_response(flight: Flight, channels: tuple[str, ...], steps: int) -> np.ndarray:
+    """:meth:`LinearResponse.step_response` of :func:`linear_model`, remembered: the same for
+    every nonlinearity, probe amplitude and seed of a sweep."""
+    return _calm_step_response(_calm(flight), tuple(channels), steps)
 
 
 @functools.lru_cache(maxsize=4)
-def _step_response(flight: Flight, channels: tuple[str, ...], steps: int) -> np.ndarray:
-    """:meth:`LinearResponse.step_response` of :func:`linear_model`, remembered: the same for
-    every nonlinearity and probe amplitude of a sweep."""
+def _calm_step_response(flight: Flight, channels: tuple[str, ...], steps: int) -> np.ndarray:
     return linear_model(flight, channels).step_response(steps)
 
 
@@ -187,8 +232,10 @@ def scatter_models(
 ) -> dict[str, NoiseModel]:
     """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
     noise plus ``extra_acov`` through the scenario's estimator and drift mode."""
-    ref = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).reference()
     detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    estimator = _estimator_model(
+        scn.order, scn.amplitude_deg, scn.estimator, scn.settled_periods, detrend_order
+    )
     out: dict[str, NoiseModel] = {}
     for channel in scn.channels:
         acov = white(scn.sensor_noise.get(channel, 0.0))
@@ -196,13 +243,18 @@ def scatter_models(
             extra = np.asarray(extra_acov[channel], dtype=float)
             acov = np.pad(acov, (0, max(0, extra.size - acov.size)))
             acov[: extra.size] += extra
-        if out:  # the estimator's weights are the same for every channel: only the noise differs
-            out[channel] = next(iter(out.values())).with_noise(acov)
-        else:
-            out[channel] = noise_model(
-                ref, scn.amplitude_deg, scn.estimator, scn.settled_periods, acov, detrend_order
-            )
+        out[channel] = estimator.with_noise(acov)  # the weights are the same for every channel
     return out
+
+
+@functools.lru_cache(maxsize=32)
+def _estimator_model(
+    order: int, amplitude_deg: float, estimator: str, periods: int, detrend_order: int | None
+) -> NoiseModel:
+    """The estimator's weights (noise-free model), remembered: the same for every point of a
+    sweep over nonlinearities, seeds or noise levels."""
+    ref = Probe(order, 1.0, amplitude_deg).reference()  # sigma does not depend on t0
+    return noise_model(ref, amplitude_deg, estimator, periods, white(0.0), detrend_order)
 
 
 def predict(

@@ -40,6 +40,7 @@ from probing.experiment.storage import (
     provenance,
     timeseries_schema,
 )
+from probing.sim.fork import TrimmedAircraft
 from probing.sim.plant import Plant, TrimResult, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
@@ -104,9 +105,9 @@ class _Rig:
     twin: ReferenceTwin | None
 
     @classmethod
-    def build(cls, scn: Scenario, twin_cache: bool) -> _Rig:
+    def build(cls, scn: Scenario, twin_cache: bool, aircraft: TrimmedAircraft | None) -> _Rig:
         probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
-        plant = make_plant(scn.flight)
+        plant = aircraft.plant_for(scn.flight) if aircraft else make_plant(scn.flight)
         nodes = plant.channel_nodes(list(scn.channels))
         y_trim = np.array([n.get_double_value() for n in nodes])
         twin = None
@@ -341,6 +342,7 @@ def run_scenario(
     stream: TextIO | None = None,
     folder: str | Path | None = None,
     twin_cache: bool = True,
+    aircraft: TrimmedAircraft | None = None,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -360,6 +362,11 @@ def run_scenario(
         With ``drift = "reference"``: read the unprobed twin from the cache
         (:mod:`probing.sim.twins`) when it is stored, and store it when simulated.  The
         results are bit-identical either way; False simulates the twin and stores nothing.
+    aircraft : TrimmedAircraft, optional
+        Step this trimmed aircraft (disturbed as the scenario asks) instead of loading and
+        trimming one: pass it in a child forked from the aircraft's owner only
+        (:mod:`probing.experiment.batch`), whose copy this run then steps.  The results are
+        bit-identical either way.
 
     Returns
     -------
@@ -372,7 +379,7 @@ def run_scenario(
         On trim failure or divergence; no output file is left behind.
     """
     t_start = time.perf_counter()
-    rig = _Rig.build(scn, twin_cache)
+    rig = _Rig.build(scn, twin_cache, aircraft)
     probe, channels = rig.probe, list(scn.channels)
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
     drift = _drift_correction(scn, probe, rig.chunk_periods * m)

@@ -74,8 +74,33 @@ def versions() -> dict[str, str]:
     return dict(_package_versions())
 
 
+_BATCH_REVISION: list[str] = []  # set while a batch of runs shares one look-up
+
+
+@contextmanager
+def batch_of_runs() -> Iterator[None]:
+    """Prepare this process for many runs in children forked from it.
+
+    Inside the block the git revision is looked up once (two ``git`` calls, ~20 ms, are
+    otherwise made by every run), and what writing and reading a run's files imports
+    lazily (``pyarrow.compute``, pandas through it, ``pyarrow.dataset``: ~0.4 s) is
+    imported now, so each forked child inherits it instead of importing it again.
+    """
+    pa.array([0]).take(pa.array([0]))  # the lazy imports of probing_block
+    import pyarrow.dataset  # noqa: F401  (imported by pq.read_table, e.g. read_settled)
+
+    versions()
+    _BATCH_REVISION.append(git_revision())
+    try:
+        yield
+    finally:
+        _BATCH_REVISION.pop()
+
+
 def git_revision() -> str:
     """The project's git revision (with ``-dirty`` for uncommitted changes), or ``unknown``."""
+    if _BATCH_REVISION:
+        return _BATCH_REVISION[-1]
     try:
         rev = subprocess.run(
             ["git", "-C", str(_PROJECT_ROOT), "rev-parse", "HEAD"],

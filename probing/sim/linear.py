@@ -173,20 +173,24 @@ class LinearResponse:
 
     def periodic(self, u: np.ndarray) -> np.ndarray:
         """Periodic steady-state output for ``u`` (deg, one period of steps) repeated forever,
-        over one period, (N, C)."""
+        over one period, (N, C).
+
+        The cyclic convolution of the realised surface with the step response folded onto
+        one period, sum over j of g[k + jN]; on the eigenvectors of A that sum is the
+        geometric series 1 / (1 - lambda^N), so it is exact and costs one FFT.
+        """
         u = self.surface(u, periodic=True)
         n = u.size
-        drive = np.zeros_like(self.b)  # x(N) - A^N x(0) over one period
-        a_n = np.eye(self.a.shape[0])
-        for k in range(n):
-            drive = self.a @ drive + self.b * u[k]
-            a_n = self.a @ a_n
-        x = np.linalg.solve(np.eye(self.a.shape[0]) - a_n, drive)  # x(0) = x(N)
-        out = np.empty((n, len(self.channels)))
-        for k in range(n):
-            out[k] = self.c @ x + self.d * u[k - 1]  # u[-1]: the period before
-            x = self.a @ x + self.b * u[k]
-        return out
+        lam, vec = np.linalg.eig(self.a)
+        left = self.c @ vec  # (C, n_states)
+        right = np.linalg.solve(vec, self.b) / (1.0 - lam**n)  # the folded geometric series
+        # folded[k] = sum_j g[k + jN]: C A^(k-1) B for k = 1 .. N, where k = N lands on 0
+        powers = lam[None, :] ** np.arange(n)[:, None]  # A^(k-1), k = 1 .. N
+        g = np.real((powers * right[None, :]) @ left.T)  # (N, C): folded g[1 .. N]
+        folded = np.roll(g, 1, axis=0)  # folded[0] = g[N] (+ g[2N] + ...), folded[1] = g[1] ...
+        folded[1 % n] += self.d  # the feed-through acts once, one step after its input
+        spectrum = np.fft.rfft(folded, axis=0) * np.fft.rfft(u)[:, None]
+        return np.fft.irfft(spectrum, n, axis=0)
 
 
 def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -211,11 +211,35 @@ class Plant:
             throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
         )
         self._calibrate_elevator()
-        if self.turbulence != "none":
-            fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
-            fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[self.turbulence]
-            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = 15.0
+        self.disturb(self.turbulence, self.seed)
         return self.trim_result
+
+    def disturb(self, turbulence: str, seed: int) -> None:
+        """Seed JSBSim's random generators and switch turbulence on: what follows the trim.
+
+        The trim does not depend on either (turbulence is off while trimming and the trim
+        draws no random number), so one trimmed aircraft serves flights that differ only
+        in them: a copy of it (a forked process, :mod:`probing.sim.fork`) disturbed here
+        steps exactly as an aircraft loaded and trimmed with these values.
+
+        Parameters
+        ----------
+        turbulence : str
+            ``"none"``, ``"light"``, ``"moderate"`` or ``"severe"`` (JSBSim's MIL-spec
+            Dryden model).
+        seed : int
+            Seed of JSBSim's random generators.
+        """
+        if turbulence not in TURBULENCE_SEVERITY:
+            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
+        fdm = self.fdm
+        self.turbulence, self.seed = turbulence, int(seed)
+        fdm["simulation/randomseed"] = self.seed
+        fdm["atmosphere/randomseed"] = self.seed
+        if turbulence != "none":
+            fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
+            fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[turbulence]
+            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = 15.0
 
     def _with_log(self, message: str) -> str:
         """``message`` with JSBSim's warnings and errors since the last call appended."""

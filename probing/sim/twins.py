@@ -35,17 +35,20 @@ import numpy as np
 from probing.sim import aircraft as _aircraft_module
 from probing.sim import channels as _channels_module
 from probing.sim import plant as _plant_module
-from probing.sim.aircraft import aircraft_digest, cache_dir, jsbsim_version
+from probing.sim.aircraft import cache_dir
 from probing.sim.flight import Flight
+from probing.sim.fork import trim_spec
 from probing.sim.plant import Plant, make_plant
 
 __all__ = [
     "TWIN_FORMAT",
     "ReferenceTwin",
     "open_twin",
+    "store_twin",
     "twin_cache_dir",
     "twin_key",
     "twin_spec",
+    "twin_stored",
 ]
 
 #: Version of the stored layout and of what a twin is; part of every key.
@@ -96,17 +99,11 @@ def twin_spec(flight: Flight, channels: Sequence[str], steps: int) -> dict[str, 
     """
     return {
         "format": TWIN_FORMAT,
-        "model": flight.model,
-        "aircraft_sha256": aircraft_digest(flight.model),
-        "altitude_ft": float(flight.altitude_ft),
-        "speed_kind": flight.speed_kind,
-        "speed": float(flight.speed),
-        "dt_s": float(flight.dt_s),
+        **trim_spec(flight),
         "steps": int(steps),
         "turbulence": flight.turbulence,
         "seed": int(flight.seed),
         "channels": list(channels),
-        "jsbsim": jsbsim_version(),
         "source_sha256": _source_digest(),
     }
 
@@ -118,6 +115,33 @@ def twin_key(flight: Flight, channels: Sequence[str], steps: int) -> str:
 
 
 _DTYPE = np.dtype("<f8")
+
+
+def _open_entry(path: Path, steps: int, n_channels: int) -> BinaryIO | None:
+    """The stored entry at ``path``, positioned after its header, if it is complete and fits."""
+    try:
+        fp = open(path, "rb")  # closed by the caller
+    except OSError:
+        return None
+    try:
+        version = np.lib.format.read_magic(fp)
+        read_header = {
+            (1, 0): np.lib.format.read_array_header_1_0,
+            (2, 0): np.lib.format.read_array_header_2_0,
+        }[version]
+        shape, fortran_order, dtype = read_header(fp)
+        size = os.fstat(fp.fileno()).st_size
+        if (
+            dtype == _DTYPE
+            and not fortran_order
+            and shape == (steps, n_channels)
+            and size == fp.tell() + steps * n_channels * _DTYPE.itemsize
+        ):
+            return fp
+    except (KeyError, OSError, ValueError):
+        pass
+    fp.close()
+    return None
 
 
 class ReferenceTwin:
@@ -139,7 +163,13 @@ class ReferenceTwin:
     """
 
     def __init__(
-        self, flight: Flight, channels: Sequence[str], steps: int, *, use_cache: bool
+        self,
+        flight: Flight,
+        channels: Sequence[str],
+        steps: int,
+        *,
+        use_cache: bool,
+        plant: Plant | None = None,
     ) -> None:
         self.key = twin_key(flight, channels, steps)
         self.total_steps = int(steps)
@@ -154,43 +184,17 @@ class ReferenceTwin:
         self._plant: Plant | None = None
         self._nodes: list = []
         if use_cache:
-            self._reader = self._open_entry()
+            self._reader = _open_entry(self.path, self.total_steps, self.n_channels)
             self.cached = self._reader is not None
             if not self.cached:
                 self._open_temporary()
         if not self.cached:
             try:
-                self._plant = make_plant(flight)
+                self._plant = plant if plant is not None else make_plant(flight)
                 self._nodes = self._plant.channel_nodes(list(channels))
             except BaseException:
                 self.close(success=False)
                 raise
-
-    def _open_entry(self) -> BinaryIO | None:
-        """The stored entry, positioned after its header, if it is complete and fits."""
-        try:
-            fp = open(self.path, "rb")  # closed in close()
-        except OSError:
-            return None
-        try:
-            version = np.lib.format.read_magic(fp)
-            read_header = {
-                (1, 0): np.lib.format.read_array_header_1_0,
-                (2, 0): np.lib.format.read_array_header_2_0,
-            }[version]
-            shape, fortran_order, dtype = read_header(fp)
-            size = os.fstat(fp.fileno()).st_size
-            if (
-                dtype == _DTYPE
-                and not fortran_order
-                and shape == (self.total_steps, self.n_channels)
-                and size == fp.tell() + self.total_steps * self.n_channels * _DTYPE.itemsize
-            ):
-                return fp
-        except (KeyError, OSError, ValueError):
-            pass
-        fp.close()
-        return None
 
     def _open_temporary(self) -> None:
         """Start a new entry under a name unique to this process and thread (if writable)."""
@@ -282,7 +286,12 @@ class ReferenceTwin:
 
 
 def open_twin(
-    flight: Flight, channels: Sequence[str], steps: int, *, use_cache: bool = True
+    flight: Flight,
+    channels: Sequence[str],
+    steps: int,
+    *,
+    use_cache: bool = True,
+    plant: Plant | None = None,
 ) -> ReferenceTwin:
     """The reference twin of a flight: read from the cache, or simulated (and stored).
 
@@ -297,6 +306,10 @@ def open_twin(
     use_cache : bool
         Read a stored twin when there is one, and store a simulated one; False simulates
         and stores nothing.
+    plant : Plant, optional
+        The trimmed and disturbed aircraft to simulate the twin with, if it is not read
+        from the cache (default: :func:`~probing.sim.plant.make_plant` of ``flight``); it
+        is stepped, so use it for nothing else.
 
     Returns
     -------
@@ -304,4 +317,35 @@ def open_twin(
         A context manager: on a clean exit after all ``steps`` steps a simulated twin is
         stored; on an exception (or if fewer steps were taken) it is dropped.
     """
-    return ReferenceTwin(flight, channels, steps, use_cache=use_cache)
+    return ReferenceTwin(flight, channels, steps, use_cache=use_cache, plant=plant)
+
+
+def twin_stored(flight: Flight, channels: Sequence[str], steps: int) -> bool:
+    """True if the cache holds this twin, complete (it would be read, not simulated)."""
+    path = twin_cache_dir() / f"{twin_key(flight, channels, steps)}.npy"
+    entry = _open_entry(path, int(steps), len(channels))
+    if entry is None:
+        return False
+    entry.close()
+    return True
+
+
+def store_twin(
+    flight: Flight, channels: Sequence[str], steps: int, block_steps: int, plant: Plant
+) -> None:
+    """Simulate the twin with ``plant`` (trimmed and disturbed) and store it in the cache.
+
+    It is stepped ``block_steps`` at a time, its state checked after each block, as a run
+    steps it period by period, so it diverges (and is not stored) exactly where a run's
+    twin would.
+
+    Raises
+    ------
+    probing.sim.errors.DivergenceError
+        If the twin leaves the meaningful region; nothing is stored.
+    """
+    with open_twin(flight, channels, steps, plant=plant) as twin:
+        if twin.cached:
+            return
+        for _ in range(steps // block_steps):
+            twin.next(block_steps)

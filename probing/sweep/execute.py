@@ -20,13 +20,16 @@ import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import write_json_atomic
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 from probing.sweep.summary import predictions, settled_stats, summarise, write_summary
+
+if TYPE_CHECKING:  # the sim layer loads JSBSim: only where runs are executed
+    from probing.sim.fork import TrimmedAircraft
 
 __all__ = [
     "EXECUTORS",
@@ -59,12 +62,14 @@ class _Task:
     failed_file: str
 
 
-def execute_task(task: _Task) -> dict[str, Any]:
+def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[str, Any]:
     """Run one point or reference into its folder, atomically; never raises for a failed run.
 
-    Returns a record: ``kind``, ``run_id``, ``status`` (``done``, ``failed`` for a trim
-    failure or divergence, ``error`` for anything unexpected, ``skipped`` when the folder
-    already existed), ``message``, ``wall_s``.
+    ``aircraft``: the trimmed aircraft of the task's chunk, in a child forked from its owner
+    (:func:`execute_chunk`); None loads and trims.  Returns a record: ``kind``, ``run_id``,
+    ``status`` (``done``, ``failed`` for a trim failure or divergence, ``error`` for
+    anything unexpected, ``skipped`` when the folder already existed), ``message``,
+    ``wall_s``.
     """
     from probing.experiment.run import run_scenario
     from probing.sim.errors import DivergenceError, TrimError
@@ -77,7 +82,9 @@ def execute_task(task: _Task) -> dict[str, Any]:
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     t0 = time.perf_counter()
     try:
-        result = run_scenario(task.scenario, final.parent, progress=False, folder=tmp)
+        result = run_scenario(
+            task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
+        )
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
     except Exception as exc:  # recorded, reported, and the sweep goes on
@@ -117,6 +124,54 @@ def execute_task(task: _Task) -> dict[str, Any]:
     return {**record, "status": status, "message": message, "wall_s": wall}
 
 
+def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
+    """Run tasks that share one trimmed state: one load and trim, one forked child per run.
+
+    The records of :func:`execute_task`, in the order of ``tasks``.  A child that ended
+    without a record (killed) gives an ``error`` record and no ``failed/`` file, so the run
+    is tried again by the next invocation.
+    """
+    from probing.experiment.batch import run_grouped
+
+    records: list[dict[str, Any]] = []
+    todo = []
+    for task in tasks:
+        if (Path(task.target) / POINT_FILE).exists():  # another worker finished it: no fork
+            records.append(execute_task(task))
+        else:
+            todo.append(task)
+    outcomes = run_grouped(todo, _scenario_of, execute_task, prepare=_shared_predictions)
+    for i, outcome in outcomes:
+        if outcome.error is None:
+            records.append(outcome.value)
+        else:
+            message = f"{outcome.error.__class__.__name__}: {outcome.error}"
+            task = todo[i]
+            records.append(
+                {"kind": task.kind, "run_id": task.run_id, "message": message}
+                | {"status": "error", "wall_s": math.nan}
+            )
+    return records
+
+
+def _scenario_of(task: _Task) -> Scenario:
+    return task.scenario
+
+
+def _shared_predictions(scenarios: list[Scenario], aircraft: TrimmedAircraft) -> None:
+    """Compute, before the chunk's children fork, what their predictions share: the
+    linearisation at the trim (of a copy of the chunk's trimmed aircraft) and its step
+    response; each child would otherwise compute them again."""
+    from probing.experiment.noise import linear_model
+
+    first = scenarios[0]
+    try:
+        linear_model(first.flight, first.channels, aircraft)
+    except Exception:  # recorded by each point's prediction, as without the warm-up
+        return
+    predictions(first)
+
+
 # ------------------------------------------------------------------ executors
 class _Local:
     """A pool of forked worker processes on this machine."""
@@ -127,7 +182,7 @@ class _Local:
     def close(self) -> None:
         """Nothing to release between sweeps."""
 
-    def run(self, tasks: list[_Task]) -> Iterator[dict[str, Any]]:
+    def run(self, chunks: list[list[_Task]]) -> Iterator[list[dict[str, Any]]]:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -139,9 +194,9 @@ class _Local:
         import probing.experiment.run  # noqa: F401
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-        workers = min(self.jobs, len(tasks))
+        workers = min(self.jobs, len(chunks))
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(execute_task, t) for t in tasks]
+            futures = [pool.submit(execute_chunk, c) for c in chunks]
             try:
                 for fut in as_completed(futures):
                     yield fut.result()
@@ -181,16 +236,20 @@ class _Dask:
             )
             self.client = Client(self.cluster)
             print(f"Dask dashboard: {self.client.dashboard_link}", file=sys.stderr, flush=True)
+        # Chunks are cut so every worker thread gets a part of a large group.
+        workers = self.client.scheduler_info()["workers"].values()
+        threads = sum(w.get("nthreads", 1) for w in workers)
+        self.jobs = max(1, threads or jobs)
 
     def close(self) -> None:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
 
-    def run(self, tasks: list[_Task]) -> Iterator[dict[str, Any]]:
+    def run(self, chunks: list[list[_Task]]) -> Iterator[list[dict[str, Any]]]:
         from distributed import as_completed
 
-        futures = self.client.map(execute_task, tasks, pure=False)
+        futures = self.client.map(execute_chunk, chunks, pure=False)
         for fut in as_completed(futures):
             yield fut.result()
 
@@ -381,8 +440,12 @@ def _execute(
     with progress_bar(len(todo), name, "runs", stream, progress, lines=True, intro=intro) as bar:
         if not todo:
             return
+        from probing.experiment.batch import chunked_groups
+
         failed = 0
-        for rec in pool.run(todo):
+        chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
+        records = (r for c in pool.run([[todo[i] for i in c] for c in chunks]) for r in c)
+        for rec in records:
             if rec["status"] in ("failed", "error"):
                 failed += 1
                 result.messages.append(f"{rec['kind']} {rec['run_id']}: {rec['message']}")

@@ -15,6 +15,7 @@ from probing.cli import main as cli_main
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import RateLimit
 from probing.experiment import fig4 as fig4_runs
+from probing.experiment.run import run_scenario
 from probing.experiment.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -193,3 +194,17 @@ def test_build_and_run_example(tmp_path):
     assert predicted == pytest.approx(2 / 3, abs=1e-4)
     assert measured == pytest.approx(predicted, rel=1e-3)
     assert np.isfinite(measured)
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("which", sorted(SETS))
+def test_grouped_runs_are_the_same_bytes_as_runs_on_their_own(results, which, tmp_path):
+    """run_set forks every run from one trimmed aircraft; each file must equal, byte for
+    byte, the run that loads and trims for itself (its twin simulated, not cached)."""
+    scenarios = fig4_runs.load_set(SETS[which])
+    scenarios[fig4_runs.OFFSET_TWIN] = fig4_runs.offset_twin(scenarios["b_saturation"])
+    for scn in scenarios.values():
+        alone = run_scenario(scn, tmp_path, progress=False, twin_cache=False).out_dir
+        for name in ("probing.parquet", "timeseries.parquet"):
+            grouped = (results[which] / scn.name / name).read_bytes()
+            assert grouped == (alone / name).read_bytes(), f"{scn.name}/{name}"

@@ -210,6 +210,19 @@ def test_sweep_gains_match_closed_form(reference_run: Path) -> None:
 
 
 @pytest.mark.jsbsim
+def test_points_are_the_same_bytes_as_runs_on_their_own(reference_run: Path, tmp_path: Path):
+    """The sweep forks its points from one trimmed aircraft per chunk; each point's files
+    equal, byte for byte, a run that loads and trims for itself."""
+    from probing.experiment.run import run_scenario
+
+    for p in load_sweep(SMALL).points:
+        alone = run_scenario(p.scenario, tmp_path, progress=False, twin_cache=False).out_dir
+        folder = reference_run / "points" / f"point_id={p.point_id}"
+        for name in ("probing.parquet", "timeseries.parquet"):
+            assert (folder / name).read_bytes() == (alone / name).read_bytes(), name
+
+
+@pytest.mark.jsbsim
 def test_points_form_one_dataset(reference_run: Path) -> None:
     table = open_dataset(reference_run).to_table()
     summary = read_summary(reference_run)

@@ -1,0 +1,192 @@
+"""Calls in forked children: each child starts from this process's memory as it is now.
+
+:func:`forked_map` runs a function on many arguments, each in a child forked from the
+calling process, up to ``jobs`` at a time, and hands back what each returned or raised.
+The standard library cannot do this: a ``ProcessPoolExecutor`` reuses its workers (a second
+task would see the first one's changes), and refuses ``max_tasks_per_child`` with the
+``fork`` start method.  Uses: runs that step their own copy of one trimmed aircraft
+(:mod:`probing.sim.fork`), figures drawn side by side from data loaded once.
+
+Only POSIX systems fork; elsewhere :func:`can_fork` is False and callers run in-process.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import pickle
+import selectors
+import signal
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["ChildDiedError", "Outcome", "can_fork", "forked_map"]
+
+
+class ChildDiedError(RuntimeError):
+    """A forked child ended without handing back a result (killed, or crashed in C)."""
+
+
+def can_fork() -> bool:
+    """True where runs may be forked: POSIX ``os.fork`` exists and ``$PROBING_FORK`` is not
+    ``0`` (set it to run everything in one process: debugging, profiling, and the
+    same-run baseline of ``make bench``)."""
+    if os.environ.get("PROBING_FORK", "1") == "0":
+        return False
+    return hasattr(os, "fork") and sys.platform != "win32"
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a child handed back: ``value`` if ``error`` is None, else the exception raised."""
+
+    index: int
+    value: Any = None
+    error: BaseException | None = None
+
+    def get(self) -> Any:
+        """The value, or raise the child's exception."""
+        if self.error is not None:
+            raise self.error
+        return self.value
+
+
+def _child(fn: Callable[[Any], Any], arg: Any, fd: int) -> None:
+    """Body of a forked child: run, send the pickled outcome, leave without clean-up."""
+    code = 0
+    try:
+        try:
+            payload = pickle.dumps((fn(arg), None))
+        except BaseException as exc:  # handed to the parent, which raises it there
+            try:
+                payload = pickle.dumps((None, exc))
+            except Exception:  # an exception that does not pickle: its text does
+                payload = pickle.dumps((None, RuntimeError(f"{type(exc).__name__}: {exc}")))
+        with os.fdopen(fd, "wb") as pipe:
+            pipe.write(payload)
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except BaseException:
+        code = 1
+    finally:
+        os._exit(code)  # no atexit handlers, no flushing of buffers copied from the parent
+
+
+def _start(fn: Callable[[Any], Any], arg: Any) -> tuple[int, int]:
+    """Fork a child running ``fn(arg)``; (pid, read end of its pipe)."""
+    read, write = os.pipe()
+    sys.stdout.flush()  # what the parent buffered must not be written twice
+    sys.stderr.flush()
+    gc.freeze()  # the child's collector then leaves the parent's objects (and pages) alone
+    pid = os.fork()
+    if pid == 0:  # the child
+        os.close(read)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C ends it at once, no traceback
+        _child(fn, arg, write)
+    gc.unfreeze()
+    os.close(write)
+    return pid, read
+
+
+def forked_map(fn: Callable[[Any], Any], args: Iterable[Any], jobs: int = 1) -> Iterator[Outcome]:
+    """``fn(arg)`` for each argument, each in a child forked from this process.
+
+    Parameters
+    ----------
+    fn : callable
+        Runs in the child; its return value (or exception) must pickle.
+    args : iterable
+        One child per item, started in order.
+    jobs : int
+        Children running at once (>= 1).
+
+    Yields
+    ------
+    Outcome
+        One per argument, as the children finish (``index`` is the argument's position).
+
+    Notes
+    -----
+    A child that dies without answering (killed by a signal, a crash in C) gives an
+    :class:`Outcome` whose error is :class:`ChildDiedError`.  If the caller stops early
+    (an exception, Ctrl-C, ``close()``), the children still running are killed and reaped.
+    """
+    pending = iter(enumerate(args))
+    running: dict[int, tuple[int, int, bytearray]] = {}  # fd -> (index, pid, data)
+    selector = selectors.DefaultSelector()
+    exiting: list[int] = []  # children that answered and are still tearing down
+    try:
+        while True:
+            while len(running) < max(1, jobs):
+                item = next(pending, None)
+                if item is None:
+                    break
+                index, arg = item
+                pid, fd = _start(fn, arg)
+                running[fd] = (index, pid, bytearray())
+                selector.register(fd, selectors.EVENT_READ)
+            if not running:
+                return
+            for key, _ in selector.select():
+                fd = key.fd
+                chunk = os.read(fd, 1 << 20)
+                if chunk:
+                    running[fd][2].extend(chunk)
+                    continue
+                index, pid, data = running.pop(fd)
+                selector.unregister(fd)
+                os.close(fd)
+                outcome = _finish(index, pid, bytes(data), exiting)
+                _reap(exiting)
+                yield outcome
+    finally:
+        for pid in exiting:  # answered, and ending: wait for them
+            _wait(pid)
+        for fd, (_, pid, _) in running.items():
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+            selector.unregister(fd)
+            os.close(fd)
+        selector.close()
+
+
+def _finish(index: int, pid: int, data: bytes, exiting: list[int]) -> Outcome:
+    """Unpickle the child's answer; a child that answered is reaped later (its memory takes
+    ~10 ms to tear down, time the next child can use), one that did not is waited for."""
+    if data:
+        exiting.append(pid)
+        try:
+            value, error = pickle.loads(data)
+        except Exception as exc:
+            return Outcome(index, error=ChildDiedError(f"unreadable answer from a child: {exc}"))
+        return Outcome(index, value, error)
+    status = _wait(pid)
+    if os.WIFSIGNALED(status):
+        why = f"killed by signal {os.WTERMSIG(status)}"
+    else:
+        why = f"exit status {os.waitstatus_to_exitcode(status)}"
+    return Outcome(index, error=ChildDiedError(f"a forked run ended without an answer ({why})"))
+
+
+def _wait(pid: int) -> int:
+    """Reap a child; its wait status (0 if it was reaped already)."""
+    try:
+        return os.waitpid(pid, 0)[1]
+    except ChildProcessError:
+        return 0
+
+
+def _reap(exiting: list[int]) -> None:
+    """Reap the children of ``exiting`` that have ended, without waiting."""
+    for pid in list(exiting):
+        try:
+            done, _ = os.waitpid(pid, os.WNOHANG)
+        except ChildProcessError:
+            done = pid
+        if done:
+            exiting.remove(pid)

@@ -1,0 +1,148 @@
+"""Runs grouped by trimmed state: one load and trim per group, the same bytes as alone."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+import probing.experiment.run as run_module
+from probing.core.forked import forked_map
+from probing.experiment.batch import chunked_groups, group_indices, run_grouped
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import Scenario, parse_scenario
+from probing.sim.errors import TrimError
+from probing.sim.flight import Flight
+from probing.sim.fork import TrimmedAircraft, trim_key
+
+pytestmark = pytest.mark.jsbsim
+
+BASE = {
+    "name": "b",
+    "aircraft": {"model": "737"},
+    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
+    "simulation": {"dt_s": 0.01},
+    "probe": {
+        "order": 6,
+        "bit_duration_s": 0.02,
+        "amplitude_deg": 0.01,
+        "periods": 3,
+        "settle_periods": 1,
+    },
+    "nonlinearity": {"type": "none"},
+    "output": {"channels": ["theta_rad", "q_rad_s"], "drift": "reference"},
+}
+
+
+def scenario(name: str, **changes: object) -> Scenario:
+    return parse_scenario(BASE).replace({"name": name, **changes})
+
+
+SCENARIOS = [
+    scenario("plain"),
+    scenario("backlash", **{"nonlinearity.type": "backlash", "nonlinearity.width_deg": 0.004}),
+    scenario(  # turbulence and seed are applied after the shared trim
+        "gusty",
+        **{
+            "disturbance.turbulence": "moderate",
+            "disturbance.seed": 7,
+            "disturbance.sensor_noise": {"theta_rad": 1e-5},
+        },
+    ),
+    scenario("cyclic", **{"output.drift": "none", "output.estimator": "cyclic"}),
+    scenario(  # a second trimmed state: another group
+        "gtm",
+        **{"aircraft.model": "gtm_t2", "condition.altitude_ft": 800, "condition.speed_kcas": 75},
+    ),
+    scenario("no-trim", **{"condition.speed_kcas": 40}),  # the 737 does not trim there
+]
+
+
+def test_groups_follow_what_the_trim_depends_on() -> None:
+    assert group_indices(SCENARIOS) == [[0, 1, 2, 3], [4], [5]]
+    assert trim_key(SCENARIOS[0].flight) == trim_key(SCENARIOS[2].flight)  # turbulence, seed
+    other_dt = SCENARIOS[0].replace({"simulation.dt_s": 0.005}).flight
+    assert trim_key(other_dt) != trim_key(SCENARIOS[0].flight)
+    # A group of 5 on 2 workers: chunks of 3 and 2, each loading and trimming once.
+    five = [SCENARIOS[0]] * 5
+    assert chunked_groups(five, 2) == [[0, 1, 2], [3, 4]]
+    assert chunked_groups(five, 1, largest=2) == [[0, 1], [2, 3], [4]]
+
+
+@pytest.fixture()
+def loads(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Models loaded by make_plant in a run (a forked run reports its own count)."""
+    seen: list[str] = []
+    real = run_module.make_plant
+
+    def counting(flight: Flight):
+        seen.append(flight.model)
+        return real(flight)
+
+    monkeypatch.setattr(run_module, "make_plant", counting)
+    return seen
+
+
+def test_grouped_runs_are_the_same_bytes_and_load_once(
+    loads: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("PROBING_TWIN_CACHE", str(tmp_path / "twins"))  # twins stored here
+
+    def work(scn: Scenario, aircraft: TrimmedAircraft | None) -> list[str]:
+        run_scenario(scn, tmp_path / "grouped", progress=False, aircraft=aircraft)
+        return list(loads)  # what this child loaded itself
+
+    outcomes = dict(run_grouped(SCENARIOS, lambda s: s, work, jobs=2))
+    assert sorted(outcomes) == list(range(len(SCENARIOS)))
+    for i, scn in enumerate(SCENARIOS[:-1]):
+        assert outcomes[i].get() == [], f"{scn.name} loaded its own aircraft"
+    with pytest.raises(TrimError) as grouped_error:  # the failed trim, reported by the run
+        outcomes[len(SCENARIOS) - 1].get()
+    with pytest.raises(TrimError) as alone_error:
+        run_scenario(SCENARIOS[-1], tmp_path / "alone", progress=False)
+    assert str(grouped_error.value) == str(alone_error.value)
+
+    for scn in SCENARIOS[:-1]:
+        alone = run_scenario(scn, tmp_path / "alone", progress=False, twin_cache=False)
+        for name in ("probing.parquet", "timeseries.parquet"):
+            grouped = (tmp_path / "grouped" / scn.name / name).read_bytes()
+            assert grouped == (alone.out_dir / name).read_bytes(), f"{scn.name}/{name}"
+
+
+def test_a_trimmed_aircraft_serves_only_its_condition() -> None:
+    aircraft = TrimmedAircraft(SCENARIOS[0].flight)
+
+    def other(flight: Flight) -> None:
+        aircraft.plant_for(flight)
+
+    (outcome,) = forked_map(other, [SCENARIOS[4].flight])
+    with pytest.raises(ValueError, match="not the trimmed aircraft's flight"):
+        outcome.get()
+
+
+def _rss_kib() -> int:
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("VmRSS:"))
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc")
+def test_the_parent_stays_flat_over_many_children() -> None:
+    import numpy as np
+
+    aircraft = TrimmedAircraft(SCENARIOS[0].flight)
+
+    def step(seed: int) -> float:
+        plant = aircraft.plant_for(dataclasses.replace(SCENARIOS[2].flight, seed=seed))
+        out = np.empty((500, 1))
+        plant.step(None, plant.channel_nodes(["theta_rad"]), out)
+        return float(out[-1, 0])
+
+    last = [o.get() for o in forked_map(step, range(40))]
+    before = _rss_kib()
+    last += [o.get() for o in forked_map(step, range(40, 400), 2)]
+    after = _rss_kib()
+    assert after - before < 2048, f"the parent grew by {after - before} KiB over 360 children"
+    assert len(set(last)) > 300  # the children flew different turbulence (seeds differ)
+    # and the parent itself never stepped: still at the trim
+    assert aircraft.plant.fdm.get_sim_time() == pytest.approx(0.0, abs=0.05)
