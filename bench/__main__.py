@@ -685,7 +685,11 @@ def bench_fig4(args: argparse.Namespace) -> dict:
         per_group.append({"model": scn.model, "steps": n, "bare_us_per_step": 1e6 * per_step})
     with twin_cache_dir(), tempfile.TemporaryDirectory(prefix="bench-fig4-") as tmp:
         scen_dir = ROOT / "scenarios" / "fig4"
-        prof = profile(lambda: run_set(scen_dir, Path(tmp), force=True, log=lambda *_: None))
+        os.environ["PROBING_FORK"] = "0"  # in this process, where cProfile sees the runs
+        try:
+            prof = profile(lambda: run_set(scen_dir, Path(tmp), force=True, log=lambda *_: None))
+        finally:
+            os.environ.pop("PROBING_FORK", None)
     wall = statistics.median(walls)
     return {
         "wall_s": wall,
@@ -735,9 +739,11 @@ def render_fig4(r: dict) -> Rendered:
         "",
         "Outside `run_scenario` the command spends its time like the replot: interpreter "
         "start-up and imports, reading the Parquet back, the figures (matplotlib) and the "
-        "summary. Inside, per the profile of the same runs in this process "
-        f"({r['profile']['wall_s']:.1f} s under cProfile), the model load dominates: the "
-        "GTM's 3.3 MB XML is parsed by JSBSim for every aircraft (`Plant.__init__`):",
+        "summary. The runs themselves are forked from one trimmed aircraft per condition, "
+        'two at a time (see "Per-point cost"). For comparison, the profile of the same '
+        "runs in one process, each loading its aircraft as before grouping (`PROBING_FORK=0`, "
+        f"{r['profile']['wall_s']:.1f} s under cProfile): there the model load dominates, "
+        "the GTM's 3.3 MB XML parsed by JSBSim for every aircraft (`Plant.__init__`):",
         "",
         *render_profile(r["profile"], r["steps"], r["profile"]["jsbsim_run_s_estimate"]),
     ]
