@@ -220,9 +220,9 @@ def _rate_limit(data: Fig4Data) -> Any:
 
 #: The figures, by the suffix of their file stem, with their builders and formats.
 _FIGURES = {
-    "": (lambda data: _panels(data), ("png", "pdf")),
-    "_compensated": (lambda data: _compensated(data), ("png",)),
-    "_rate_limit": (lambda data: _rate_limit(data), ("png",)),
+    "": (_panels, ("png", "pdf")),
+    "_compensated": (_compensated, ("png",)),
+    "_rate_limit": (_rate_limit, ("png",)),
 }
 
 

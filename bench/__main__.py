@@ -28,14 +28,14 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from scipy import signal
 
+from bench.common import bare_seconds_per_step, twin_cache_dir
 from probing.core.correlator import StreamingCorrelator
 from probing.core.prbs import mls
 from probing.experiment.run import run_scenario
@@ -90,38 +90,11 @@ def median_time(fn: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-@contextmanager
-def twin_cache_dir() -> Iterator[Path]:
-    """A fresh, empty reference-twin cache for the duration of the block."""
-    old = os.environ.get("PROBING_TWIN_CACHE")
-    with tempfile.TemporaryDirectory(prefix="bench-twins-") as tmp:
-        os.environ["PROBING_TWIN_CACHE"] = tmp
-        try:
-            yield Path(tmp)
-        finally:
-            if old is None:
-                os.environ.pop("PROBING_TWIN_CACHE", None)
-            else:
-                os.environ["PROBING_TWIN_CACHE"] = old
-
-
 def flight(minutes: float, name: str = "bench-flight", **changes: object) -> Scenario:
     """The default 737 scenario lengthened to about ``minutes`` of simulated flight."""
     scn = load_scenario(DEFAULT_SCENARIO)
     periods = max(3, round(minutes * 60.0 / (scn.bits_per_period * scn.bit_duration_s)))
     return scn.replace({"probe.periods": periods, "name": name, **changes})
-
-
-def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:
-    """Median time of one bare ``fdm.run()`` on a freshly trimmed plant of the scenario (s)."""
-    times = []
-    for _ in range(repeats):
-        run = make_plant(scn.flight).fdm.run
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            run()
-        times.append((time.perf_counter() - t0) / steps)
-    return statistics.median(times)
 
 
 def bare_loop(scn: Scenario) -> float:

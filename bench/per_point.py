@@ -15,12 +15,13 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
+from bench.common import bare_seconds_per_step, twin_cache_dir
 from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
-from probing.sim.plant import make_plant
 
 ROOT = Path(__file__).resolve().parent.parent
 BASES = {
@@ -44,19 +45,12 @@ def group(model: str, n: int) -> list[Scenario]:
     ]
 
 
-def _with_fresh_twins(fn) -> float:
-    old = os.environ.get("PROBING_TWIN_CACHE")
-    with tempfile.TemporaryDirectory(prefix="bench-pp-") as tmp:
-        os.environ["PROBING_TWIN_CACHE"] = f"{tmp}/twins"
-        try:
-            t0 = time.perf_counter()
-            fn(Path(tmp))
-            return time.perf_counter() - t0
-        finally:
-            if old is None:
-                os.environ.pop("PROBING_TWIN_CACHE", None)
-            else:
-                os.environ["PROBING_TWIN_CACHE"] = old
+def _with_fresh_twins(fn: Callable[[Path], object]) -> float:
+    """Wall time of ``fn(folder)`` with a fresh twin cache and a fresh output folder (s)."""
+    with twin_cache_dir(), tempfile.TemporaryDirectory(prefix="bench-pp-") as tmp:
+        t0 = time.perf_counter()
+        fn(Path(tmp))
+        return time.perf_counter() - t0
 
 
 def _before(points: list[Scenario], out: Path) -> None:
@@ -72,20 +66,12 @@ def _after(points: list[Scenario], out: Path) -> None:
         outcome.get()
 
 
-def _bare_step_s(scn: Scenario, steps: int = 20_000) -> float:
-    run = make_plant(scn.flight).fdm.run
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        run()
-    return (time.perf_counter() - t0) / steps
-
-
 def bench_groups(sizes: tuple[int, ...], repeats: int) -> dict:
     """Wall time per point, before and after, for each model and group size, against the
     bare stepping of the same steps (the points' and the one twin's)."""
     rows = []
     for model in BASES:
-        per_step = statistics.median(_bare_step_s(group(model, 1)[0]) for _ in range(repeats))
+        per_step = bare_seconds_per_step(group(model, 1)[0], 20_000, repeats)
         for n in sizes:
             points = group(model, n)
             steps = sum(s.total_steps for s in points) + points[0].total_steps  # + the twin
@@ -158,18 +144,14 @@ def bench_memory(points: int) -> dict:
     def work(scn: Scenario, aircraft: object) -> None:
         run_scenario(scn, out, progress=False, aircraft=aircraft)
 
-    with tempfile.TemporaryDirectory(prefix="bench-rss-") as tmp:
+    with twin_cache_dir(), tempfile.TemporaryDirectory(prefix="bench-rss-") as tmp:
         out = Path(tmp)
-        os.environ["PROBING_TWIN_CACHE"] = f"{tmp}/twins"
-        try:
-            t0 = time.perf_counter()
-            for k, (_, outcome) in enumerate(run_grouped(scns, lambda s: s, work)):
-                outcome.get()
-                if k + 1 in (min(50, points), points):
-                    marks[k + 1] = _rss_kib()
-            wall = time.perf_counter() - t0
-        finally:
-            os.environ.pop("PROBING_TWIN_CACHE", None)
+        t0 = time.perf_counter()
+        for k, (_, outcome) in enumerate(run_grouped(scns, lambda s: s, work)):
+            outcome.get()
+            if k + 1 in (min(50, points), points):
+                marks[k + 1] = _rss_kib()
+        wall = time.perf_counter() - t0
     first, last = marks[min(50, points)], marks[points]
     return {"points": points, "rss_first_kib": first, "rss_last_kib": last, "wall_s": wall}
 
