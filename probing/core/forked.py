@@ -12,12 +12,14 @@ Only POSIX systems fork; elsewhere :func:`can_fork` is False and callers run in-
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import pickle
 import selectors
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -74,19 +76,71 @@ def _child(fn: Callable[[Any], Any], arg: Any, fd: int) -> None:
         os._exit(code)  # no atexit handlers, no flushing of buffers copied from the parent
 
 
+class _Interrupts:
+    """Ctrl-C that arrives while a child is being forked, kept until the child is tracked.
+
+    Python runs signal handlers at the next bytecode, and during ``os.fork`` that is inside
+    the library's after-fork hooks (``logging`` has one), which print and *discard* the
+    KeyboardInterrupt: the caller would go on forking as if nothing happened.  While this
+    is active (in the main thread, with Python's default SIGINT handler in place), the
+    handler notes the interrupt and raises it only outside a fork; :meth:`forked` raises a
+    noted one once the new child is registered, so it is killed with the others.
+    """
+
+    def __init__(self) -> None:
+        self.forking = False
+        self.noted = False
+        self.previous: Any = None
+
+    def __enter__(self) -> _Interrupts:
+        in_main = threading.current_thread() is threading.main_thread()
+        if in_main and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.previous is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, self.previous)
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.noted = True
+        if not self.forking:
+            raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def forked(self) -> Iterator[None]:
+        """Around forking a child and registering it; a Ctrl-C noted meanwhile is raised
+        when the block ends."""
+        self.forking = True
+        try:
+            yield
+        finally:
+            self.forking = False
+        if self.noted:
+            raise KeyboardInterrupt
+
+
 def _start(fn: Callable[[Any], Any], arg: Any) -> tuple[int, int]:
-    """Fork a child running ``fn(arg)``; (pid, read end of its pipe)."""
+    """Fork a child running ``fn(arg)``; (pid, read end of its pipe).
+
+    SIGINT is blocked in this thread across the fork, so the child cannot take one before
+    it has set the default action (die at once, no traceback); one that arrived meanwhile
+    is delivered when the child unblocks it, and to this process after the fork.
+    """
     read, write = os.pipe()
     sys.stdout.flush()  # what the parent buffered must not be written twice
     sys.stderr.flush()
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     gc.freeze()  # the child's collector then leaves the parent's objects (and pages) alone
     pid = os.fork()
     if pid == 0:  # the child
         os.close(read)
-        signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C ends it at once, no traceback
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
         _child(fn, arg, write)
     gc.unfreeze()
     os.close(write)
+    signal.pthread_sigmask(signal.SIG_SETMASK, held)
     return pid, read
 
 
@@ -117,42 +171,44 @@ def forked_map(fn: Callable[[Any], Any], args: Iterable[Any], jobs: int = 1) -> 
     running: dict[int, tuple[int, int, bytearray]] = {}  # fd -> (index, pid, data)
     selector = selectors.DefaultSelector()
     exiting: list[int] = []  # children that answered and are still tearing down
-    try:
-        while True:
-            while len(running) < max(1, jobs):
-                item = next(pending, None)
-                if item is None:
-                    break
-                index, arg = item
-                pid, fd = _start(fn, arg)
-                running[fd] = (index, pid, bytearray())
-                selector.register(fd, selectors.EVENT_READ)
-            if not running:
-                return
-            for key, _ in selector.select():
-                fd = key.fd
-                chunk = os.read(fd, 1 << 20)
-                if chunk:
-                    running[fd][2].extend(chunk)
-                    continue
-                index, pid, data = running.pop(fd)
+    with _Interrupts() as interrupts:
+        try:
+            while True:
+                while len(running) < max(1, jobs):
+                    item = next(pending, None)
+                    if item is None:
+                        break
+                    index, arg = item
+                    with interrupts.forked():
+                        pid, fd = _start(fn, arg)
+                        running[fd] = (index, pid, bytearray())
+                        selector.register(fd, selectors.EVENT_READ)
+                if not running:
+                    return
+                for key, _ in selector.select():
+                    fd = key.fd
+                    chunk = os.read(fd, 1 << 20)
+                    if chunk:
+                        running[fd][2].extend(chunk)
+                        continue
+                    index, pid, data = running.pop(fd)
+                    selector.unregister(fd)
+                    os.close(fd)
+                    outcome = _finish(index, pid, bytes(data), exiting)
+                    _reap(exiting)
+                    yield outcome
+        finally:
+            for pid in exiting:  # answered, and ending: wait for them
+                _wait(pid)
+            for fd, (_, pid, _) in running.items():
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+                except OSError:
+                    pass
                 selector.unregister(fd)
                 os.close(fd)
-                outcome = _finish(index, pid, bytes(data), exiting)
-                _reap(exiting)
-                yield outcome
-    finally:
-        for pid in exiting:  # answered, and ending: wait for them
-            _wait(pid)
-        for fd, (_, pid, _) in running.items():
-            try:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-            except OSError:
-                pass
-            selector.unregister(fd)
-            os.close(fd)
-        selector.close()
+            selector.close()
 
 
 def _finish(index: int, pid: int, data: bytes, exiting: list[int]) -> Outcome:

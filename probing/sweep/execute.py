@@ -14,6 +14,7 @@ import logging
 import math
 import os
 import shutil
+import signal
 import sys
 import time
 import uuid
@@ -195,7 +196,9 @@ class _Local:
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         workers = min(self.jobs, len(chunks))
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        with ProcessPoolExecutor(
+            max_workers=workers, mp_context=ctx, initializer=_die_on_ctrl_c
+        ) as pool:
             futures = [pool.submit(execute_chunk, c) for c in chunks]
             try:
                 for fut in as_completed(futures):
@@ -203,7 +206,20 @@ class _Local:
             except BaseException:
                 for fut in futures:
                     fut.cancel()
+                # A worker would finish its chunk, and the chunk queued behind it, before
+                # the pool shut down: up to 2 x 64 runs after a Ctrl-C.  What they finished
+                # is complete on disk; what they were running is left as .tmp-* folders,
+                # removed by the next invocation, as after a kill.
+                for proc in mp.active_children():
+                    proc.kill()
                 raise
+
+
+def _die_on_ctrl_c() -> None:
+    """Initializer of the local workers: Ctrl-C ends a worker at once, like the runs it
+    forks.  Otherwise the pool would catch the KeyboardInterrupt in the middle of a chunk
+    and go on with the next one queued."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 class _Dask:

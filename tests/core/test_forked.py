@@ -58,3 +58,74 @@ def test_an_abandoned_map_leaves_no_child_behind() -> None:
     gen.close()  # the caller stops early: the running children are killed and reaped
     with pytest.raises(ChildProcessError):
         os.waitpid(-1, os.WNOHANG)
+
+
+# A script that forks slowly: an after-fork hook (as ``logging`` registers one) sleeps, so a
+# Ctrl-C lands inside the hook, where Python would print and drop the KeyboardInterrupt.
+SLOW_FORKS = """
+import os, sys, time
+from pathlib import Path
+from probing.core.forked import forked_map
+
+where, side = Path(sys.argv[1]), sys.argv[2]
+def hook():
+    (where / f"{side}-hook-{os.getpid()}").touch()
+    time.sleep(0.5)
+if side == "parent":
+    os.register_at_fork(after_in_parent=hook)
+else:
+    os.register_at_fork(after_in_child=hook)
+
+def run(i):
+    (where / f"ran-{i}").touch()
+    return i
+
+try:
+    for o in forked_map(run, range(20), 1):
+        print(o.index, type(o.error).__name__ if o.error else "ok", flush=True)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(130)
+"""
+
+
+def _slow_forks(tmp_path, side: str):
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SLOW_FORKS, str(tmp_path), side],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 30
+    while not (hooked := list(tmp_path.glob(f"{side}-hook-*"))) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert hooked, "the script never forked"
+    return proc, int(hooked[0].name.rsplit("-", 1)[1])
+
+
+def test_ctrl_c_during_a_fork_stops_the_map(tmp_path) -> None:
+    """Interrupted inside the parent's after-fork hook: the map must stop (and kill the child
+    it just forked), not go on forking all 20 with a printed 'Exception ignored'."""
+    proc, pid = _slow_forks(tmp_path, "parent")
+    os.kill(pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, (out, err)
+    assert "Exception ignored" not in err
+    assert len(list(tmp_path.glob("ran-*"))) <= 1  # the child being forked, at most
+
+
+def test_ctrl_c_to_a_child_being_forked_ends_that_child(tmp_path) -> None:
+    """Interrupted inside the child's after-fork hook, before it could install the default
+    action: the child must die of the signal, not run its call."""
+    proc, pid = _slow_forks(tmp_path, "child")
+    os.kill(pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[0] == "0 ChildDiedError"
+    assert not (tmp_path / "ran-0").exists()
+    assert len(list(tmp_path.glob("ran-*"))) == 19
+    assert "Exception ignored" not in err

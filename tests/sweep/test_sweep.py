@@ -247,20 +247,29 @@ def test_rerun_skips_finished_points_without_rewriting(reference_run: Path, tmp_
     )
 
 
+def _signal_after_two_points(
+    cmd: list[str], points: Path, sig: int
+) -> tuple[subprocess.Popen, bytes]:
+    """Start ``cmd``; once two points are finished, send ``sig`` to its whole process group
+    (the CLI, its workers and their runs, as Ctrl-C in a terminal does); (process, stderr)."""
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(points.glob("point_id=*"))) < 2:
+        time.sleep(0.005)
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=60)
+    return proc, err
+
+
 @pytest.mark.jsbsim
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
 def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path) -> None:
     cmd = [sys.executable, "-m", "probing", "sweep", str(SMALL), "--out", str(tmp_path), "-j", "1"]
-    proc = subprocess.Popen(
-        cmd, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
-    )
     points = tmp_path / "backlash-small" / "points"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list(points.glob("point_id=*"))) < 2:
-        time.sleep(0.005)
-    os.killpg(proc.pid, sig)  # the whole process group: the CLI and its workers
-    proc.communicate(timeout=60)
+    proc, _ = _signal_after_two_points(cmd, points, sig)
     if sig == signal.SIGINT:
         assert proc.returncode == 130
     else:
@@ -277,6 +286,28 @@ def test_resume_after_a_real_kill(sig: int, reference_run: Path, tmp_path: Path)
     assert stamps == {f: f.stat().st_mtime_ns for f in stamps}  # finished points untouched
     assert not list(points.glob(".tmp-*"))
     assert_same_results(tmp_path / "backlash-small", reference_run)
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+def test_ctrl_c_stops_the_chunks_queued_behind_the_running_one(tmp_path: Path) -> None:
+    """Three flight conditions: three chunks of 7 runs, one worker.  The pool's worker must
+    not catch the KeyboardInterrupt and go on with the chunk queued behind (it did: all 14
+    runs of two chunks finished after a Ctrl-C)."""
+    sweep = tmp_path / "three.toml"
+    sweep.write_text(
+        f'name = "three"\nbase = "{BASE}"\n[grid]\n'
+        '"condition.altitude_ft" = [15000, 16000, 17000]\n'
+        '"nonlinearity.type" = ["backlash"]\n'
+        '"nonlinearity.width_deg" = [0.0, 0.0025, 0.005, 0.0075, 0.01, 0.015]\n'
+    )
+    cmd = [sys.executable, "-m", "probing", "sweep", str(sweep), "--out", str(tmp_path), "-j", "1"]
+    points = tmp_path / "three" / "points"
+    proc, err = _signal_after_two_points(cmd, points, signal.SIGINT)
+    assert proc.returncode == 130
+    assert 2 <= len(list(points.glob("point_id=*"))) < 6  # the first chunk, interrupted
+    assert b"Traceback" not in err and b"Exception ignored" not in err
+    assert err.decode().strip().splitlines()[-1] == "probing: error: interrupted"
 
 
 @pytest.mark.jsbsim
