@@ -144,7 +144,7 @@ def _run_grouped(
     for group in group_indices(scenarios):
         members = [scenarios[i] for i in group]
         try:
-            aircraft: TrimmedAircraft | None = TrimmedAircraft(members[0].flight)
+            aircraft: TrimmedAircraft | None = _trimmed(members[0].flight)
         except Exception:  # each run loads and trims itself, and reports the failure as usual
             aircraft = None
         if aircraft is not None:
@@ -156,6 +156,21 @@ def _run_grouped(
         run = functools.partial(_work, items=items, work=work, aircraft=aircraft)
         for outcome in forked_map(run, group, jobs):
             yield group[outcome.index], outcome
+
+
+#: The last group's trimmed aircraft.  This process never steps it (its children step their
+#: copies), so the next call with the same trimmed state (the next chunk of a large group in
+#: a sweep worker) forks from it instead of loading and trimming again.
+_LAST: list[TrimmedAircraft] = []
+
+
+def _trimmed(flight: Flight) -> TrimmedAircraft:
+    """The trimmed aircraft of ``flight``: the last one if its trim key is the same."""
+    key = trim_key(flight)
+    if not (_LAST and _LAST[0].key == key):
+        _LAST.clear()  # one aircraft at a time: the old one is freed before the new loads
+        _LAST.append(TrimmedAircraft(flight))
+    return _LAST[0]
 
 
 def _work(i: int, items: Sequence[T], work: Callable, aircraft: TrimmedAircraft | None) -> Any:

@@ -35,6 +35,7 @@ from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PROBING_SCHEMA,
+    Settled,
     output_folder,
     probing_block,
     provenance,
@@ -80,6 +81,9 @@ class RunResult:
         True if the reference twin was read from the cache instead of simulated.
     twin_key : str or None
         The twin's cache key (:func:`probing.sim.twins.twin_key`); None without a twin.
+    settled : Settled or None
+        With ``keep_settled``: the settled periods of the first channel, exactly as
+        :func:`probing.experiment.storage.read_settled` reads them back from the file.
     """
 
     out_dir: Path
@@ -89,6 +93,7 @@ class RunResult:
     wall_s: float
     twin_cached: bool = False
     twin_key: str | None = None
+    settled: Settled | None = None
 
 
 # ------------------------------------------------------------------ set-up
@@ -308,20 +313,42 @@ class SettledMean:
         Periods left out at the start.
     """
 
-    def __init__(self, channels: tuple[str, ...] | list[str], m: int, settle_periods: int):
+    def __init__(
+        self,
+        channels: tuple[str, ...] | list[str],
+        m: int,
+        settle_periods: int,
+        keep_first: bool = False,
+    ):
         self.channels = list(channels)
         self.settle = settle_periods
         self.total = np.zeros((len(self.channels), m))
         self.count = np.zeros(len(self.channels), dtype=np.int64)
+        self.kept: list[tuple[int, np.ndarray, np.ndarray]] | None = [] if keep_first else None
 
-    def add(self, periods: np.ndarray, h: np.ndarray) -> None:
-        """Add periods ``periods`` (P,) with estimates ``h`` (P, C, M)."""
+    def add(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray | None = None) -> None:
+        """Add periods ``periods`` (P,) with estimates ``h`` and probing outputs ``z``
+        (P, C, M; ``z`` needed only with ``keep_first``)."""
         settled = np.asarray(periods) >= self.settle
         for p in np.flatnonzero(settled):
             for j in range(len(self.channels)):
                 if np.all(np.isfinite(h[p, j])):
                     self.total[j] += h[p, j]
                     self.count[j] += 1
+                    if j == 0 and self.kept is not None:
+                        self.kept.append((int(periods[p]), z[p, 0].copy(), h[p, 0].copy()))
+
+    def first_channel(self, lag_s: np.ndarray) -> Settled | None:
+        """With ``keep_first``: the first channel's settled periods (None otherwise)."""
+        if self.kept is None:
+            return None
+        m = lag_s.size
+        return Settled(
+            np.array([k[0] for k in self.kept], dtype=np.int64),
+            lag_s,
+            np.array([k[1] for k in self.kept]).reshape(-1, m),
+            np.array([k[2] for k in self.kept]).reshape(-1, m),
+        )
 
     def mean(self) -> dict[str, np.ndarray]:
         """Channel -> mean h (NaN where no period counted)."""
@@ -343,6 +370,7 @@ def run_scenario(
     folder: str | Path | None = None,
     twin_cache: bool = True,
     aircraft: TrimmedAircraft | None = None,
+    keep_settled: bool = False,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -367,6 +395,9 @@ def run_scenario(
         trimming one: pass it in a child forked from the aircraft's owner only
         (:mod:`probing.experiment.batch`), whose copy this run then steps.  The results are
         bit-identical either way.
+    keep_settled : bool
+        Also hand back the first channel's settled periods (``RunResult.settled``), so a
+        caller need not read them back from the file.
 
     Returns
     -------
@@ -383,7 +414,7 @@ def run_scenario(
     probe, channels = rig.probe, list(scn.channels)
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
     drift = _drift_correction(scn, probe, rig.chunk_periods * m)
-    settled = SettledMean(channels, m, scn.settle_periods)
+    settled = SettledMean(channels, m, scn.settle_periods, keep_first=keep_settled)
     lag_s = np.arange(m) * probe.bit_duration_s
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     x_period = probe.samples(scn.dt_s, 1)
@@ -399,7 +430,7 @@ def run_scenario(
                     w_probe.write(
                         probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
                     )
-                settled.add(est.periods, est.h)
+                settled.add(est.periods, est.h, est.z)
                 w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
                 bar.advance(c.count)
     return RunResult(
@@ -410,6 +441,7 @@ def run_scenario(
         wall_s=time.perf_counter() - t_start,
         twin_cached=bool(rig.twin and rig.twin.cached),
         twin_key=rig.twin.key if rig.twin else None,
+        settled=settled.first_channel(lag_s),
     )
 
 

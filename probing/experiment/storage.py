@@ -142,15 +142,18 @@ def provenance(**items: Any) -> dict[bytes, bytes]:
 ROW_GROUP_ROWS = 65536
 
 
-def write_json_atomic(path: Path, payload: Any) -> None:
+def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
     """Write ``payload`` as JSON under a temporary name, then rename it into place.
 
     A reader sees the old file or the whole new one, never a part (parents are created).
+    ``compact``: one line, no indentation (Python's C encoder then writes it, about twice
+    as fast: for files written per run that hold long lists of floats).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    tmp.write_text(json.dumps(payload, indent=1, sort_keys=True, default=str) + "\n")
+    indent = None if compact else 1
+    tmp.write_text(json.dumps(payload, indent=indent, sort_keys=True, default=str) + "\n")
     os.replace(tmp, path)
 
 

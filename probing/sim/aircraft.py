@@ -35,8 +35,10 @@ __all__ = [
 PROJECT_AIRCRAFT = Path(__file__).resolve().parents[2] / "aircraft"
 
 
+@functools.cache
 def jsbsim_version() -> str:
-    """The version of the installed JSBSim Python package (read from its metadata)."""
+    """The version of the installed JSBSim Python package (read from its metadata once per
+    process: the library a process has loaded does not change under it)."""
     return metadata.version("jsbsim")
 
 

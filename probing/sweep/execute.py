@@ -84,7 +84,12 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
     t0 = time.perf_counter()
     try:
         result = run_scenario(
-            task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
+            task.scenario,
+            final.parent,
+            progress=False,
+            folder=tmp,
+            aircraft=aircraft,
+            keep_settled=True,
         )
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
@@ -100,10 +105,10 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
             "steps_simulated": result.steps_simulated,
             "scenario": task.scenario.to_dict(),
             # Statistics of the first channel, computed here, in parallel, for the summary.
-            "settled": settled_stats(tmp, task.scenario),
+            "settled": settled_stats(tmp, task.scenario, result.settled),
             "predicted": predictions(task.scenario) if task.kind == "point" else {},
         }
-        write_json_atomic(tmp / POINT_FILE, info)
+        write_json_atomic(tmp / POINT_FILE, info, compact=True)
         try:
             os.rename(tmp, final)
         except OSError:  # another worker finished the same run first: keep theirs
@@ -132,6 +137,7 @@ def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
     without a record (killed) gives an ``error`` record and no ``failed/`` file, so the run
     is tried again by the next invocation.
     """
+    import probing.experiment.run  # noqa: F401  (once here, not in every child: Dask workers)
     from probing.experiment.batch import run_grouped
 
     records: list[dict[str, Any]] = []

@@ -17,7 +17,14 @@ import numpy as np
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import PER_DEG, metadata, provenance, read_settled, units
+from probing.experiment.storage import (
+    PER_DEG,
+    Settled,
+    metadata,
+    provenance,
+    read_settled,
+    units,
+)
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 
 __all__ = [
@@ -59,15 +66,18 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
-def settled_stats(folder: Path, scn: Scenario) -> dict[str, Any]:
+def settled_stats(folder: Path, scn: Scenario, settled: Settled | None = None) -> dict[str, Any]:
     """Mean settled h_est and z of the first channel, h's period-to-period spread, the count.
 
     ``h_mean`` and ``z_mean`` are stored as lists of floats (exact in JSON); ``h_spread`` is
     the per-tap variance over the settled periods (ddof 1), RMS-averaged: sqrt(mean(var)).
+    ``settled``: the run's own (``RunResult.settled``); None reads them from the folder's
+    ``probing.parquet``.
     """
     channel = scn.channels[0]
-    path = folder / "probing.parquet"
-    settled = read_settled(path, channel, scn.settle_periods, scn.bits_per_period)
+    if settled is None:
+        path = folder / "probing.parquet"
+        settled = read_settled(path, channel, scn.settle_periods, scn.bits_per_period)
     h = settled.h
     n_p = int(h.shape[0])
     return {

@@ -110,6 +110,45 @@ def test_grouped_runs_are_the_same_bytes_and_load_once(
             assert grouped == (alone.out_dir / name).read_bytes(), f"{scn.name}/{name}"
 
 
+def test_the_next_chunk_of_a_group_reuses_the_trimmed_aircraft(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sweep worker runs a large group chunk after chunk: the aircraft is loaded and
+    trimmed for the first chunk only, and the later chunks' runs (forked from an aircraft
+    that has served other runs) are still the bytes of runs on their own."""
+    import probing.experiment.batch as batch
+
+    built: list[str] = []
+
+    class Counting(TrimmedAircraft):
+        def __init__(self, flight: Flight) -> None:
+            built.append(flight.model)
+            super().__init__(flight)
+
+    monkeypatch.setattr(batch, "TrimmedAircraft", Counting)
+    monkeypatch.setattr(batch, "_LAST", [])
+    monkeypatch.setenv("PROBING_TWIN_CACHE", str(tmp_path / "twins"))
+
+    def work(scn: Scenario, aircraft: TrimmedAircraft | None) -> None:
+        run_scenario(scn, tmp_path / "chunks", progress=False, aircraft=aircraft)
+
+    chunks = [
+        SCENARIOS[0:2],
+        SCENARIOS[2:4],
+        [SCENARIOS[4]],
+        [SCENARIOS[0].replace({"name": "again"})],
+    ]
+    for chunk in chunks:
+        for _, outcome in run_grouped(chunk, lambda s: s, work):
+            outcome.get()
+    assert built == ["737", "gtm_t2", "737"]  # the 737 again only after the GTM's group
+    for scn in SCENARIOS[2:4]:
+        alone = run_scenario(scn, tmp_path / "alone", progress=False, twin_cache=False)
+        for name in ("probing.parquet", "timeseries.parquet"):
+            chunked = (tmp_path / "chunks" / scn.name / name).read_bytes()
+            assert chunked == (alone.out_dir / name).read_bytes(), f"{scn.name}/{name}"
+
+
 def test_a_trimmed_aircraft_serves_only_its_condition() -> None:
     aircraft = TrimmedAircraft(SCENARIOS[0].flight)
 

@@ -343,13 +343,8 @@ def _settled_means(folder: Path, scn) -> dict[str, np.ndarray]:
     return out
 
 
-def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_channel(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """A sensor that reads NaN once leaves its channel without a finite settled period
-    (the FFT correlator carries the NaN on); the other channel is untouched.  Each channel
-    averages over its own settled periods: the count used to follow channel 0 only, which
-    turned the dead channel's empty sum into a mean of exactly zero."""
+def _dead_sensor(monkeypatch: pytest.MonkeyPatch, period: int | None, channel: int) -> None:
+    """The probed aircraft's ``channel`` reads NaN once, in ``period`` (None: never)."""
     import probing.sim.plant as plant_module
 
     step = plant_module.Plant.step
@@ -358,11 +353,21 @@ def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_ch
     def step_with_a_dead_sensor(self, cmd_norm, nodes, out, elevator_deg=None):
         step(self, cmd_norm, nodes, out, elevator_deg)
         if cmd_norm is not None:  # the probed aircraft, one period per call
+            if calls["probed"] == period:
+                out[5, channel] = np.nan
             calls["probed"] += 1
-            if calls["probed"] == 4:
-                out[5, 1] = np.nan  # one sample of q_rad_s in period 3
 
     monkeypatch.setattr(plant_module.Plant, "step", step_with_a_dead_sensor)
+
+
+def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_channel(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sensor that reads NaN once leaves its channel without a finite settled period
+    (the FFT correlator carries the NaN on); the other channel is untouched.  Each channel
+    averages over its own settled periods: the count used to follow channel 0 only, which
+    turned the dead channel's empty sum into a mean of exactly zero."""
+    _dead_sensor(monkeypatch, period=3, channel=1)  # q_rad_s
     scn = scenario(
         **{
             "probe.order": 6,
@@ -376,6 +381,38 @@ def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_ch
     assert np.all(np.isfinite(means["theta_rad"])) and np.all(np.isnan(means["q_rad_s"]))
     for channel in scn.channels:
         np.testing.assert_allclose(result.h_est[channel], means[channel], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("estimator", "drift", "dead_period"),
+    [("streaming", "reference", None), ("streaming", "detrend", 3), ("cyclic", "none", 4)],
+)
+def test_kept_settled_periods_are_what_read_settled_reads_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, estimator: str, drift: str, dead_period
+) -> None:
+    """A sweep takes the first channel's settled periods from the run instead of reading
+    its file again: they must be the file's, bit for bit, with the same periods left out
+    (before settling, or not finite at every tap: a NaN sample in ``dead_period``)."""
+    from probing.experiment.storage import read_settled
+
+    _dead_sensor(monkeypatch, period=dead_period, channel=0)
+    scn = scenario(
+        **{
+            "probe.order": 6,
+            "probe.periods": 7,
+            "probe.settle_periods": 2,
+            "output.channels": ["q_rad_s", "theta_rad"],
+            "output.drift": drift,
+            "output.estimator": estimator,
+        }
+    )
+    result = run_scenario(scn, tmp_path, progress=False, twin_cache=False, keep_settled=True)
+    kept = result.settled
+    back = read_settled(result.out_dir / "probing.parquet", "q_rad_s", 2, scn.bits_per_period)
+    assert kept is not None and 0 < len(back.periods) < scn.periods - 2 + (dead_period is None)
+    for name in ("periods", "lag_s", "z", "h"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(back, name), err_msg=name)
+    assert run_scenario(scn, tmp_path / "again", progress=False, twin_cache=False).settled is None
 
 
 def test_z_is_eq5_on_measured_minus_reference_sampled_at_the_end_of_each_bit(
