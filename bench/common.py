@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import statistics
+import subprocess
 import tempfile
 import time
 from collections.abc import Iterator
@@ -13,7 +14,12 @@ from pathlib import Path
 from probing.experiment.scenario import Scenario
 from probing.sim.plant import make_plant
 
-__all__ = ["bare_seconds_per_step", "twin_cache_dir"]
+__all__ = ["BEFORE_GROUPING", "bare_seconds_per_step", "project_at", "twin_cache_dir"]
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The main branch before issue [3/6] (every run loaded and trimmed its own aircraft): the
+#: baseline of that issue's targets, run from its own source tree in the same venv.
+BEFORE_GROUPING = "e9ba1c5"
 
 
 @contextmanager
@@ -41,3 +47,21 @@ def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:
             run()
         times.append((time.perf_counter() - t0) / steps)
     return statistics.median(times)
+
+
+@contextmanager
+def project_at(revision: str) -> Iterator[Path | None]:
+    """The project's files at ``revision`` in a temporary folder (``git archive``), or None
+    where the revision is not in this clone's history.  Run ``python -m probing`` with that
+    folder as working directory to run that version's code (the venv's editable install is
+    shadowed by the working directory); nothing of this checkout changes."""
+    with tempfile.TemporaryDirectory(prefix=f"bench-{revision}-") as tmp:
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", "--format=tar", revision],
+            capture_output=True,
+        )
+        if archive.returncode != 0:
+            yield None
+            return
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
+        yield Path(tmp)
