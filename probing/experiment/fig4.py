@@ -11,6 +11,7 @@ drawn from the stored Parquet by :mod:`analysis.fig4`; see ``docs/fig4.md``.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from collections.abc import Callable
@@ -24,13 +25,14 @@ from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, ScenarioError, load_scenario
 from probing.experiment.storage import write_json_atomic
-from probing.sim.fork import TrimmedAircraft
+from probing.sim.fork import TrimmedAircraft, trim_spec
 
 __all__ = [
     "BASELINE",
     "CHANNEL",
     "OFFSET_TWIN",
     "PANELS",
+    "is_stored",
     "load_set",
     "offset_twin",
     "run_set",
@@ -52,6 +54,7 @@ BASELINE = "baseline"
 OFFSET_TWIN = "b_saturation_offset"  # constant b~ through the same chain: the remedy run
 CHANNEL = "theta_rad"
 DIGEST_KEY = b"probing.scenario_digest"
+AIRCRAFT_KEY = b"probing.aircraft"
 #: Rate-limit sweep: r_l / (2a/t0), log-spaced, and the bit durations (s).
 SWEEP_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 4.0, 9))  # 0.25 * sqrt(2)**k
 SWEEP_BITS_S = (0.01, 0.04)
@@ -60,12 +63,28 @@ SWEEP_PERIODS, SWEEP_SETTLE = 4, 2
 
 def stored_digest(folder: Path) -> str | None:
     """The scenario digest stored in ``folder/probing.parquet``, or None."""
-    path = folder / "probing.parquet"
-    if not path.exists() or not (folder / "timeseries.parquet").exists():
-        return None
-    meta = pq.read_schema(path).metadata or {}
+    meta = _stored_metadata(folder)
     value = meta.get(DIGEST_KEY)
     return value.decode() if value else None
+
+
+def is_stored(folder: Path, scn: Scenario) -> bool:
+    """Whether ``folder`` holds this scenario's run, made with the same aircraft files,
+    condition and JSBSim version (a changed model file makes a stored run stale)."""
+    meta = _stored_metadata(folder)
+    aircraft = meta.get(AIRCRAFT_KEY)
+    return (
+        stored_digest(folder) == scn.digest()
+        and aircraft is not None
+        and json.loads(aircraft) == trim_spec(scn.flight)
+    )
+
+
+def _stored_metadata(folder: Path) -> dict[bytes, bytes]:
+    path = folder / "probing.parquet"
+    if not path.exists() or not (folder / "timeseries.parquet").exists():
+        return {}
+    return pq.read_schema(path).metadata or {}
 
 
 def offset_twin(sat: Scenario) -> Scenario:
@@ -185,9 +204,7 @@ def _run_missing(
     """Run the scenarios not stored yet (all with ``force``), grouped by trimmed state;
     scenario name -> wall time of its run (s).  The first failure is raised."""
     missing = [
-        (scn, folder)
-        for _, scn, folder in runs
-        if force or stored_digest(folder / scn.name) != scn.digest()
+        (scn, folder) for _, scn, folder in runs if force or not is_stored(folder / scn.name, scn)
     ]
 
     def work(item: tuple[Scenario, Path], aircraft: TrimmedAircraft | None) -> float:

@@ -41,7 +41,7 @@ from probing.experiment.storage import (
     provenance,
     timeseries_schema,
 )
-from probing.sim.fork import TrimmedAircraft
+from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
@@ -137,6 +137,7 @@ class _Rig:
             "scenario_toml": scn.text,
             "scenario": scn.to_dict(),
             "scenario_digest": scn.digest(),
+            "aircraft": trim_spec(scn.flight),  # model files' digest, condition, JSBSim
             "trim": self.plant.trim_result.to_dict(),
             "drift": scn.drift,
             "sampling": "one correlator sample per bit: the output read after the last step "

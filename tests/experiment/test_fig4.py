@@ -111,6 +111,21 @@ def test_compensation_recovers_baseline(results, which):
 
 
 @pytest.mark.jsbsim
+def test_a_stored_run_of_another_aircraft_version_is_stale(results, monkeypatch) -> None:
+    """A run is reused only if its aircraft files (and condition, JSBSim) are the ones the
+    scenario would load now: after a model file changes, ``make fig4`` simulates again."""
+    scn = fig4_runs.load_set(SETS["737"])["baseline"]
+    folder = results["737"] / scn.name
+    assert fig4_runs.is_stored(folder, scn)
+    assert not fig4_runs.is_stored(folder, scn.replace({"probe.amplitude_deg": 0.02}))
+    real = fig4_runs.trim_spec
+    monkeypatch.setattr(
+        fig4_runs, "trim_spec", lambda flight: {**real(flight), "aircraft_sha256": "0" * 64}
+    )
+    assert not fig4_runs.is_stored(folder, scn)
+
+
+@pytest.mark.jsbsim
 def test_runs_are_skipped_and_plot_replots_without_simulating(
     results, tmp_path, monkeypatch, capsys
 ):
