@@ -118,6 +118,12 @@ def value(x: float) -> str:
     return f"<value>{fmt(x)}</value>"
 
 
+def exact_value(x: float) -> str:
+    """A ``<value>`` element with every digit of the double (computed constants)."""
+    x = float(x)
+    return "<value>0</value>" if x == 0.0 else f"<value>{x!r}</value>"
+
+
 # --------------------------------------------------------------------------------------------
 # Table writers (JSBSim FGTable: row / column / table lookups, linear, clamped)
 # --------------------------------------------------------------------------------------------
@@ -450,6 +456,118 @@ def flaps(db: dict) -> list[str]:
     return lines
 
 
+#: The damage cases of dC6_damage, in NASA's order: ``damage/case`` k selects the k-th.
+DAMAGE_CASES = (
+    "rudder off",
+    "vertical tail off",
+    "left outboard flap off",
+    "left wing tip (25 %) off",
+    "left elevator off",
+    "left stabilizer off",
+)
+DAMAGE_CASE = "damage/case"
+
+
+def per_case(undamaged_body: list[str], branches: list[list[str]]) -> list[str]:
+    """``undamaged_body`` for ``damage/case`` 0, else ``branches[k - 1]`` for case k (a
+    ``<switch>``: only the selected branch is evaluated)."""
+    assert len(branches) == len(DAMAGE_CASES)
+    body = ["<switch>", f"  {prop(DAMAGE_CASE)}", *indent(undamaged_body, 1)]
+    for branch in branches:
+        body += indent(branch, 1)
+    return [*body, "</switch>"]
+
+
+#: Aero groups a damage case removes (NASA's ``DamageModels_T2``: surface gain 0), by case.
+#: Both rudder panels go together (cases 1 and 2), so the one rudder of the model is lost.
+LOST_IN: dict[str, tuple[int, ...]] = {"rud": (1, 2), "ail-left": (4,)}
+#: The undamaged rate terms NASA's damaged dynamic model replaces, by coefficient.
+RATE_GROUPS = {c: ("q", "w") if c in LONG3 else ("p", "r", "w") for c in COEFFS6}
+
+
+def negated(prop_name: str) -> list[str]:
+    """Minus a property."""
+    return ["<product>", f"  {value(-1)}", f"  {prop(prop_name)}", "</product>"]
+
+
+def damage(db: dict) -> list[str]:
+    """The damage cases as one correction per coefficient, ``aero/gtm/dam/<C>``: exactly 0
+    undamaged (the totals keep their bits, and the only cost is one ``<switch>`` each), else
+    what NASA's block diagram changes in case k:
+
+    * + ``dC6_damage.bas(alpha, beta, k)`` (``aero/gtm/dam-bas/<C>``, clamped: NASA clips it);
+    * the rate terms replaced: - the undamaged dC3_p/q/r and dC6_w terms, + dC3_p/q/r of the
+      raw body rates (``aero/gtm/{p,q,r}-hat-body``) times ``ddscale(alpha, k, rate, C)``,
+      and for CY + sum ``ddinc(alpha, k, rate, CY)`` times the normalised rate (NASA wires
+      the CY column of ddinc only);
+    * the lost surfaces' increments removed: the rudder (cases 1, 2), the left aileron
+      (case 4), the left outboard flap panel (case 3).
+    """
+    bas = db["dC6_damage"].bas
+    b_alpha, b_beta, b_data = arr(bas.alpha), arr(bas.beta), arr(bas.data)
+    assert b_data.shape == (len(b_alpha), len(b_beta), len(DAMAGE_CASES), 6), b_data.shape
+    scale, inc = db["dC6_damage"].ddscale, db["dC6_damage"].ddinc
+    s_alpha, s_data = arr(scale.alpha), arr(scale.data)  # alpha x case x [p q r] x coefficient
+    i_alpha, i_data = arr(inc.alpha), arr(inc.data)
+    rate_tables = {
+        "q": ("dC3_q", "qhat", LONG3),
+        "p": ("dC3_p", "phat", LAT3),
+        "r": ("dC3_r", "rhat", LAT3),
+    }
+    flap_lob = arr(db["flaps"].flaplob)
+    lines: list[str] = []
+    for axis in "pqr":
+        length = "metrics/cbarw-ft" if axis == "q" else "metrics/bw-ft"
+        body = ["<product>", f"  {prop(f'velocities/{axis}-aero-rad_sec')}"]
+        body += [f"  {prop(length)}", f"  {prop('aero/gtm/half-over-vt-sec_ft')}", "</product>"]
+        lines += function(
+            f"aero/gtm/{axis}-hat-body",
+            body,
+            f"body rate {axis} normalised (the damaged rate model's variable)",
+        )
+    for i, c in enumerate(COEFFS6):
+        tables = [table_2d(ALPHA, b_alpha, BETA, b_beta, b_data[:, :, k, i]) for k in range(6)]
+        lines += function(
+            f"aero/gtm/dam-bas/{c}",
+            per_case([value(0)], tables),
+            f"damage case airframe increment dC6_damage.bas, {c}",
+        )
+    for i, c in enumerate(COEFFS6):
+        branches = []
+        for k in range(1, len(DAMAGE_CASES) + 1):
+            terms = [prop(f"aero/gtm/dam-bas/{c}")]
+            for group in RATE_GROUPS[c]:
+                terms += negated(f"aero/gtm/{group}/{c}")
+            for axis in "pqr":
+                key, field, coeffs = rate_tables[axis]
+                if c not in coeffs:
+                    continue
+                t = db[key]
+                a, h, d = arr(t.alpha), arr(getattr(t, field)), arr(t.data)
+                raw = table_2d(ALPHA, a, f"aero/gtm/{axis}-hat-body", h, d[:, :, coeffs.index(c)])
+                j = "pqr".index(axis)
+                factor = table_1d(ALPHA, s_alpha, s_data[:, k - 1, j, i])
+                terms += ["<product>", *indent(raw, 1), *indent(factor, 1), "</product>"]
+            if c == "CY":
+                for j, axis in enumerate("pqr"):
+                    per_rate = table_1d(ALPHA, i_alpha, i_data[:, k - 1, j, i])
+                    terms += ["<product>", *indent(per_rate, 1)]
+                    terms += [f"  {prop(f'aero/gtm/{axis}-hat-body')}", "</product>"]
+            for group, cases in LOST_IN.items():
+                if k in cases:
+                    terms += negated(f"aero/gtm/{group}/{c}")
+            if k == 3 and flap_lob[i] != 0.0:  # the left outboard flap panel's derivative
+                terms += ["<product>", f"  {value(-flap_lob[i])}"]
+                terms += [f"  {prop('fcs/flap-pos-deg')}", "</product>"]
+            branches.append(["<sum>", *indent(terms, 1), "</sum>"])
+        lines += function(
+            f"aero/gtm/dam/{c}",
+            per_case([value(0)], branches),
+            f"what the damage case changes in {c} (0 undamaged)",
+        )
+    return lines
+
+
 GROUPS: dict[str, tuple[str, ...]] = {
     "CX": (
         "bas",
@@ -463,8 +581,21 @@ GROUPS: dict[str, tuple[str, ...]] = {
         "w",
         "lgr",
         "flp",
+        "dam",
     ),
-    "CY": ("bas", "ail-right", "ail-left", "rud", "spo-right", "spo-left", "p", "r", "w", "flp"),
+    "CY": (
+        "bas",
+        "ail-right",
+        "ail-left",
+        "rud",
+        "spo-right",
+        "spo-left",
+        "p",
+        "r",
+        "w",
+        "flp",
+        "dam",
+    ),
 }
 GROUPS["CZ"] = GROUPS["CX"]
 GROUPS["Cm"] = GROUPS["CX"]
@@ -528,6 +659,7 @@ def aerodynamics(db: dict) -> list[str]:
         ("dC6_w: rotary-balance terms", rotary(db)),
         ("dC3_lgr: landing gear", landing_gear(db)),
         ("flaps: per-degree derivatives, 4 panels together", flaps(db)),
+        ("dC6_damage: what the damage case changes", damage(db)),
         ("totals", totals()),
     )
     for title, lines in sections:
@@ -655,6 +787,9 @@ def flight_control() -> list[str]:
         '<property value="0">fcs/right-spoiler-pos-deg</property>',
         '<property value="0">fcs/stabilizer-pos-deg</property>',
         '<property value="0">fcs/flap-cmd-deg</property>',
+        f'<property value="0">{DAMAGE_CASE}</property>',
+        f'<property value="0">{MASS_CASE}</property>',
+        f'<property value="0">{MASS_STALE}</property>',
     ]
     pitch = servo(
         "elevator",
@@ -727,6 +862,7 @@ def flight_control() -> list[str]:
         ("yaw", yaw),
         ("spoilers and flaps", spo_r + spo_l + flap),
         ("landing gear", gear),
+        ("damage watch", damage_mass_watch()),
     )
     body: list[str] = [
         "<!-- Servo, as in NASA's GTM_DesignSim: y' = sat(2 pi 5 Hz (u - y), +-300 deg/s),",
@@ -744,6 +880,9 @@ def flight_control() -> list[str]:
         body.append(f'<channel name="{name}">')
         body += indent(comps, 1)
         body.append("</channel>")
+    body.append(f'<channel name="damage mass" execute="{MASS_STALE}">')
+    body += indent(damage_masses_fcs(), 1)
+    body.append("</channel>")
     return ['<flight_control name="GTM T2 servos">', *indent(body, 1), "</flight_control>"]
 
 
@@ -811,19 +950,147 @@ def mass_balance() -> list[str]:
     i = INERTIA_SLUGFT2
     return [
         "<mass_balance>",
-        f"{IND}<!-- NASA T2, gear up, 2 x 5.74 lb fuel included in the empty weight. Products",
-        f"{IND}     of inertia are the integrals (Ixz = +int xz dm in body axes); JSBSim puts",
-        f"{IND}     -Ixz, -Ixy off the diagonal. CG at 21.99 % MAC. -->",
+        f"{IND}<!-- NASA T2, gear up, 2 x 5.74 lb fuel included in the empty weight. NASA's",
+        f"{IND}     products of inertia are the integrals (Ixz = +int xz dm in body axes) and its",
+        f"{IND}     tensor has -Ixy, -Ixz, -Iyz off the diagonal. JSBSim's tensor has -ixy,",
+        f"{IND}     -iyz but +ixz there (FGMassBalance::Load), so ixz = -Ixz. CG at 21.99 % MAC.",
+        f"{IND}-->",
         f'{IND}<ixx unit="SLUG*FT2"> {fmt_fixed(i["ixx"], 4)} </ixx>',
         f'{IND}<iyy unit="SLUG*FT2"> {fmt_fixed(i["iyy"], 4)} </iyy>',
         f'{IND}<izz unit="SLUG*FT2"> {fmt_fixed(i["izz"], 4)} </izz>',
         f'{IND}<ixy unit="SLUG*FT2"> {fmt_fixed(i["ixy"], 4)} </ixy>',
-        f'{IND}<ixz unit="SLUG*FT2"> {fmt_fixed(i["ixz"], 4)} </ixz>',
+        f'{IND}<ixz unit="SLUG*FT2"> {fmt_fixed(-i["ixz"], 4)} </ixz>',
         f'{IND}<iyz unit="SLUG*FT2"> {fmt_fixed(0.0, 4)} </iyz>',
         f'{IND}<emptywt unit="LBS"> {fmt_fixed(WEIGHT_LBS, 4)} </emptywt>',
         *indent(location("CG", x_station_in(CG_FRAC), 0.0, 0.0), 1),
+        f"{IND}<!-- damage cases (NASA's DamageModels_T2 deltas), weights set by the FCS -->",
+        *indent(damage_point_mass_elements(), 1),
         "</mass_balance>",
     ]
+
+
+#: NASA's ``DamageModels_T2`` mass deltas, case -> (dWeight lb, dCG in inches with x forward,
+#: y right, z down, [dIxx dIyy dIzz dIxz dIyz dIxy] slug ft^2 with the products of inertia as
+#: integrals, e.g. dIxz = d(int xz dm)).
+DAMAGE_MASS: dict[int, tuple[float, tuple[float, float, float], tuple[float, ...]]] = {
+    1: (-0.13, (0.126, 0.000, 0.028), (-0.00346, -0.06698, -0.06352, -0.01409, 0.00001, 0.00003)),
+    2: (-1.31, (1.166, 0.000, 0.277), (-0.03507, -0.57604, -0.54102, -0.13113, 0.00006, 0.00024)),
+    3: (-0.09, (0.014, 0.041, 0.001), (-0.01018, -0.00120, -0.01137, -0.00009, -0.00027, -0.00347)),
+    4: (-0.81, (0.148, 0.628, 0.032), (-0.25821, -0.01727, -0.27400, -0.00295, -0.01346, -0.05998)),
+    5: (-0.07, (0.065, 0.010, 0.004), (-0.00097, -0.03391, -0.03467, -0.00188, -0.00029, -0.00510)),
+    6: (-0.59, (0.553, 0.088, 0.032), (-0.00918, -0.27315, -0.28049, -0.01559, -0.00265, -0.04370)),
+}
+SLUG_LB = 32.174049  # JSBSim's slugtolb
+#: Fixed directions of the inertia "dipoles" (body axes): their six outer products span the
+#: symmetric 3 x 3 matrices, so any inertia change can be made of them.
+DIPOLE_DIRECTIONS = (
+    np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [1, 0, 1], [0, 1, 1]], dtype=float)
+    / np.sqrt([1, 1, 1, 2, 2, 2])[:, None]
+)
+DIPOLE_ARM_FT = 1.0
+
+
+def inertia_tensor(ixx: float, iyy: float, izz: float, ixz: float, iyz: float, ixy: float):
+    """The inertia tensor (body axes, slug ft^2) of moments and product integrals."""
+    return np.array([[ixx, -ixy, -ixz], [-ixy, iyy, -iyz], [-ixz, -iyz, izz]])
+
+
+def _parallel(mass_slug: float, r_ft: np.ndarray) -> np.ndarray:
+    """m (|r|^2 I - r r^T): a point mass's inertia about a point at -r from it (JSBSim's)."""
+    return mass_slug * (float(r_ft @ r_ft) * np.eye(3) - np.outer(r_ft, r_ft))
+
+
+def _to_body_ft(struct_in: np.ndarray, cg_in: np.ndarray) -> np.ndarray:
+    """JSBSim's StructuralToBody: a structural location (in) relative to the CG, body ft."""
+    d = struct_in - cg_in
+    return np.array([-d[0], d[1], -d[2]]) / 12.0
+
+
+def damage_point_masses() -> tuple[np.ndarray, np.ndarray]:
+    """Point masses that give each damage case NASA's weight, CG and inertia.
+
+    Returns ``weights`` (case 0..6, mass) lb and ``locations`` (case 0..6, mass, xyz) inches
+    in the structural frame.  Mass 0 is the lost part: weight dW at the location that moves
+    the CG by dCG.  JSBSim adds each mass's parallel-axis inertia about the new CG (and the
+    base's, about it too); NASA adds only its inertia deltas.  Masses 1-12 are six pairs at
+    +-1 ft along fixed directions around the base CG and mass 13 sits at the base CG with
+    minus their weight: together they weigh nothing and move no CG, and their weights are
+    solved so that the total inertia is exactly the base inertia plus NASA's deltas.  Case 0:
+    every weight 0, which adds nothing (to the bit).
+    """
+    cg0 = np.array([float(fmt_fixed(x_station_in(CG_FRAC), 6)), 0.0, 0.0])  # as JSBSim reads it
+    n_dip = len(DIPOLE_DIRECTIONS)
+    weights = np.zeros((7, 2 + 2 * n_dip))
+    locations = np.tile(cg0, (7, 2 + 2 * n_dip, 1))
+    # the dipoles' structural locations: cg0 -+ the body direction (x, z flipped)
+    arm_in = 12.0 * DIPOLE_ARM_FT * DIPOLE_DIRECTIONS * np.array([-1.0, 1.0, -1.0])
+    basis = [2.0 * DIPOLE_ARM_FT**2 * np.outer(e, e) for e in DIPOLE_DIRECTIONS]
+    sym = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)]
+    a = np.array([[b[i, j] for b in basis] for i, j in sym])  # second moment per unit mass
+    for case, (dw, dcg, di) in DAMAGE_MASS.items():
+        w = WEIGHT_LBS + dw
+        shift = np.array([-dcg[0], dcg[1], -dcg[2]])  # structural: x aft, z up
+        cg = cg0 + shift
+        lost = cg0 + shift * w / dw  # W cg = W0 cg0 + dW lost
+        target = inertia_tensor(*di)  # NASA: base + deltas, no parallel-axis terms
+        extra = _parallel(WEIGHT_LBS / SLUG_LB, _to_body_ft(cg0, cg))
+        extra += _parallel(dw / SLUG_LB, _to_body_ft(lost, cg))
+        need = target - extra  # what the dipoles must add: X = tr(S) I - S
+        second = 0.5 * np.trace(need) * np.eye(3) - need
+        m = np.linalg.solve(a, np.array([second[i, j] for i, j in sym]))  # slug per pair mass
+        weights[case, 0] = dw
+        locations[case, 0] = lost
+        for k in range(n_dip):
+            weights[case, 1 + 2 * k : 3 + 2 * k] = m[k] * SLUG_LB
+            locations[case, 1 + 2 * k] = cg0 + arm_in[k]
+            locations[case, 2 + 2 * k] = cg0 - arm_in[k]
+        weights[case, -1] = -2.0 * m.sum() * SLUG_LB
+        locations[case, :, :] = np.where(weights[case, :, None] == 0.0, cg0, locations[case])
+    return weights, locations
+
+
+MASS_CASE = "damage/mass-case"  # the case whose point masses are set
+MASS_STALE = "damage/mass-stale"  # 1 while damage/case differs from it
+
+
+def damage_mass_watch() -> list[str]:
+    """The FCS function that flags a change of ``damage/case`` (run every frame)."""
+    body = ["<nq>", f"  {prop(DAMAGE_CASE)}", f"  {prop(MASS_CASE)}", "</nq>"]
+    return fcs_function("damage mass stale", MASS_STALE, body)
+
+
+def damage_masses_fcs() -> list[str]:
+    """FCS functions that set the damage point masses from ``damage/case``: in a channel that
+    runs only in the frame after the case changed (``damage/mass-stale``), so the undamaged
+    aircraft pays one comparison per frame.  The mass model runs after the FCS: a case set
+    between two steps acts in the next one."""
+    weights, locations = damage_point_masses()
+    lines: list[str] = []
+    for i in range(weights.shape[1]):
+        outs = [("weight", f"inertia/pointmass-weight-lbs[{i}]", weights[:, i])]
+        for j, axis in enumerate("XYZ"):
+            out = f"inertia/pointmass-location-{axis}-inches[{i}]"
+            outs.append((f"{axis.lower()}", out, locations[:, i, j]))
+        for what, out, per in outs:
+            body = ["<switch>", f"  {prop(DAMAGE_CASE)}", *[f"  {exact_value(v)}" for v in per]]
+            lines += fcs_function(f"damage mass {i} {what}", out, [*body, "</switch>"])
+    return lines + fcs_function("damage mass case", MASS_CASE, [prop(DAMAGE_CASE)])
+
+
+def damage_point_mass_elements() -> list[str]:
+    """The damage point masses in <mass_balance>, all of weight 0 (undamaged)."""
+    weights, _ = damage_point_masses()
+    cg0 = x_station_in(CG_FRAC)
+    lines: list[str] = []
+    for i in range(weights.shape[1]):
+        name = "damage lost part" if i == 0 else f"damage inertia {i}"
+        lines += [
+            f'<pointmass name="{name}">',
+            f'{IND}<weight unit="LBS"> 0 </weight>',
+            *indent(location(None, cg0, 0.0, 0.0), 1),
+            "</pointmass>",
+        ]
+    return lines
 
 
 def ground_reactions() -> list[str]:

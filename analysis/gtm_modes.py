@@ -83,19 +83,28 @@ converter and the rest of the project are MIT. Model notes in detail:
 
 ## Model in brief
 
-* **Aerodynamics**: every table of the release except damage cases and the all-zero dC3_sym:
+* **Aerodynamics**: every table of the release except the all-zero dC3_sym:
   C6_bas(alpha, beta); dC3_ele(alpha, beta, stab, elev) with the four panels deflected together;
   dC6_ail (right, plus the mirrored left); dC6_rud (negative tabulated, positive mirrored);
   dC6_spo (right, plus mirrored left); dC3_q/p/r forced-oscillation rate terms; dC6_w
-  rotary-balance terms; dC3_lgr gear increment; flap derivatives. Multilinear interpolation,
-  clamped at table ends. Totals: `aero/coefficient/{CX,CY,CZ,Cl,Cm,Cn}`.
+  rotary-balance terms; dC3_lgr gear increment; flap derivatives; the six damage cases of
+  dC6_damage. Multilinear interpolation, clamped at table ends. Totals:
+  `aero/coefficient/{CX,CY,CZ,Cl,Cm,Cn}`.
+* **Damage cases**: `damage/case` (0 none, 1 rudder off, 2 vertical tail off, 3 left outboard
+  flap off, 4 left wing tip off, 5 left elevator off, 6 left stabilizer off) switches, at the
+  next step, NASA's airframe increments, its damaged rate model (ddscale, ddinc), the lost
+  rudder / left aileron / left outboard flap, and the weight, CG and inertia deltas. The lost
+  left elevator panels and stabilizer of cases 5 and 6 wait for per-panel surfaces. Details
+  and the deviations from NASA's block diagram: `aircraft/gtm_t2/README.md`, "Damage cases".
 * **Transcription check** (`tests/sim/test_gtm.py`): at 300 random states (alpha -5..40 deg, beta
   +-20 deg, rates up to 1.5 rad/s, all surfaces) JSBSim's six totals agree with an independent
   SciPy `RegularGridInterpolator` evaluation of the .mat tables to better than 1e-9 (test
   tolerance 1e-6). States are set with `ic/*` properties and `run_ic()`; during `run_ic` the
   time step is 0 and the servos sit exactly at their commands.
-* **Mass**: 57.75 lb, Ixx 1.221, Iyy 4.655, Izz 5.587, Ixz 0.274, Ixy 0.006 slug ft^2; CG at
-  21.99 % MAC, aero reference point at 25 % MAC (both on the fuselage datum line).
+* **Mass**: 57.75 lb, Ixx 1.221, Iyy 4.655, Izz 5.587, Ixz 0.274, Ixy 0.006 slug ft^2 (NASA's
+  matrix, products as integrals; JSBSim's file holds `ixz = -0.274` because JSBSim puts +ixz
+  off the diagonal, a sign the model had wrong until 2026-11-23); CG at 21.99 % MAC, aero
+  reference point at 25 % MAC (both on the fuselage datum line).
 * **Thrust** (not from NASA): two engines, thrust = throttle x 17 lbf each, instant, through
   the CG height. **Servos**: NASA's first-order 5 Hz loop with the 300 deg/s rate limit inside
   the loop; elevator -30..+20 deg; `fcs/elevator-servo-bypass` for a pure surface.

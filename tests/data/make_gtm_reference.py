@@ -17,11 +17,17 @@ Build-up (same conventions as documented in docs/gtm.md):
 * C = C6_bas(a, b) + dC3_ele(a, b, stab, de) + dC6_ail(a, b, dR) + M dC6_ail(a, -b, dL)
   + dC6_rud(a, b, min(dr, 0)) + M dC6_rud(a, -b, min(-dr, 0)) + dC6_spo(a, b, sR)
   + M dC6_spo(a, -b, sL) + dC3_q/p/r(a, hat) + dC6_w(a, omegahat, b) + dC3_lgr(a, gear)
-  + flaps * df, with M = diag(1, -1, 1, -1, 1, -1) (mirror image: CY, Cl, Cn change sign).
+  + flaps * df + dC6_damage.bas(a, b, case), with M = diag(1, -1, 1, -1, 1, -1) (mirror
+  image: CY, Cl, Cn change sign); the damage term is 0 for case 0 (undamaged).
 * Aileron command da: right surface dR = +da, left surface dL = -da (NASA sign).
 * Omega = p cos a cos b + q sin b + r sin a cos b; omegahat = Omega b / 2V;
   phat = (p - Omega cos a cos b) b / 2V, qhat = (q - Omega sin b) cbar / 2V,
   rhat = (r - Omega sin a cos b) b / 2V.
+* Damage case k (1..6), as NASA's block diagram combines it: + dC6_damage.bas(a, b, k); the
+  rate terms replaced by dC3_p/q/r of the raw body rates (p b/2V, q cbar/2V, r b/2V), each
+  scaled by dC6_damage.ddscale(a, k, rate, coefficient), no dC6_w, and CY +=
+  sum ddinc(a, k, rate, CY) * rate-hat; the rudder (k = 1, 2), the left outboard flap panel
+  (k = 3) and the left aileron (k = 4) removed.
 """
 
 from __future__ import annotations
@@ -54,8 +60,11 @@ STATE_NAMES = (
     "right_spoiler_deg",
     "gear_pos",
     "flap_deg",
+    "damage_case",
 )
 COEFF_NAMES = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+#: The surfaces NASA's damage cases remove (DamageModels_T2.m: gain 0), by case.
+LOST = {"rudder": (1, 2), "left outboard flap": (3,), "left aileron": (4,)}
 
 
 class Table:
@@ -81,6 +90,7 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     """Total coefficients (n, 6) [CX CY CZ Cl Cm Cn] for the states ``s``."""
     n = len(s["alpha_deg"])
     a, b = s["alpha_deg"], s["beta_deg"]
+    case = s["damage_case"]
     out = np.zeros((n, 6))
 
     bas = mat["C6_bas"]
@@ -95,13 +105,14 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     ail = mat["dC6_ail"]
     t_ail = Table([ail.alpha, ail.beta, ail.ail], ail.data)
     out += t_ail(a, b, s["aileron_deg"])
-    out += MIRROR * t_ail(a, -b, -s["aileron_deg"])
+    left = MIRROR * t_ail(a, -b, -s["aileron_deg"])
+    out += left * ~np.isin(case, LOST["left aileron"])[:, None]
 
     rud = mat["dC6_rud"]
     t_rud = Table([rud.alpha, rud.beta, rud.rud], rud.data)
     dr = s["rudder_deg"]
-    out += t_rud(a, b, np.minimum(dr, 0.0))
-    out += MIRROR * t_rud(a, -b, np.minimum(-dr, 0.0))
+    rudder = t_rud(a, b, np.minimum(dr, 0.0)) + MIRROR * t_rud(a, -b, np.minimum(-dr, 0.0))
+    out += rudder * ~np.isin(case, LOST["rudder"])[:, None]
 
     spo = mat["dC6_spo"]
     t_spo = Table([spo.alpha, spo.beta, spo.spo], spo.data)
@@ -118,12 +129,35 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     r_hat = (r - omega * e_z) * SPAN_FT / (2 * v)
 
     tq, tp, tr = mat["dC3_q"], mat["dC3_p"], mat["dC3_r"]
-    out[:, [0, 2, 4]] += Table([tq.alpha, tq.qhat], tq.data)(a, q_hat)
-    out[:, [1, 3, 5]] += Table([tp.alpha, tp.phat], tp.data)(a, p_hat)
-    out[:, [1, 3, 5]] += Table([tr.alpha, tr.rhat], tr.data)(a, r_hat)
-
+    t_q = Table([tq.alpha, tq.qhat], tq.data)
+    t_p = Table([tp.alpha, tp.phat], tp.data)
+    t_r = Table([tr.alpha, tr.rhat], tr.data)
     w = mat["dC6_w"]
-    out += Table([w.alpha, w.what, w.beta], w.data)(a, omega_hat, b)
+    ok = case == 0  # undamaged: oscillatory rates and the rotary-balance term
+    rates = np.zeros((n, 6))
+    rates[:, [0, 2, 4]] += t_q(a, q_hat)
+    rates[:, [1, 3, 5]] += t_p(a, p_hat)
+    rates[:, [1, 3, 5]] += t_r(a, r_hat)
+    rates += Table([w.alpha, w.what, w.beta], w.data)(a, omega_hat, b)
+    out[ok] += rates[ok]
+    # damaged (NASA's "Forced Oscillation with Damage Increments"): the raw body rates, each
+    # table value scaled by ddscale(alpha, case, rate, coefficient), no rotary term, and a side
+    # force ddinc(alpha, case, rate, CY) times each normalised rate
+    dam = mat["dC6_damage"]
+    raw = {"p": p * SPAN_FT / (2 * v), "q": q * CBAR_FT / (2 * v), "r": r * SPAN_FT / (2 * v)}
+    for k in range(1, 7):
+        rows = case == k
+        if not rows.any():
+            continue
+        ak = a[rows]
+        scale = Table([dam.ddscale.alpha], np.asarray(dam.ddscale.data)[:, k - 1, :, :])(ak)
+        inc = Table([dam.ddinc.alpha], np.asarray(dam.ddinc.data)[:, k - 1, :, 1])(ak)
+        part = np.zeros((rows.sum(), 6))
+        part[:, [0, 2, 4]] += t_q(ak, raw["q"][rows]) * scale[:, 1, [0, 2, 4]]
+        part[:, [1, 3, 5]] += t_p(ak, raw["p"][rows]) * scale[:, 0, [1, 3, 5]]
+        part[:, [1, 3, 5]] += t_r(ak, raw["r"][rows]) * scale[:, 2, [1, 3, 5]]
+        part[:, 1] += sum(inc[:, j] * raw[x][rows] for j, x in enumerate("pqr"))
+        out[rows] += part
 
     lgr = mat["dC3_lgr"]
     out[:, [0, 2, 4]] += Table([lgr.alpha, np.array([0.0, 1.0])], lgr.data)(a, s["gear_pos"])
@@ -131,6 +165,22 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     fl = mat["flaps"]
     per_deg = fl.flaplob + fl.flaplib + fl.flaprib + fl.flaprob
     out += np.outer(s["flap_deg"], per_deg)
+    out -= np.outer(s["flap_deg"] * np.isin(case, LOST["left outboard flap"]), fl.flaplob)
+    out += damage_increments(mat, s)
+    return out
+
+
+def damage_increments(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
+    """dC6_damage.bas(alpha, beta, case) (n, 6), clamped at the table ends as NASA clips it;
+    zero where ``damage_case`` is 0 (undamaged)."""
+    bas = mat["dC6_damage"].bas
+    data = np.asarray(bas.data, dtype=float)  # alpha x beta x case x coefficient
+    out = np.zeros((len(s["alpha_deg"]), 6))
+    for k in range(1, data.shape[2] + 1):
+        rows = s["damage_case"] == k
+        if rows.any():
+            table = Table([bas.alpha, bas.beta], data[:, :, k - 1, :])
+            out[rows] = table(s["alpha_deg"][rows], s["beta_deg"][rows])
     return out
 
 
@@ -156,6 +206,11 @@ def random_states(rng: np.random.Generator, n: int) -> dict[str, np.ndarray]:
         "right_spoiler_deg": np.where(u(size=n) < 0.5, 0.0, u(0.0, 65.0, n)),
         "gear_pos": gear,
         "flap_deg": np.where(u(size=n) < 0.7, 0.0, u(0.0, 30.0, n)),
+        # Drawn from a generator of its own, so the other states are those of the fixture
+        # before the damage cases came.
+        "damage_case": np.random.default_rng(SEED + 1)
+        .choice(7, size=n, p=[0.28] + [0.12] * 6)
+        .astype(float),
     }
 
 
@@ -173,6 +228,7 @@ def main(argv: list[str] | None = None) -> int:
         states=np.stack([states[k] for k in STATE_NAMES], axis=1),
         state_names=np.array(STATE_NAMES),
         coefficients=coeffs,
+        damage_increments=damage_increments(mat, states),
         coefficient_names=np.array(COEFF_NAMES),
         mat_sha256=np.array(hashlib.sha256(args.mat.read_bytes()).hexdigest()),
         database_version=np.array(str(mat["ver"])),

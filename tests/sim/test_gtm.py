@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -62,6 +63,7 @@ def set_state(fdm, **s: float) -> None:
     fdm["fcs/right-spoiler-cmd-deg"] = s.get("right_spoiler_deg", 0.0)
     fdm["gear/gear-cmd-norm"] = s.get("gear_pos", 0.0)
     fdm["fcs/flap-cmd-deg"] = s.get("flap_deg", 0.0)
+    fdm["damage/case"] = s.get("damage_case", 0.0)
     fdm.run_ic()
 
 
@@ -133,6 +135,92 @@ def test_coefficients_match_independent_table_evaluation(fdm) -> None:
         worst = max(worst, float(np.max(np.abs(got - expected))))
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6, err_msg=str(s))
     assert worst < 1e-6
+
+
+@pytest.mark.jsbsim
+def test_damage_increments_match_independent_table_evaluation(fdm) -> None:
+    """The six cases' airframe increments (dC6_damage.bas over alpha x beta, clamped) equal
+    the SciPy evaluation within 1e-9, and are exactly 0 undamaged (case 0).  The rest of a
+    case (rate model, lost surfaces) is checked in the totals above."""
+    ref = np.load(REFERENCE)
+    names = [str(n) for n in ref["state_names"]]
+    cases = ref["states"][:, names.index("damage_case")]
+    assert set(cases.astype(int)) == set(range(7))  # every case, and the undamaged
+    for row, expected in zip(ref["states"], ref["damage_increments"], strict=True):
+        s = dict(zip(names, row.tolist(), strict=True))
+        set_state(fdm, **s)
+        got = np.array([fdm[f"aero/gtm/dam-bas/{c}"] for c in COEFFS])
+        if s["damage_case"] == 0:
+            assert np.all(got == 0.0)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9, err_msg=str(s))
+
+
+@pytest.mark.jsbsim
+def test_a_damage_case_switches_in_flight_at_the_next_step(new_plant) -> None:
+    """``damage/case`` set between two steps acts in the next step's forces, and setting it
+    back to 0 restores the undamaged coefficients exactly."""
+    plant = new_plant("gtm_t2")
+    plant.trim(800.0, speed_keas=75.0)
+    fdm = plant.fdm
+    for _ in range(20):
+        fdm.run()
+    calm = coefficients(fdm)
+    # undamaged, the damage terms add exactly nothing and the damage point masses weigh 0
+    assert all(fdm[f"aero/gtm/dam/{c}"] == 0.0 for c in COEFFS)
+    assert all(fdm[f"inertia/pointmass-weight-lbs[{i}]"] == 0.0 for i in range(14))
+    fdm["damage/case"] = 6  # left stabilizer off
+    fdm.run()
+    hit = coefficients(fdm)
+    inc = np.array([fdm[f"aero/gtm/dam/{c}"] for c in COEFFS])
+    assert abs(inc[4]) > 0.01  # a pitching-moment increment of this case
+    # one step later the state has barely moved: the change is the increment
+    np.testing.assert_allclose(hit - calm, inc, rtol=0, atol=2e-4)
+    fdm["damage/case"] = 0
+    fdm.run_ic()  # same state, no time step
+    assert np.all(np.array([fdm[f"aero/gtm/dam/{c}"] for c in COEFFS]) == 0.0)
+
+
+#: NASA's numbers (GTM_DesignSim): the T2's base mass properties (AC_baseparams_T2.m; products
+#: of inertia as integrals, e.g. Ixz = int xz dm in body axes) and the damage cases' deltas of
+#: DamageModels_T2.m: dWeight (lb), dCG (in; x forward, y right, z down), [dIxx dIyy dIzz
+#: dIxz dIyz dIxy] (slug ft^2).  Copied here as the test's independent truth.
+NASA_BASE = {"weight": 57.75, "I": (1.221, 4.655, 5.587, 0.274, 0.0, 0.006)}
+NASA_DAMAGE = {
+    1: (-0.13, (0.126, 0.000, 0.028), (-0.00346, -0.06698, -0.06352, -0.01409, 0.00001, 0.00003)),
+    2: (-1.31, (1.166, 0.000, 0.277), (-0.03507, -0.57604, -0.54102, -0.13113, 0.00006, 0.00024)),
+    3: (-0.09, (0.014, 0.041, 0.001), (-0.01018, -0.00120, -0.01137, -0.00009, -0.00027, -0.00347)),
+    4: (-0.81, (0.148, 0.628, 0.032), (-0.25821, -0.01727, -0.27400, -0.00295, -0.01346, -0.05998)),
+    5: (-0.07, (0.065, 0.010, 0.004), (-0.00097, -0.03391, -0.03467, -0.00188, -0.00029, -0.00510)),
+    6: (-0.59, (0.553, 0.088, 0.032), (-0.00918, -0.27315, -0.28049, -0.01559, -0.00265, -0.04370)),
+}
+
+
+def nasa_tensor(ixx, iyy, izz, ixz, iyz, ixy) -> np.ndarray:
+    """NASA's inertia matrix ("Form Inertia Matrix"): products of inertia off the diagonal
+    with a minus sign."""
+    return np.array([[ixx, -ixy, -ixz], [-ixy, iyy, -iyz], [-ixz, -iyz, izz]])
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("case", range(7))
+def test_damage_mass_properties_are_nasas(new_plant, case: int) -> None:
+    """Weight, CG and inertia tensor of each damage case: NASA's base plus NASA's deltas
+    (the CG moved by dCG, the inertia changed by the deltas with no parallel-axis term, as
+    NASA adds them), set by ``damage/case`` alone."""
+    fdm = new_plant("gtm_t2").fdm
+    set_state(fdm)
+    cg0 = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
+    set_state(fdm, damage_case=case)
+    dw, dcg, di = NASA_DAMAGE.get(case, (0.0, (0.0, 0.0, 0.0), (0.0,) * 6))
+    assert fdm["inertia/weight-lbs"] == pytest.approx(NASA_BASE["weight"] + dw, abs=1e-9)
+    cg = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
+    # structural frame: x aft, z up
+    np.testing.assert_allclose(cg - cg0, [-dcg[0], dcg[1], -dcg[2]], rtol=0, atol=1e-9)
+    want = nasa_tensor(*NASA_BASE["I"]) + nasa_tensor(*di)
+    with warnings.catch_warnings():  # JSBSim hands back a numpy.matrix
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
+        got = np.array(fdm.get_mass_balance().get_J())
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
 
 
 # ------------------------------------------------------------------------------------------
