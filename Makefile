@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep modes bench clean
+.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage bench clean
 
 setup: $(STAMP)
 
@@ -49,6 +49,10 @@ sweep: setup
 # The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png).
 modes: setup
 	$(PY) -m probing modes
+
+# NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md).
+gtm-damage: setup
+	$(PY) -m probing gtm-damage
 
 bench: setup
 	$(PY) -m bench

@@ -456,22 +456,15 @@ def flaps(db: dict) -> list[str]:
     return lines
 
 
-#: The damage cases of dC6_damage, in NASA's order: ``damage/case`` k selects the k-th.
-DAMAGE_CASES = (
-    "rudder off",
-    "vertical tail off",
-    "left outboard flap off",
-    "left wing tip (25 %) off",
-    "left elevator off",
-    "left stabilizer off",
-)
+#: NASA's damage cases: dC6_damage holds six, in the order of its ``cases`` field (1..6).
+N_DAMAGE_CASES = 6
 DAMAGE_CASE = "damage/case"
 
 
 def per_case(undamaged_body: list[str], branches: list[list[str]]) -> list[str]:
     """``undamaged_body`` for ``damage/case`` 0, else ``branches[k - 1]`` for case k (a
     ``<switch>``: only the selected branch is evaluated)."""
-    assert len(branches) == len(DAMAGE_CASES)
+    assert len(branches) == N_DAMAGE_CASES
     body = ["<switch>", f"  {prop(DAMAGE_CASE)}", *indent(undamaged_body, 1)]
     for branch in branches:
         body += indent(branch, 1)
@@ -505,7 +498,8 @@ def damage(db: dict) -> list[str]:
     """
     bas = db["dC6_damage"].bas
     b_alpha, b_beta, b_data = arr(bas.alpha), arr(bas.beta), arr(bas.data)
-    assert b_data.shape == (len(b_alpha), len(b_beta), len(DAMAGE_CASES), 6), b_data.shape
+    assert b_data.shape == (len(b_alpha), len(b_beta), N_DAMAGE_CASES, 6), b_data.shape
+    assert len(db["dC6_damage"].cases) == N_DAMAGE_CASES
     scale, inc = db["dC6_damage"].ddscale, db["dC6_damage"].ddinc
     s_alpha, s_data = arr(scale.alpha), arr(scale.data)  # alpha x case x [p q r] x coefficient
     i_alpha, i_data = arr(inc.alpha), arr(inc.data)
@@ -534,7 +528,7 @@ def damage(db: dict) -> list[str]:
         )
     for i, c in enumerate(COEFFS6):
         branches = []
-        for k in range(1, len(DAMAGE_CASES) + 1):
+        for k in range(1, N_DAMAGE_CASES + 1):
             terms = [prop(f"aero/gtm/dam-bas/{c}")]
             for group in RATE_GROUPS[c]:
                 terms += negated(f"aero/gtm/{group}/{c}")

@@ -160,12 +160,86 @@ DOC_TAIL = """
 * Trim elevator moves trailing edge down as speed grows (stable speed gradient).
 * The trim also settles a tiny bank (about 0.05 deg) because the database is not exactly
   mirror-symmetric at beta = 0 (and Ixy is nonzero); harmless.
-* Not modelled: damage cases, asymmetric elevator panels, dead zones, engine dynamics, thrust
-  moments, ground effect, sensors; the landing-gear contact points are approximate.
+* Not modelled: asymmetric elevator panels (so the lost left elevator and stabilizer of
+  damage cases 5 and 6), dead zones, engine dynamics, thrust moments, ground effect, sensors;
+  the landing-gear contact points are approximate.
+
+## NASA's Example 6: the damage cases in a climbing turn
+
+`make gtm-damage` (`probing gtm-damage`) repeats NASA's `example6.m`: trim the undamaged
+aircraft in a 45 deg bank climbing turn at 95 kt EAS and 3 deg flight-path angle, hold every
+control and the throttle at trim (open loop), switch one damage case on at 10 s, fly to 15 s.
+The trim is JSBSim's turn trim (`Plant.trim(..., gamma_deg=3, bank_deg=45)`, FGTrim mode
+`tTurn`): bank, climb and EAS as asked, turn rate g tan(phi)/(V cos(gamma)) = 0.198 rad/s, and
+a sideslip of -0.33 deg that JSBSim's turn trim leaves free (NASA's trim holds beta at 0).
+Outputs: `figures/gtm_damage_case<k>.png` (NASA's panels: alpha and beta, flight-path angle
+and EAS, body rates, Euler angles; dotted: undamaged), `results/gtm_damage/summary.csv` (one
+row per case, case 0 undamaged: each variable at onset, at 15 s, and its least and greatest
+after onset) and a Parquet time history per case.
+
+What the five seconds after onset show, against NASA's description of each case
+(`gtm_design_DamageDescriptions`; bank unwrapped, so -464 deg is more than a full roll):
+
+{damage_table}
+
+Cases 1-4 behave as NASA's descriptions say. Cases 5 and 6 lack the lost elevator panels and
+stabilizer (the model has one symmetric elevator, at -0.2 deg in this trim) and their
+asymmetric-elevator roll; they carry the airframe increments, the damaged rate model and the
+mass changes. NASA's example has no published numbers to compare with, only its plots.
+
+![case 1](../figures/gtm_damage_case1.png)
+![case 2](../figures/gtm_damage_case2.png)
+![case 3](../figures/gtm_damage_case3.png)
+![case 4](../figures/gtm_damage_case4.png)
+![case 5](../figures/gtm_damage_case5.png)
+![case 6](../figures/gtm_damage_case6.png)
 """
+
+
+#: Example 6 after onset, case by case: NASA's description, what ``make gtm-damage`` shows.
+EXAMPLE6_ROWS = (
+    (
+        "1 rudder off",
+        "less directional stability; no rudder",
+        "mild: bank 45 -> 13 deg, beta up to +0.5 deg, climbing (gamma 11 deg at 15 s)",
+    ),
+    (
+        "2 vertical tail off",
+        "directional stability lost, unstable",
+        "departs: beta -44..+34 deg, yaw rate to +-250 deg/s, alpha to 48 deg",
+    ),
+    (
+        "3 left outboard flap off",
+        "roll bias left wing down",
+        "rolls left through more than a full turn (bank -464 deg at 15 s), p to -118 deg/s",
+    ),
+    (
+        "4 left wing tip off",
+        "roll bias left wing down, left aileron lost",
+        "rolls left (bank -395 deg at 15 s), p to -111 deg/s, dives",
+    ),
+    (
+        "5 left elevator off",
+        "less pitch stability and control, roll left",
+        "mild: rolls left to -10 deg bank",
+    ),
+    (
+        "6 left stabilizer off",
+        "less pitch stability and control, roll left",
+        "pitches down (theta -40 deg, gamma -39 deg, EAS 131 kt), bank steepens to 92 deg",
+    ),
+)
+
+
+def example6_table() -> str:
+    """The markdown table of :data:`EXAMPLE6_ROWS`."""
+    lines = ["| case | NASA: primary effects | here, 10-15 s |", "|---|---|---|"]
+    lines += [f"| {case} | {nasa} | {here} |" for case, nasa, here in EXAMPLE6_ROWS]
+    return "\n".join(lines)
 
 
 def write_doc(points: list[ModePoint], path: Path) -> None:
     """Write docs/gtm.md whole."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(DOC_HEAD + mode_table(points) + "\n" + DOC_TAIL, encoding="utf-8")
+    tail = DOC_TAIL.replace("{damage_table}", example6_table())
+    path.write_text(DOC_HEAD + mode_table(points) + "\n" + tail, encoding="utf-8")

@@ -350,6 +350,29 @@ def _cmd_modes(args: argparse.Namespace) -> int:
     return _simulating(job, "gtm_t2")
 
 
+def _cmd_gtm_damage(args: argparse.Namespace) -> int:
+    _out_folder(args.out, "--out")
+    _out_folder(args.figures, "--figures")
+
+    def job() -> int:
+        from analysis import gtm_damage
+        from probing.experiment.gtm_damage import run_example6
+
+        run_example6(args.out)
+        cases = gtm_damage.load(args.out)
+        table = gtm_damage.summary(cases)
+        table.to_csv(args.out / "summary.csv", index=False)
+        paths = gtm_damage.draw(cases, args.figures)
+        cols = ["case", "name", "phi_deg_end", "beta_deg_min", "beta_deg_max", "r_deg_s_end"]
+        print(table[cols].to_string(index=False))
+        for path in paths:
+            print(f"figure -> {path}")
+        print(f"summary -> {args.out / 'summary.csv'}")
+        return 0
+
+    return _simulating(job, "gtm_t2")
+
+
 # ------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for documentation and tests)."""
@@ -470,6 +493,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--figure", type=Path, default=Path("figures/gtm_modes"), help="figure (without .png)"
     )
     modes.set_defaults(func=_cmd_modes)
+
+    damage = command(
+        "gtm-damage",
+        "NASA's Example 6: each GTM damage case at 10 s of a 45 deg bank climbing turn",
+    )
+    damage.add_argument(
+        "--out", type=Path, default=Path("results/gtm_damage"), help="time histories, summary"
+    )
+    damage.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    damage.set_defaults(func=_cmd_gtm_damage)
     return parser
 
 

@@ -72,6 +72,20 @@ class JSBSimLog(jsbsim.FGLogger):
         return text
 
 
+#: JSBSim's trim modes (FGTrim): the full trim, and the turn (bank set, turn rate from it).
+TRIM_FULL, TRIM_TURN = 1, 5
+#: The model with NASA's damage cases, its switch, and the cases in NASA's order (1..6).
+DAMAGE_MODEL, DAMAGE_PROPERTY = "gtm_t2", "damage/case"
+DAMAGE_CASES = (
+    "rudder off",
+    "vertical tail off",
+    "left outboard flap off",
+    "left wing tip (25 %) off",
+    "left elevator off",
+    "left stabilizer off",
+)
+
+
 @dataclass(frozen=True)
 class TrimResult:
     """The trimmed straight-and-level state (angles in deg)."""
@@ -149,8 +163,13 @@ class Plant:
         speed_ktas: float | None = None,
         speed_keas: float | None = None,
         mach: float | None = None,
+        gamma_deg: float = 0.0,
+        bank_deg: float = 0.0,
     ) -> TrimResult:
-        """Trim straight and level (JSBSim's full trim), gear up, engines running.
+        """Trim, gear up, engines running: straight and level by default (JSBSim's full
+        trim), climbing or descending at ``gamma_deg``, or in a steady turn at ``bank_deg``
+        (JSBSim's turn trim: the turn rate follows from the bank, g tan(bank) / V, and the
+        sideslip is left to the trim).
 
         Parameters
         ----------
@@ -160,6 +179,10 @@ class Plant:
             Calibrated, true or equivalent airspeed, kt.
         mach : float, optional
             Mach number.  Exactly one of the four speeds is given.
+        gamma_deg : float
+            Flight-path angle, deg (positive climbing).
+        bank_deg : float
+            Bank angle of a steady turn, deg (positive right wing down); 0 flies straight.
 
         Returns
         -------
@@ -182,16 +205,18 @@ class Plant:
         self.log.take()
         fdm["ic/h-sl-ft"] = altitude_ft
         fdm[SPEED_KINDS[kind].ic_property] = speed
-        fdm["ic/gamma-deg"] = 0.0
+        fdm["ic/gamma-deg"] = gamma_deg
         fdm["ic/beta-deg"] = 0.0
-        fdm["ic/phi-deg"] = 0.0
+        fdm["ic/phi-deg"] = bank_deg
         fdm["gear/gear-cmd-norm"] = 0.0
         fdm["propulsion/set-running"] = -1
         where = f"{self.model} at altitude_ft = {altitude_ft:g}, {kind} = {speed:g}"
+        if gamma_deg or bank_deg:
+            where += f", gamma_deg = {gamma_deg:g}, bank_deg = {bank_deg:g}"
         try:
             if not fdm.run_ic():
                 raise TrimError(self._with_log(f"could not initialise {where}"))
-            fdm.do_trim(1)
+            fdm.do_trim(TRIM_TURN if bank_deg else TRIM_FULL)
         except RuntimeError as exc:  # jsbsim.TrimFailureError and its BaseError kin
             raise TrimError(self._with_log(f"trim failed for {where}: {exc}")) from None
         fdm.set_dt(self.dt_s)
@@ -213,6 +238,21 @@ class Plant:
         self._calibrate_elevator()
         self.disturb(self.turbulence, self.seed)
         return self.trim_result
+
+    def damage(self, case: int) -> None:
+        """Switch a damage case on (0: none), effective from the next step: NASA's GTM cases
+        (``aircraft/gtm_t2/README.md``, "Damage cases"), through the model's ``damage/case``.
+
+        Raises
+        ------
+        ValueError
+            If the model has no damage cases, or ``case`` is not one of them.
+        """
+        if self.model != DAMAGE_MODEL:
+            raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {self.model}")
+        if case not in range(len(DAMAGE_CASES) + 1):
+            raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}, got {case!r}")
+        self.fdm[DAMAGE_PROPERTY] = float(case)
 
     def disturb(self, turbulence: str, seed: int) -> None:
         """Seed JSBSim's random generators and switch turbulence on: what follows the trim.

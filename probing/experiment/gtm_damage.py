@@ -1,0 +1,143 @@
+"""NASA's Example 6 on the GTM: each damage case switched on in a steady climbing turn.
+
+NASA's ``example6.m`` trims the undamaged T2 in a 45 deg bank climbing turn at 95 kt EAS and
+3 deg flight-path angle, holds every control at its trim value (open loop), switches a damage
+case on at 10 s and simulates to 15 s.  :func:`fly_case` does the same on ``gtm_t2``
+(JSBSim's turn trim, :meth:`probing.sim.plant.Plant.trim`; the damage through
+:meth:`~probing.sim.plant.Plant.damage`); :func:`run_example6` flies the undamaged aircraft
+and the six cases and writes one Parquet time history per case.  ``probing gtm-damage`` draws
+them and writes the summary (:mod:`analysis.gtm_damage`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+
+from probing.experiment.storage import AtomicParquetWriter, field, provenance
+from probing.sim.plant import DAMAGE_CASES, DAMAGE_MODEL, Plant
+
+__all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly_case", "run_example6"]
+
+DEG = 180.0 / math.pi
+
+
+@dataclass(frozen=True)
+class Example6:
+    """The set-up of NASA's Example 6 (``example6.m``): trim and timing.
+
+    Attributes
+    ----------
+    altitude_ft, speed_keas, gamma_deg, bank_deg : float
+        Trim: altitude (ft), equivalent airspeed (kt), flight-path angle and bank (deg).
+    onset_s, end_s, dt_s : float
+        Damage onset and end of the run after the trim, and the step (s).
+    """
+
+    altitude_ft: float = 800.0
+    speed_keas: float = 95.0
+    gamma_deg: float = 3.0
+    bank_deg: float = 45.0
+    onset_s: float = 10.0
+    end_s: float = 15.0
+    dt_s: float = 1.0 / 200.0
+
+
+EXAMPLE6 = Example6()
+
+#: Recorded signals: column -> (JSBSim property, factor to the column's unit, description).
+SIGNALS: dict[str, tuple[str, float, str]] = {
+    "alpha_deg": ("aero/alpha-deg", 1.0, "angle of attack"),
+    "beta_deg": ("aero/beta-deg", 1.0, "sideslip angle"),
+    "gamma_deg": ("flight-path/gamma-deg", 1.0, "flight-path angle"),
+    "eas_kt": ("velocities/ve-kts", 1.0, "equivalent airspeed"),
+    "p_deg_s": ("velocities/p-rad_sec", DEG, "body roll rate"),
+    "q_deg_s": ("velocities/q-rad_sec", DEG, "body pitch rate"),
+    "r_deg_s": ("velocities/r-rad_sec", DEG, "body yaw rate"),
+    "phi_deg": ("attitude/phi-deg", 1.0, "bank angle"),
+    "theta_deg": ("attitude/theta-deg", 1.0, "pitch angle"),
+    "psi_deg": ("attitude/psi-deg", 1.0, "heading"),
+    "altitude_ft": ("position/h-sl-ft", 1.0, "altitude above sea level"),
+}
+
+
+def _unit(column: str) -> str:
+    return {"deg": "deg", "kt": "kt", "deg_s": "deg/s", "ft": "ft"}[column.split("_", 1)[1]]
+
+
+SCHEMA = pa.schema(
+    [field("time_s", pa.float64(), "s", "time after the trim")]
+    + [field(c, pa.float64(), _unit(c), d) for c, (_, _, d) in SIGNALS.items()]
+)
+
+
+def fly_case(case: int, setup: Example6 = EXAMPLE6) -> dict[str, np.ndarray]:
+    """Trim in the turn, fly ``setup.end_s`` open loop with damage ``case`` from onset.
+
+    Parameters
+    ----------
+    case : int
+        0 (undamaged) or a damage case 1..6.
+    setup : Example6
+        Trim and timing.
+
+    Returns
+    -------
+    dict
+        ``time_s`` and every column of :data:`SIGNALS`, one sample per step, the first at
+        the trim (t = 0).
+    """
+    plant = Plant(DAMAGE_MODEL, setup.dt_s)
+    plant.trim(
+        setup.altitude_ft,
+        speed_keas=setup.speed_keas,
+        gamma_deg=setup.gamma_deg,
+        bank_deg=setup.bank_deg,
+    )
+    fdm = plant.fdm
+    steps = round(setup.end_s / setup.dt_s)
+    onset = round(setup.onset_s / setup.dt_s)
+    reads: list[tuple[Callable[[], float], float]] = [
+        (fdm.get_property_manager().get_node(prop).get_double_value, factor)
+        for prop, factor, _ in SIGNALS.values()
+    ]
+    out = np.empty((steps + 1, len(reads)))
+    out[0] = [get() * factor for get, factor in reads]
+    for k in range(1, steps + 1):
+        if k == onset + 1:  # the damage acts from the step after onset on
+            plant.damage(case)
+        fdm.run()
+        out[k] = [get() * factor for get, factor in reads]
+    columns = {"time_s": np.arange(steps + 1) * setup.dt_s}
+    columns.update({c: out[:, j] for j, c in enumerate(SIGNALS)})
+    return columns
+
+
+def case_file(folder: Path, case: int) -> Path:
+    """The Parquet time history of ``case`` in ``folder``."""
+    return Path(folder) / f"case{case}.parquet"
+
+
+def run_example6(folder: Path, setup: Example6 = EXAMPLE6) -> list[Path]:
+    """Fly the undamaged aircraft and the six damage cases; one Parquet file per case.
+
+    Each file carries the set-up, the case and its name, and the versions (metadata
+    ``probing.*``); its columns carry their units.
+    """
+    paths = []
+    for case in range(len(DAMAGE_CASES) + 1):
+        columns = fly_case(case, setup)
+        name = "undamaged" if case == 0 else DAMAGE_CASES[case - 1]
+        meta = provenance(example6=asdict(setup), case=case, case_name=name)
+        path = case_file(folder, case)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        writer = AtomicParquetWriter(path, SCHEMA, meta)
+        writer.write(columns)
+        writer.close()
+        paths.append(path)
+    return paths

@@ -1,0 +1,94 @@
+"""NASA's Example 6: the steady climbing-turn trim, damage switched on in flight, the summary."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from analysis import gtm_damage
+from probing.cli import main as cli_main
+from probing.experiment.gtm_damage import EXAMPLE6, fly_case, run_example6
+from probing.sim.plant import Plant
+
+pytestmark = pytest.mark.jsbsim
+
+SHORT = dataclasses.replace(EXAMPLE6, onset_s=0.5, end_s=1.0)
+G_FT_S2 = 32.174
+
+
+def test_turn_trim_is_the_asked_steady_climbing_turn() -> None:
+    """JSBSim's turn trim at NASA's Example 6 condition: the bank, climb and EAS asked for,
+    the coordinated-turn rate g tan(phi) / (V cos(gamma)), and a state that holds."""
+    plant = Plant("gtm_t2", EXAMPLE6.dt_s)
+    plant.trim(800.0, speed_keas=95.0, gamma_deg=3.0, bank_deg=45.0)
+    fdm = plant.fdm
+    assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=1e-3)
+    assert fdm["flight-path/gamma-deg"] == pytest.approx(3.0, abs=1e-3)
+    assert fdm["velocities/ve-kts"] == pytest.approx(95.0, abs=1e-3)
+    v = fdm["velocities/vt-fps"]
+    turn = G_FT_S2 * math.tan(math.radians(45.0)) / (v * math.cos(math.radians(3.0)))
+    assert fdm["velocities/psidot-rad_sec"] == pytest.approx(turn, rel=0.01)
+    assert abs(fdm["aero/beta-deg"]) < 1.0  # JSBSim leaves the sideslip free; nearly 0
+    for _ in range(400):  # 2 s
+        fdm.run()
+    assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=0.2)
+    assert fdm["flight-path/gamma-deg"] == pytest.approx(3.0, abs=0.2)
+
+
+def test_the_damage_acts_from_the_step_after_onset() -> None:
+    """Up to the onset sample the damaged flight is the undamaged one to the bit; from the
+    next step on it is not (vertical tail off: the side force and yaw change at once)."""
+    calm, hit = fly_case(0, SHORT), fly_case(2, SHORT)
+    onset = round(SHORT.onset_s / SHORT.dt_s)
+    assert calm["time_s"][onset] == pytest.approx(SHORT.onset_s)
+    for column in ("beta_deg", "r_deg_s", "phi_deg", "alpha_deg"):
+        assert np.array_equal(calm[column][: onset + 1], hit[column][: onset + 1]), column
+    assert not np.array_equal(calm["r_deg_s"][onset + 1 :], hit["r_deg_s"][onset + 1 :])
+    assert len(calm["time_s"]) == round(SHORT.end_s / SHORT.dt_s) + 1
+
+
+def test_damage_is_refused_where_it_does_not_exist() -> None:
+    with pytest.raises(ValueError, match=r"0\.\.6"):
+        Plant("gtm_t2", EXAMPLE6.dt_s).damage(7)
+    with pytest.raises(ValueError, match="gtm_t2 only"):
+        Plant("737", 0.01).damage(1)
+
+
+def test_files_summary_and_figures(tmp_path: Path) -> None:
+    """Seven time histories with units; the summary's rows and columns as the issue asks,
+    its values read from the histories; six figures, the same bytes when drawn again."""
+    paths = run_example6(tmp_path / "results", SHORT)
+    assert [p.name for p in paths] == [f"case{k}.parquet" for k in range(7)]
+    schema = pq.read_schema(paths[2])
+    assert schema.field("r_deg_s").metadata[b"unit"] == b"deg/s"
+    assert b"probing.versions" in schema.metadata
+    cases = gtm_damage.load(tmp_path / "results")
+    table = gtm_damage.summary(cases)
+    assert table["case"].tolist() == list(range(7))
+    assert table["name"][2] == "vertical tail off" and table["name"][0] == "undamaged"
+    for var in gtm_damage.SUMMARY_VARIABLES:
+        for suffix in ("trim", "end", "min", "max"):
+            assert f"{var}_{suffix}" in table.columns
+    ts = cases[2][0]
+    onset = ts[ts["time_s"] >= SHORT.onset_s - 1e-12].iloc[0]
+    assert table.loc[2, "r_deg_s_trim"] == onset["r_deg_s"]
+    assert table.loc[2, "beta_deg_end"] == ts["beta_deg"].iloc[-1]
+    after = ts[ts["time_s"] >= SHORT.onset_s - 1e-12]
+    assert table.loc[2, "beta_deg_max"] == after["beta_deg"].max()
+    first = gtm_damage.draw(cases, tmp_path / "f1")
+    again = gtm_damage.draw(cases, tmp_path / "f2")
+    assert [p.name for p in first] == [f"gtm_damage_case{k}.png" for k in range(1, 7)]
+    assert all(a.read_bytes() == b.read_bytes() for a, b in zip(first, again, strict=True))
+
+
+def test_cli_refuses_a_file_as_output_folder(tmp_path: Path, capsys) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert cli_main(["gtm-damage", "--out", str(blocker)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--out" in err[0]
