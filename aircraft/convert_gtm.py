@@ -474,6 +474,12 @@ def per_case(undamaged_body: list[str], branches: list[list[str]]) -> list[str]:
 #: Aero groups a damage case removes (NASA's ``DamageModels_T2``: surface gain 0), by case.
 #: Both rudder panels go together (cases 1 and 2), so the one rudder of the model is lost.
 LOST_IN: dict[str, tuple[int, ...]] = {"rud": (1, 2), "ail-left": (4,)}
+#: NASA's elevator panels (``Stab1``): moment arm (fraction of the span, right positive) of the
+#: left outboard, left inboard, right inboard and right outboard panel; each adds
+#: 0.25 (T(de) - T(0)) of dC3_ele with Cl = arm CZ and Cn = -arm CX.
+ELEVATOR_ARMS = {"LOB": -0.07, "LIB": -0.03, "RIB": 0.03, "ROB": 0.07}
+#: The elevator panels and stabilizer each damage case removes (``DamageModels_T2``).
+ELEVATOR_LOST_IN = {5: ("LOB", "LIB"), 6: ("STAB", "LOB", "LIB")}
 #: The undamaged rate terms NASA's damaged dynamic model replaces, by coefficient.
 RATE_GROUPS = {c: ("q", "w") if c in LONG3 else ("p", "r", "w") for c in COEFFS6}
 
@@ -481,6 +487,45 @@ RATE_GROUPS = {c: ("q", "w") if c in LONG3 else ("p", "r", "w") for c in COEFFS6
 def negated(prop_name: str) -> list[str]:
     """Minus a property."""
     return ["<product>", f"  {value(-1)}", f"  {prop(prop_name)}", "</product>"]
+
+
+def elevator_at_zero(db: dict, c: str) -> list[str]:
+    """T(0): dC3_ele(alpha, beta, stab, 0) of coefficient ``c``, the stabilizer's own part
+    (the elevator panels add 0.25 (T(de) - T(0)) each)."""
+    t = db["dC3_ele"]
+    a, b, stab, elev, d = arr(t.alpha), arr(t.beta), arr(t.stab), arr(t.elev), arr(t.data)
+    zero = int(np.flatnonzero(elev == 0.0)[0])
+    terms = ["<sum>"]
+    for k in range(len(stab)):
+        table = table_2d(ALPHA, a, BETA, b, d[:, :, k, zero, LONG3.index(c)])
+        terms += ["  <product>", f"    {prop(f'aero/gtm/ele/w-stab{k}')}", *indent(table, 2)]
+        terms.append("  </product>")
+    return [*terms, "</sum>"]
+
+
+def elevator_loss(db: dict, c: str, lost: tuple[str, ...]) -> list[str]:
+    """Terms that remove the ``lost`` elevator panels (and the stabilizer, ``"STAB"``) from the
+    symmetric elevator increment T(de) = T(0) + sum over the panels of 0.25 (T(de) - T(0)):
+    minus 0.25 (T(de) - T(0)) per lost panel (minus T(0) for the stabilizer), and the roll and
+    yaw of the panels left, -sum of arm 0.25 (T(de) - T(0)) over the lost ones (the four arms
+    cancel when all panels act)."""
+    panels = [x for x in lost if x != "STAB"]
+    share = 0.25 * len(panels)
+    arm = 0.25 * sum(ELEVATOR_ARMS[x] for x in panels)  # of the lost panels
+    source = {"CX": "CX", "CZ": "CZ", "Cm": "Cm", "Cl": "CZ", "Cn": "CX"}.get(c)
+    if source is None:
+        return []
+    factor = {"Cl": -arm, "Cn": arm}.get(c, -share)  # Cl = arm CZ, Cn = -arm CX of each panel
+    delta = [  # T(de) - T(0) of the source coefficient
+        "<difference>",
+        f"  {prop(f'aero/gtm/ele/{source}')}",
+        *indent(elevator_at_zero(db, source), 1),
+        "</difference>",
+    ]
+    terms = ["<product>", f"  {value(factor)}", *indent(delta, 1), "</product>"]
+    if "STAB" in lost and c in LONG3:
+        terms += ["<product>", f"  {value(-1)}", *indent(elevator_at_zero(db, c), 1), "</product>"]
+    return terms
 
 
 def damage(db: dict) -> list[str]:
@@ -494,7 +539,10 @@ def damage(db: dict) -> list[str]:
       and for CY + sum ``ddinc(alpha, k, rate, CY)`` times the normalised rate (NASA wires
       the CY column of ddinc only);
     * the lost surfaces' increments removed: the rudder (cases 1, 2), the left aileron
-      (case 4), the left outboard flap panel (case 3).
+      (case 4), the left outboard flap panel (case 3), the left elevator panels (cases 5, 6)
+      with the roll and yaw of the right ones left (NASA's ``Stab1``), the stabilizer
+      (case 6).  The elevator panels move together in this model, so NASA's per-panel sum
+      reduces to these terms exactly.
     """
     bas = db["dC6_damage"].bas
     b_alpha, b_beta, b_data = arr(bas.alpha), arr(bas.beta), arr(bas.data)
@@ -550,6 +598,8 @@ def damage(db: dict) -> list[str]:
             for group, cases in LOST_IN.items():
                 if k in cases:
                     terms += negated(f"aero/gtm/{group}/{c}")
+            if k in ELEVATOR_LOST_IN:
+                terms += elevator_loss(db, c, ELEVATOR_LOST_IN[k])
             if k == 3 and flap_lob[i] != 0.0:  # the left outboard flap panel's derivative
                 terms += ["<product>", f"  {value(-flap_lob[i])}"]
                 terms += [f"  {prop('fcs/flap-pos-deg')}", "</product>"]

@@ -93,14 +93,15 @@ converter and the rest of the project are MIT. Model notes in detail:
 * **Damage cases**: `damage/case` (0 none, 1 rudder off, 2 vertical tail off, 3 left outboard
   flap off, 4 left wing tip off, 5 left elevator off, 6 left stabilizer off) switches, at the
   next step, NASA's airframe increments, its damaged rate model (ddscale, ddinc), the lost
-  rudder / left aileron / left outboard flap, and the weight, CG and inertia deltas. The lost
-  left elevator panels and stabilizer of cases 5 and 6 wait for per-panel surfaces. Details
-  and the deviations from NASA's block diagram: `aircraft/gtm_t2/README.md`, "Damage cases".
+  rudder / left aileron / left outboard flap / left elevator panels (with the roll and yaw of
+  the right ones) / stabilizer, and the weight, CG and inertia deltas. Details and the
+  deviations from NASA's block diagram: `aircraft/gtm_t2/README.md`, "Damage cases".
 * **Transcription check** (`tests/sim/test_gtm.py`): at 300 random states (alpha -5..40 deg, beta
   +-20 deg, rates up to 1.5 rad/s, all surfaces) JSBSim's six totals agree with an independent
   SciPy `RegularGridInterpolator` evaluation of the .mat tables to better than 1e-9 (test
-  tolerance 1e-6). States are set with `ic/*` properties and `run_ic()`; during `run_ic` the
-  time step is 0 and the servos sit exactly at their commands.
+  tolerance 1e-9; 208 of the states damaged, every case). States are set with `ic/*`
+  properties and `run_ic()`; during `run_ic` the time step is 0 and the servos sit exactly
+  at their commands.
 * **Mass**: 57.75 lb, Ixx 1.221, Iyy 4.655, Izz 5.587, Ixz 0.274, Ixy 0.006 slug ft^2 (NASA's
   matrix, products as integrals; JSBSim's file holds `ixz = -0.274` because JSBSim puts +ixz
   off the diagonal, a sign the model had wrong until 2026-11-23); CG at 21.99 % MAC, aero
@@ -160,9 +161,10 @@ DOC_TAIL = """
 * Trim elevator moves trailing edge down as speed grows (stable speed gradient).
 * The trim also settles a tiny bank (about 0.05 deg) because the database is not exactly
   mirror-symmetric at beta = 0 (and Ixy is nonzero); harmless.
-* Not modelled: asymmetric elevator panels (so the lost left elevator and stabilizer of
-  damage cases 5 and 6), dead zones, engine dynamics, thrust moments, ground effect, sensors;
-  the landing-gear contact points are approximate.
+* Not modelled: per-panel surface commands (the four elevator panels, both rudders, the
+  spoiler and flap panels move together; a damage case removes panels from the aero sum),
+  dead zones, engine dynamics, thrust moments, ground effect, sensors; the landing-gear
+  contact points are approximate.
 
 ## NASA's Example 6: the damage cases in a climbing turn
 
@@ -182,10 +184,11 @@ What the five seconds after onset show, against NASA's description of each case
 
 {damage_table}
 
-Cases 1-4 behave as NASA's descriptions say. Cases 5 and 6 lack the lost elevator panels and
-stabilizer (the model has one symmetric elevator, at -0.2 deg in this trim) and their
-asymmetric-elevator roll; they carry the airframe increments, the damaged rate model and the
-mass changes. NASA's example has no published numbers to compare with, only its plots.
+Cases 1-5 behave as NASA's descriptions say. Case 6 pitches down hard, as its loss of pitch
+stability and control suggests, but its roll goes right, with the turn, not left: the
+airframe's left-wing-down bias (Cl -0.001 at this alpha) is small against the rolling moment
+of the spiral that the nose-down pitch starts in a 45 deg bank. NASA's example has no
+published numbers to compare with, only its plots.
 
 ![case 1](../figures/gtm_damage_case1.png)
 ![case 2](../figures/gtm_damage_case2.png)
@@ -221,12 +224,12 @@ EXAMPLE6_ROWS = (
     (
         "5 left elevator off",
         "less pitch stability and control, roll left",
-        "mild: rolls left to -10 deg bank",
+        "mild: rolls left to -9 deg bank",
     ),
     (
         "6 left stabilizer off",
         "less pitch stability and control, roll left",
-        "pitches down (theta -40 deg, gamma -39 deg, EAS 131 kt), bank steepens to 92 deg",
+        "pitches down (theta -41 deg, gamma -40 deg, EAS 132 kt), bank steepens to 98 deg",
     ),
 )
 

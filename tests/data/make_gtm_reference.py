@@ -27,7 +27,9 @@ Build-up (same conventions as documented in docs/gtm.md):
   rate terms replaced by dC3_p/q/r of the raw body rates (p b/2V, q cbar/2V, r b/2V), each
   scaled by dC6_damage.ddscale(a, k, rate, coefficient), no dC6_w, and CY +=
   sum ddinc(a, k, rate, CY) * rate-hat; the rudder (k = 1, 2), the left outboard flap panel
-  (k = 3) and the left aileron (k = 4) removed.
+  (k = 3), the left aileron (k = 4), the left elevator panels (k = 5, 6) and the stabilizer
+  (k = 6) removed. The elevator is NASA's Stab1 sum: T(0) + sum over four panels of
+  0.25 (T(de) - T(0)) with Cl = arm CZ, Cn = -arm CX (arms -0.07, -0.03, 0.03, 0.07).
 """
 
 from __future__ import annotations
@@ -64,7 +66,18 @@ STATE_NAMES = (
 )
 COEFF_NAMES = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 #: The surfaces NASA's damage cases remove (DamageModels_T2.m: gain 0), by case.
-LOST = {"rudder": (1, 2), "left outboard flap": (3,), "left aileron": (4,)}
+LOST = {
+    "rudder": (1, 2),
+    "left outboard flap": (3,),
+    "left aileron": (4,),
+    "LOB": (5, 6),
+    "LIB": (5, 6),
+    "RIB": (),
+    "ROB": (),
+    "stabilizer": (6,),
+}
+#: Elevator panels and their moment arms (fraction of the span, right positive; NASA's Stab1).
+ELEVATOR_ARMS = {"LOB": -0.07, "LIB": -0.03, "RIB": 0.03, "ROB": 0.07}
 
 
 class Table:
@@ -97,10 +110,18 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     out += Table([bas.alpha, bas.beta], bas.data)(a, b)
 
     ele = mat["dC3_ele"]
-    d_ele = Table([ele.alpha, ele.beta, ele.stab, ele.elev], ele.data)(
-        a, b, s["stabilizer_deg"], s["elevator_deg"]
-    )
-    out[:, [0, 2, 4]] += 4 * 0.25 * d_ele
+    t_ele = Table([ele.alpha, ele.beta, ele.stab, ele.elev], ele.data)
+    # NASA's Stab1: the stabilizer T(0) plus four panels, each 0.25 (T(de_i) - T(0)) with
+    # Cl = arm CZ and Cn = -arm CX; here all panels at one deflection de, some lost
+    t0 = t_ele(a, b, s["stabilizer_deg"], np.zeros(n))
+    step = t_ele(a, b, s["stabilizer_deg"], s["elevator_deg"]) - t0
+    gains = {p: ~np.isin(case, LOST[p]) for p in ("stabilizer", *ELEVATOR_ARMS)}
+    out[:, [0, 2, 4]] += t0 * gains["stabilizer"][:, None]
+    for panel, arm in ELEVATOR_ARMS.items():
+        v = 0.25 * step * gains[panel][:, None]
+        out[:, [0, 2, 4]] += v
+        out[:, 3] += arm * v[:, 1]  # Cl from the panel's CZ
+        out[:, 5] -= arm * v[:, 0]  # Cn from its CX
 
     ail = mat["dC6_ail"]
     t_ail = Table([ail.alpha, ail.beta, ail.ail], ail.data)

@@ -119,7 +119,10 @@ def test_reference_fixture_is_consistent() -> None:
 
 @pytest.mark.jsbsim
 def test_coefficients_match_independent_table_evaluation(fdm) -> None:
-    """JSBSim's totals equal the SciPy evaluation of NASA's tables to 1e-6 at ~300 states."""
+    """JSBSim's totals equal the SciPy evaluation of NASA's tables within 1e-9 at 300 states,
+    208 of them damaged (every case: airframe increments, the damaged rate model with ddscale
+    and ddinc, the lost surfaces and the elevator panels' roll and yaw); the worst was 4.5e-10
+    when written."""
     ref = np.load(REFERENCE)
     names = [str(n) for n in ref["state_names"]]
     worst = 0.0
@@ -133,8 +136,8 @@ def test_coefficients_match_independent_table_evaluation(fdm) -> None:
         assert fdm["velocities/q-aero-rad_sec"] == pytest.approx(s["q_rad_sec"], abs=1e-12)
         got = coefficients(fdm)
         worst = max(worst, float(np.max(np.abs(got - expected))))
-        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6, err_msg=str(s))
-    assert worst < 1e-6
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9, err_msg=str(s))
+    assert worst < 1e-9
 
 
 @pytest.mark.jsbsim
