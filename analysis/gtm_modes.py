@@ -17,7 +17,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from analysis.figures import save_figure
-from probing.experiment.modes import ModePoint
+from probing.experiment.modes import DamagePoint, ModePoint
 
 __all__ = ["figure", "mode_table", "save", "write_doc"]
 
@@ -166,6 +166,29 @@ DOC_TAIL = """
   dead zones, engine dynamics, thrust moments, ground effect, sensors; the landing-gear
   contact points are approximate.
 
+## The damage cases, straight and level (800 ft, 75 KEAS)
+
+What a monitor has to detect. `probing modes` trims the GTM level with each of NASA's damage
+cases on from the start (`Flight(..., damage_case=k)`; JSBSim's full trim, or its
+longitudinal trim where the full one fails because the lost rudder leaves a control without
+authority, though the symmetric aircraft has nothing to trim laterally: cases 1 and 2),
+linearises it (longitudinal block) and simulates the elevator-to-pitch pulse response, one
+bit of the Fig. 4 probe (t0 = 0.01 s, a = 0.005 deg, 511 bits), compared with the undamaged
+one: least-squares gain and the shape error left (`probing.core.metrics.gain_and_shape`).
+
+{damage_level_table}
+
+* Every case trims level. The asymmetric ones (3, 4) need 11 and 19 deg of aileron against
+  their left-wing-down roll; the lost left elevator (5) and stabilizer (6) need 3 and 5 deg
+  more nose-up elevator.
+* The pulse response sees every case: gain 0.54 when half the elevator is gone (5), 0.72 to
+  1.39 and shape errors of 0.04 to 0.30 for the others. Case 2 (vertical tail off) is
+  directionally unstable: during the 5 s of the pulse response the sideslip grows, so its
+  gain and shape error (1.6) describe a divergence more than a pulse response.
+* The modes come from the longitudinal block of the linearisation; for the asymmetric cases
+  (3, 4) the lateral coupling it leaves out is large, and their phugoid damping (0.7, and a
+  real pair for case 4) is not to be read as the aircraft's.
+
 ## NASA's Example 6: the damage cases in a climbing turn
 
 `make gtm-damage` (`probing gtm-damage`) repeats NASA's `example6.m`: trim the undamaged
@@ -241,8 +264,31 @@ def example6_table() -> str:
     return "\n".join(lines)
 
 
-def write_doc(points: list[ModePoint], path: Path) -> None:
+def damage_level_table(points: list[DamagePoint]) -> str:
+    """Markdown table of the level trim, modes and pulse response of each damage case."""
+    lines = [
+        "| case | trim | alpha (deg) | elevator (deg) | aileron (deg) | rudder (deg) "
+        "| SP wn (rad/s) | SP zeta | phugoid wn (rad/s) | phugoid zeta | pulse gain "
+        "| shape error |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for p in points:
+        label = f"{p.case} {p.name}"
+        if p.modes is None:
+            lines.append(f"| {label} | failed | | | | | | | | | | |")
+            continue
+        m = p.modes
+        lines.append(
+            f"| {label} | {p.trim} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} "
+            f"| {p.aileron_deg:.2f} | {p.rudder_deg:.2f} | {m.sp_wn:.2f} | {m.sp_zeta:.3f} "
+            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {p.gain:.3f} | {p.shape_error:.3f} |"
+        )
+    return "\n".join(lines)
+
+
+def write_doc(points: list[ModePoint], path: Path, damage: list[DamagePoint]) -> None:
     """Write docs/gtm.md whole."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tail = DOC_TAIL.replace("{damage_table}", example6_table())
+    tail = tail.replace("{damage_level_table}", damage_level_table(damage))
     path.write_text(DOC_HEAD + mode_table(points) + "\n" + tail, encoding="utf-8")

@@ -334,15 +334,17 @@ def _cmd_modes(args: argparse.Namespace) -> int:
 
     def job() -> int:
         from analysis import gtm_modes
-        from probing.experiment.modes import mode_table
+        from probing.experiment.modes import damage_table, mode_table
 
         points = mode_table()
+        damage = damage_table()
         print(gtm_modes.mode_table(points))
         for p in points:
             if p.modes is not None:
                 eigs = ", ".join(f"{e:.4f}" for e in p.modes.eigenvalues)
                 print(f"{p.ve_kts:.0f} kt eigenvalues: {eigs}")
-        gtm_modes.write_doc(points, args.docs)
+        print(gtm_modes.damage_level_table(damage))
+        gtm_modes.write_doc(points, args.docs, damage)
         (path,) = gtm_modes.save(points, args.figure)
         print(f"wrote {args.docs} and {path}")
         return 0

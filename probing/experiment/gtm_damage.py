@@ -20,7 +20,8 @@ import numpy as np
 import pyarrow as pa
 
 from probing.experiment.storage import AtomicParquetWriter, field, provenance
-from probing.sim.plant import DAMAGE_CASES, DAMAGE_MODEL, Plant
+from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL
+from probing.sim.plant import Plant
 
 __all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly_case", "run_example6"]
 

@@ -9,14 +9,26 @@ short period and the phugoid.  ``probing modes`` writes the table and figure
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from probing.core.metrics import gain_and_shape
 from probing.sim.errors import TrimError
+from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, Flight
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
-from probing.sim.plant import Plant
+from probing.sim.plant import Plant, make_plant
+from probing.sim.truth import single_pulse_response
 
-__all__ = ["GTM_ALTITUDE_FT", "GTM_DT_S", "GTM_SPEEDS_KEAS", "ModePoint", "mode_table"]
+__all__ = [
+    "GTM_ALTITUDE_FT",
+    "GTM_DT_S",
+    "GTM_SPEEDS_KEAS",
+    "DamagePoint",
+    "ModePoint",
+    "damage_table",
+    "mode_table",
+]
 
 GTM_DT_S = 1.0 / 200.0
 GTM_ALTITUDE_FT = 800.0
@@ -81,6 +93,85 @@ def mode_table(
                 elevator_deg=trim.elevator_deg,
                 throttle_norm=trim.throttle_norm,
                 modes=modes,
+            )
+        )
+    return points
+
+
+@dataclass(frozen=True)
+class DamagePoint:
+    """The GTM trimmed level with a damage case, against the undamaged aircraft.
+
+    Attributes
+    ----------
+    case : int
+        0 (undamaged) or NASA's damage case 1..6; ``name`` says which.
+    alpha_deg, elevator_deg, aileron_deg, rudder_deg, throttle_norm : float
+        The level trim (deg; throttle 0..1); NaN when it failed (``message`` says why).
+    modes : LongitudinalModes or None
+        Short period and phugoid of the linearisation at that trim.
+    gain, shape_error : float
+        Elevator-to-pitch pulse response (one bit of ``PULSE_BIT_S``, simulated on the
+        trimmed aircraft, :func:`probing.sim.truth.single_pulse_response`) against the
+        undamaged one: least-squares gain and the shape error left.
+    """
+
+    case: int
+    name: str
+    trim: str = "failed"  # "full", or "longitudinal" where the full trim had no authority
+    alpha_deg: float = float("nan")
+    elevator_deg: float = float("nan")
+    aileron_deg: float = float("nan")
+    rudder_deg: float = float("nan")
+    throttle_norm: float = float("nan")
+    modes: LongitudinalModes | None = None
+    gain: float = float("nan")
+    shape_error: float = float("nan")
+    message: str = ""
+
+
+#: The pulse of the damage table: one bit of the paper's Fig. 4 probe (t0 = 0.01 s,
+#: a = 0.005 deg), 511 bits long.
+PULSE_BIT_S, PULSE_AMPLITUDE_DEG, PULSE_BITS = 0.01, 0.005, 511
+
+
+def damage_table(
+    altitude_ft: float = GTM_ALTITUDE_FT, speed_keas: float = 75.0, dt_s: float = GTM_DT_S
+) -> list[DamagePoint]:
+    """Trim the GTM level with each damage case (and without), linearise it, and simulate its
+    elevator-to-pitch pulse response: what a monitor would have to detect (``docs/gtm.md``)."""
+    points, reference = [], None
+    for case in range(len(DAMAGE_CASES) + 1):
+        name = "undamaged" if case == 0 else DAMAGE_CASES[case - 1]
+        flight = Flight(DAMAGE_MODEL, altitude_ft, "speed_keas", speed_keas, dt_s, damage_case=case)
+        try:
+            plant = make_plant(flight)
+        except TrimError as exc:
+            points.append(DamagePoint(case, name, message=str(exc)))
+            continue
+        fdm = plant.fdm
+        trim = plant.trim_result
+        modes = longitudinal_modes(plant)
+        steps_per_bit = round(PULSE_BIT_S / dt_s)
+        h = single_pulse_response(
+            flight, ["theta_rad"], PULSE_AMPLITUDE_DEG, steps_per_bit, PULSE_BITS
+        )["theta_rad"]
+        if case == 0:
+            reference = h
+        gain, shape = gain_and_shape(h, reference) if reference is not None else (math.nan,) * 2
+        points.append(
+            DamagePoint(
+                case,
+                name,
+                trim=trim.mode,
+                alpha_deg=trim.alpha_deg,
+                elevator_deg=trim.elevator_deg,
+                aileron_deg=float(fdm["fcs/right-aileron-pos-deg"]),
+                rudder_deg=float(fdm["fcs/rudder-pos-deg"]),
+                throttle_norm=trim.throttle_norm,
+                modes=modes,
+                gain=gain,
+                shape_error=shape,
             )
         )
     return points

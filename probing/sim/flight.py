@@ -10,7 +10,28 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-__all__ = ["SPEED_KINDS", "TURBULENCE_SEVERITY", "Flight", "SpeedKind"]
+__all__ = [
+    "DAMAGE_CASES",
+    "DAMAGE_MODEL",
+    "SPEED_KINDS",
+    "SYMMETRIC_DAMAGE",
+    "TURBULENCE_SEVERITY",
+    "Flight",
+    "SpeedKind",
+]
+
+#: The model with NASA's damage cases, and the cases in NASA's order (``damage/case`` 1..6).
+DAMAGE_MODEL = "gtm_t2"
+DAMAGE_CASES = (
+    "rudder off",
+    "vertical tail off",
+    "left outboard flap off",
+    "left wing tip (25 %) off",
+    "left elevator off",
+    "left stabilizer off",
+)
+#: The damage cases that leave the aircraft mirror-symmetric (rudder, vertical tail).
+SYMMETRIC_DAMAGE = (1, 2)
 
 
 @dataclass(frozen=True)
@@ -71,6 +92,9 @@ class Flight:
         A key of :data:`TURBULENCE_SEVERITY` (switched on after trim).
     seed : int
         Seed of JSBSim's random generators (turbulence).
+    damage_case : int
+        NASA's damage case (:data:`DAMAGE_CASES`, ``gtm_t2`` only) the aircraft flies with
+        from the start, trimmed with it; 0 (the default) undamaged.
     """
 
     model: str
@@ -80,12 +104,17 @@ class Flight:
     dt_s: float
     turbulence: str = "none"
     seed: int = 0
+    damage_case: int = 0
 
     def __post_init__(self) -> None:
         if self.speed_kind not in SPEED_KINDS:
             raise ValueError(f"speed_kind must be one of {', '.join(SPEED_KINDS)}")
         if self.turbulence not in TURBULENCE_SEVERITY:
             raise ValueError(f"turbulence must be one of {', '.join(TURBULENCE_SEVERITY)}")
+        if self.damage_case not in range(len(DAMAGE_CASES) + 1):
+            raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}")
+        if self.damage_case and self.model != DAMAGE_MODEL:
+            raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {self.model}")
 
     @property
     def condition(self) -> str:

@@ -46,6 +46,8 @@ def trim_spec(flight: Flight) -> dict:
         "speed": float(flight.speed),
         "dt_s": float(flight.dt_s),
         "jsbsim": jsbsim_version(),
+        # a damaged aircraft trims with its damage; an undamaged one keeps the keys it had
+        **({"damage_case": flight.damage_case} if flight.damage_case else {}),
     }
 
 
@@ -88,6 +90,8 @@ class TrimmedAircraft:
         self.key = trim_key(flight)
         self._condition = _condition(flight)
         self.plant = Plant(flight.model, flight.dt_s)
+        if flight.damage_case:
+            self.plant.damage(flight.damage_case)
         self.plant.trim(flight.altitude_ft, **{flight.speed_kind: flight.speed})
 
     def plant_for(self, flight: Flight) -> Plant:
@@ -106,4 +110,11 @@ class TrimmedAircraft:
 
 def _condition(flight: Flight) -> tuple:
     """The parts of :func:`trim_key` that a flight sets (the rest is the same in a process)."""
-    return (flight.model, flight.altitude_ft, flight.speed_kind, flight.speed, flight.dt_s)
+    return (
+        flight.model,
+        flight.altitude_ft,
+        flight.speed_kind,
+        flight.speed,
+        flight.dt_s,
+        flight.damage_case,
+    )

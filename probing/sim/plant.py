@@ -25,7 +25,14 @@ import numpy as np
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
 from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
-from probing.sim.flight import SPEED_KINDS, TURBULENCE_SEVERITY, Flight
+from probing.sim.flight import (
+    DAMAGE_CASES,
+    DAMAGE_MODEL,
+    SPEED_KINDS,
+    SYMMETRIC_DAMAGE,
+    TURBULENCE_SEVERITY,
+    Flight,
+)
 
 __all__ = ["ELEVATOR_CMD", "ELEVATOR_POS_DEG", "JSBSimLog", "Plant", "TrimResult", "make_plant"]
 
@@ -72,23 +79,15 @@ class JSBSimLog(jsbsim.FGLogger):
         return text
 
 
-#: JSBSim's trim modes (FGTrim): the full trim, and the turn (bank set, turn rate from it).
-TRIM_FULL, TRIM_TURN = 1, 5
-#: The model with NASA's damage cases, its switch, and the cases in NASA's order (1..6).
-DAMAGE_MODEL, DAMAGE_PROPERTY = "gtm_t2", "damage/case"
-DAMAGE_CASES = (
-    "rudder off",
-    "vertical tail off",
-    "left outboard flap off",
-    "left wing tip (25 %) off",
-    "left elevator off",
-    "left stabilizer off",
-)
+#: JSBSim's trim modes (FGTrim): longitudinal, full, and the turn (bank set, turn rate from it).
+TRIM_LONGITUDINAL, TRIM_FULL, TRIM_TURN = 0, 1, 5
+#: The model's property that switches NASA's damage cases (``probing.sim.flight``).
+DAMAGE_PROPERTY = "damage/case"
 
 
 @dataclass(frozen=True)
 class TrimResult:
-    """The trimmed straight-and-level state (angles in deg)."""
+    """The trimmed state (angles in deg) and the JSBSim trim that found it."""
 
     altitude_ft: float
     speed_kcas: float
@@ -101,6 +100,7 @@ class TrimResult:
     elevator_cmd_norm: float
     pitch_trim_cmd_norm: float
     throttle_norm: float
+    mode: str = "full"  # JSBSim's trim used: "full", "longitudinal" or "turn"
 
     def to_dict(self) -> dict[str, float]:
         """Plain dict, for metadata."""
@@ -165,6 +165,7 @@ class Plant:
         mach: float | None = None,
         gamma_deg: float = 0.0,
         bank_deg: float = 0.0,
+        longitudinal: bool = False,
     ) -> TrimResult:
         """Trim, gear up, engines running: straight and level by default (JSBSim's full
         trim), climbing or descending at ``gamma_deg``, or in a steady turn at ``bank_deg``
@@ -183,6 +184,10 @@ class Plant:
             Flight-path angle, deg (positive climbing).
         bank_deg : float
             Bank angle of a steady turn, deg (positive right wing down); 0 flies straight.
+        longitudinal : bool
+            JSBSim's longitudinal trim (throttle, pitch trim, alpha) with the lateral state
+            left wings level at zero sideslip: for an aircraft whose lateral trim controls
+            are gone but that has nothing to trim laterally (a symmetric damage case).
 
         Returns
         -------
@@ -216,7 +221,8 @@ class Plant:
         try:
             if not fdm.run_ic():
                 raise TrimError(self._with_log(f"could not initialise {where}"))
-            fdm.do_trim(TRIM_TURN if bank_deg else TRIM_FULL)
+            mode = TRIM_LONGITUDINAL if longitudinal else TRIM_FULL
+            fdm.do_trim(TRIM_TURN if bank_deg else mode)
         except RuntimeError as exc:  # jsbsim.TrimFailureError and its BaseError kin
             raise TrimError(self._with_log(f"trim failed for {where}: {exc}")) from None
         fdm.set_dt(self.dt_s)
@@ -234,6 +240,7 @@ class Plant:
             elevator_cmd_norm=float(fdm[ELEVATOR_CMD]),
             pitch_trim_cmd_norm=float(fdm["fcs/pitch-trim-cmd-norm"]),
             throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
+            mode="turn" if bank_deg else ("longitudinal" if longitudinal else "full"),
         )
         self._calibrate_elevator()
         self.disturb(self.turbulence, self.seed)
@@ -470,5 +477,15 @@ class Plant:
 def make_plant(flight: Flight) -> Plant:
     """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition."""
     plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
-    plant.trim(flight.altitude_ft, **{flight.speed_kind: flight.speed})
+    if flight.damage_case:
+        plant.damage(flight.damage_case)
+    speed = {flight.speed_kind: flight.speed}
+    try:
+        plant.trim(flight.altitude_ft, **speed)
+    except TrimError:
+        # JSBSim's full trim fails when a control has no authority left (the rudder in the
+        # symmetric damage cases), though nothing is left to trim laterally
+        if flight.damage_case not in SYMMETRIC_DAMAGE:
+            raise
+        plant.trim(flight.altitude_ft, **speed, longitudinal=True)
     return plant

@@ -13,6 +13,7 @@ import pytest
 from analysis import gtm_damage
 from probing.cli import main as cli_main
 from probing.experiment.gtm_damage import EXAMPLE6, fly_case, run_example6
+from probing.sim.flight import Flight
 from probing.sim.plant import Plant
 
 pytestmark = pytest.mark.jsbsim
@@ -92,3 +93,41 @@ def test_cli_refuses_a_file_as_output_folder(tmp_path: Path, capsys) -> None:
     assert cli_main(["gtm-damage", "--out", str(blocker)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--out" in err[0]
+
+
+def test_a_flight_carries_its_damage_into_the_trim_and_its_keys() -> None:
+    """A damaged flight trims with its damage (the symmetric cases, whose lost rudder leaves
+    JSBSim's full trim a control without authority, longitudinally), and keys apart from the
+    undamaged one, whose key is what it was before damage existed."""
+    from probing.sim.fork import trim_spec
+    from probing.sim.plant import make_plant
+
+    level = Flight("gtm_t2", 800.0, "speed_keas", 75.0, EXAMPLE6.dt_s)
+    assert "damage_case" not in trim_spec(level)
+    tail_off = dataclasses.replace(level, damage_case=2)
+    wing_tip = dataclasses.replace(level, damage_case=4)
+    assert trim_spec(tail_off)["damage_case"] == 2
+    assert make_plant(tail_off).trim_result.mode == "longitudinal"
+    plant = make_plant(wing_tip)
+    assert plant.trim_result.mode == "full"
+    assert plant.fdm["damage/case"] == 4
+    assert plant.fdm["fcs/right-aileron-pos-deg"] < -5.0  # holding up the lost left tip
+    with pytest.raises(ValueError, match="gtm_t2 only"):
+        Flight("737", 15000.0, "speed_kcas", 280.0, 0.01, damage_case=1)
+    with pytest.raises(ValueError, match=r"0\.\.6"):
+        dataclasses.replace(level, damage_case=7)
+
+
+def test_damage_table_sees_half_the_elevator_gone() -> None:
+    """Level at 800 ft / 75 KEAS every case trims; the undamaged pulse response is its own
+    reference (gain 1, shape 0) and losing the two left elevator panels halves the
+    elevator-to-pitch pulse response (the right panels' share, 0.5; 0.54 measured, the trim
+    having moved)."""
+    from probing.experiment.modes import damage_table
+
+    table = {p.case: p for p in damage_table()}
+    assert all(p.modes is not None for p in table.values()), [p.message for p in table.values()]
+    assert table[0].gain == 1.0 and table[0].shape_error == 0.0
+    assert 0.45 < table[5].gain < 0.6
+    assert table[5].elevator_deg < table[0].elevator_deg - 2.0  # more nose-up elevator
+    assert [table[c].trim for c in (1, 2)] == ["longitudinal"] * 2
