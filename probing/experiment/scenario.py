@@ -49,7 +49,7 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 SECTIONS: dict[str, set[str] | None] = {
     "name": None,
     "aircraft": {"model"},
-    "condition": {"altitude_ft", *SPEED_KINDS},
+    "condition": {"altitude_ft", *SPEED_KINDS, "gamma_deg", "bank_deg"},
     "simulation": {"dt_s"},
     "probe": {"order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"},
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
@@ -101,6 +101,8 @@ class Scenario:
     turbulence: str = "none"
     sensor_noise: dict[str, float] = field(default_factory=dict)
     seed: int = 0
+    gamma_deg: float = 0.0  # flight-path angle of the trim (climb positive)
+    bank_deg: float = 0.0  # bank of a steady turn (0: straight)
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -141,6 +143,8 @@ class Scenario:
             self.dt_s,
             self.turbulence,
             self.seed,
+            gamma_deg=self.gamma_deg,
+            bank_deg=self.bank_deg,
         )
 
     def build_nonlinearity(self) -> Nonlinearity | None:
@@ -170,7 +174,7 @@ class Scenario:
         return {
             "name": self.name,
             "aircraft": {"model": self.model},
-            "condition": {"altitude_ft": self.altitude_ft, self.speed_kind: self.speed},
+            "condition": self._condition(),
             "simulation": {"dt_s": self.dt_s},
             "probe": {
                 "order": self.order,
@@ -183,6 +187,16 @@ class Scenario:
             "output": out,
             "disturbance": disturbance,
         }
+
+    def _condition(self) -> dict[str, float]:
+        """The ``[condition]`` section; a straight-and-level trim leaves out its zero flight-path
+        and bank angles, so its digest is what it was before they existed."""
+        out = {"altitude_ft": self.altitude_ft, self.speed_kind: self.speed}
+        if self.gamma_deg:
+            out["gamma_deg"] = self.gamma_deg
+        if self.bank_deg:
+            out["bank_deg"] = self.bank_deg
+        return out
 
     def to_json(self) -> str:
         """Canonical JSON of :meth:`to_dict` (sorted keys), used for hashing and metadata."""
@@ -349,6 +363,8 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         raise ScenarioError("condition", f"give exactly one of {', '.join(SPEED_KINDS)}")
     kind = speeds[0]
     speed = _number(cond, "condition", kind, lo=0, hi=SPEED_KINDS[kind].upper, lo_open=True)
+    gamma = _number(cond, "condition", "gamma_deg", lo=-30, hi=30) if "gamma_deg" in cond else 0.0
+    bank = _number(cond, "condition", "bank_deg", lo=-80, hi=80) if "bank_deg" in cond else 0.0
 
     dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
 
@@ -429,6 +445,8 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         turbulence=turbulence,
         sensor_noise=noise,
         seed=seed,
+        gamma_deg=gamma,
+        bank_deg=bank,
         text=text,
     )
 

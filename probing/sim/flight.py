@@ -95,6 +95,9 @@ class Flight:
     damage_case : int
         NASA's damage case (:data:`DAMAGE_CASES`, ``gtm_t2`` only) the aircraft flies with
         from the start, trimmed with it; 0 (the default) undamaged.
+    gamma_deg, bank_deg : float
+        Flight-path angle (climb positive) and bank of a steady turn of the trim, deg; both
+        0 (the default) trims straight and level.
     """
 
     model: str
@@ -105,6 +108,8 @@ class Flight:
     turbulence: str = "none"
     seed: int = 0
     damage_case: int = 0
+    gamma_deg: float = 0.0
+    bank_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if self.speed_kind not in SPEED_KINDS:

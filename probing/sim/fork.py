@@ -25,7 +25,7 @@ from pathlib import Path
 from probing.sim import plant as _plant_module
 from probing.sim.aircraft import aircraft_digest, jsbsim_version
 from probing.sim.flight import Flight
-from probing.sim.plant import Plant
+from probing.sim.plant import Plant, trim_flight
 
 __all__ = ["TrimmedAircraft", "trim_key", "trim_spec"]
 
@@ -46,8 +46,17 @@ def trim_spec(flight: Flight) -> dict:
         "speed": float(flight.speed),
         "dt_s": float(flight.dt_s),
         "jsbsim": jsbsim_version(),
-        # a damaged aircraft trims with its damage; an undamaged one keeps the keys it had
-        **({"damage_case": flight.damage_case} if flight.damage_case else {}),
+        # damage and a climb or turn change the trim; a straight-and-level undamaged flight
+        # keeps the keys it had before they existed
+        **{
+            k: v
+            for k, v in (
+                ("damage_case", flight.damage_case),
+                ("gamma_deg", float(flight.gamma_deg)),
+                ("bank_deg", float(flight.bank_deg)),
+            )
+            if v
+        },
     }
 
 
@@ -92,7 +101,7 @@ class TrimmedAircraft:
         self.plant = Plant(flight.model, flight.dt_s)
         if flight.damage_case:
             self.plant.damage(flight.damage_case)
-        self.plant.trim(flight.altitude_ft, **{flight.speed_kind: flight.speed})
+        trim_flight(self.plant, flight)
 
     def plant_for(self, flight: Flight) -> Plant:
         """The trimmed plant, disturbed as ``flight`` asks: call it in a child only.
@@ -117,4 +126,6 @@ def _condition(flight: Flight) -> tuple:
         flight.speed,
         flight.dt_s,
         flight.damage_case,
+        flight.gamma_deg,
+        flight.bank_deg,
     )

@@ -34,7 +34,15 @@ from probing.sim.flight import (
     Flight,
 )
 
-__all__ = ["ELEVATOR_CMD", "ELEVATOR_POS_DEG", "JSBSimLog", "Plant", "TrimResult", "make_plant"]
+__all__ = [
+    "ELEVATOR_CMD",
+    "ELEVATOR_POS_DEG",
+    "JSBSimLog",
+    "Plant",
+    "TrimResult",
+    "make_plant",
+    "trim_flight",
+]
 
 ELEVATOR_CMD = "fcs/elevator-cmd-norm"
 ELEVATOR_POS_DEG = "fcs/elevator-pos-deg"
@@ -479,13 +487,20 @@ def make_plant(flight: Flight) -> Plant:
     plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
     if flight.damage_case:
         plant.damage(flight.damage_case)
-    speed = {flight.speed_kind: flight.speed}
-    try:
-        plant.trim(flight.altitude_ft, **speed)
-    except TrimError:
-        # JSBSim's full trim fails when a control has no authority left (the rudder in the
-        # symmetric damage cases), though nothing is left to trim laterally
-        if flight.damage_case not in SYMMETRIC_DAMAGE:
-            raise
-        plant.trim(flight.altitude_ft, **speed, longitudinal=True)
+    trim_flight(plant, flight)
     return plant
+
+
+def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
+    """Trim ``plant`` (with its damage set) at the flight's condition: level, climbing or in
+    a steady turn.  JSBSim's full trim fails when a control has no authority left (the rudder
+    in the symmetric damage cases, which leave nothing to trim laterally): the longitudinal
+    trim is used there."""
+    speed = {flight.speed_kind: flight.speed}
+    angles = {"gamma_deg": flight.gamma_deg, "bank_deg": flight.bank_deg}
+    try:
+        return plant.trim(flight.altitude_ft, **speed, **angles)
+    except TrimError:
+        if flight.damage_case not in SYMMETRIC_DAMAGE or flight.bank_deg:
+            raise
+        return plant.trim(flight.altitude_ft, **speed, **angles, longitudinal=True)

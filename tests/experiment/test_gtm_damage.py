@@ -131,3 +131,35 @@ def test_damage_table_sees_half_the_elevator_gone() -> None:
     assert 0.45 < table[5].gain < 0.6
     assert table[5].elevator_deg < table[0].elevator_deg - 2.0  # more nose-up elevator
     assert [table[c].trim for c in (1, 2)] == ["longitudinal"] * 2
+
+
+def test_a_scenario_can_be_flown_in_a_climbing_turn(tmp_path: Path) -> None:
+    """``[condition] gamma_deg, bank_deg``: the probed run is trimmed in the steady turn (the
+    trim and the aircraft metadata say so), keys apart from the level flight, and a level
+    scenario keeps its digest (the zero angles are left out of its condition)."""
+    import json
+
+    from probing.experiment.run import run_scenario
+    from probing.experiment.scenario import load_scenario
+    from probing.sim.fork import trim_key
+
+    root = Path(__file__).resolve().parents[2]
+    level = load_scenario(root / "scenarios" / "fig4" / "baseline.toml")
+    assert set(level.to_dict()["condition"]) == {"altitude_ft", "speed_kcas"}
+    turn = level.replace(
+        {
+            "name": "turn",
+            "condition.bank_deg": 30.0,
+            "condition.gamma_deg": 2.0,
+            "probe.periods": 3,
+            "probe.settle_periods": 1,
+        }
+    )
+    assert turn.to_dict()["condition"]["bank_deg"] == 30.0
+    assert trim_key(turn.flight) != trim_key(level.flight)
+    out = run_scenario(turn, tmp_path, progress=False, twin_cache=False).out_dir
+    meta = pq.read_schema(out / "probing.parquet").metadata
+    assert json.loads(meta[b"probing.trim"])["mode"] == "turn"
+    assert json.loads(meta[b"probing.aircraft"])["bank_deg"] == 30.0
+    ts = pq.read_table(out / "timeseries.parquet").to_pandas()
+    assert np.all(np.isfinite(ts["theta_rad"]))
