@@ -8,6 +8,7 @@ what is allowed, so the command line can print one line and exit 2.  See
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import json
 import math
@@ -24,7 +25,7 @@ from probing.core.prbs import MAX_ORDER, MIN_ORDER
 from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
-from probing.sim.flight import SPEED_KINDS, TURBULENCE_SEVERITY, Flight
+from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, SPEED_KINDS, TURBULENCE_SEVERITY, Flight
 
 __all__ = [
     "DRIFT_MODES",
@@ -55,7 +56,10 @@ SECTIONS: dict[str, set[str] | None] = {
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
     "output": {"channels", "drift", "detrend_order", "estimator"},
     "disturbance": {"turbulence", "sensor_noise", "seed"},
+    "fault": {"type", "case", "onset_s"},
 }
+#: Fault types of the ``[fault]`` section (issue [5/6] adds more).
+FAULT_TYPES = ("gtm_damage",)
 _REQUIRED = {
     "aircraft": ("model",),
     "condition": ("altitude_ft",),
@@ -103,6 +107,9 @@ class Scenario:
     seed: int = 0
     gamma_deg: float = 0.0  # flight-path angle of the trim (climb positive)
     bank_deg: float = 0.0  # bank of a steady turn (0: straight)
+    fault_type: str = "none"  # "none" or one of FAULT_TYPES
+    fault_case: int = 0  # gtm_damage: NASA's damage case 1..6
+    fault_onset_s: float = 0.0  # time after the trim when the fault appears, s
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -145,6 +152,8 @@ class Scenario:
             self.seed,
             gamma_deg=self.gamma_deg,
             bank_deg=self.bank_deg,
+            damage_case=self.fault_case,
+            damage_onset_s=self.fault_onset_s if self.fault_type == "gtm_damage" else None,
         )
 
     def build_nonlinearity(self) -> Nonlinearity | None:
@@ -186,7 +195,13 @@ class Scenario:
             "nonlinearity": nl,
             "output": out,
             "disturbance": disturbance,
+            # no [fault] section without a fault: digests stay as they were
+            **({"fault": self._fault()} if self.fault_type != "none" else {}),
         }
+
+    def _fault(self) -> dict[str, Any]:
+        """The ``[fault]`` section."""
+        return {"type": self.fault_type, "case": self.fault_case, "onset_s": self.fault_onset_s}
 
     def _condition(self) -> dict[str, float]:
         """The ``[condition]`` section; a straight-and-level trim leaves out its zero flight-path
@@ -424,7 +439,7 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
             )
         noise[ch] = _number(noise_in, "disturbance.sensor_noise", ch, lo=0, hi=1e6)
 
-    return Scenario(
+    scn = Scenario(
         name=name,
         model=model,
         altitude_ft=altitude,
@@ -449,6 +464,35 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         bank_deg=bank,
         text=text,
     )
+    fault = _fault(data.get("fault"), scn)
+    return dataclasses.replace(scn, **fault) if fault else scn
+
+
+def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
+    """The ``[fault]`` section, validated: a type, its case and its onset within the run."""
+    if not fault:
+        return {}
+    model, duration_s = scn.model, scn.total_steps * scn.dt_s
+    if "type" not in fault:
+        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULT_TYPES)})")
+    kind = _choice(fault, "fault", "type", FAULT_TYPES)
+    if model != DAMAGE_MODEL:
+        raise ScenarioError("fault.type", f"{kind} exists for {DAMAGE_MODEL} only, not {model}")
+    for key in ("case", "onset_s"):
+        if key not in fault:
+            raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
+    case = fault["case"]
+    names = {name: k for k, name in enumerate(DAMAGE_CASES, start=1)}
+    if isinstance(case, str) and case in names:
+        case = names[case]
+    elif isinstance(case, bool) or case not in range(1, len(DAMAGE_CASES) + 1):
+        raise ScenarioError(
+            "fault.case", f"must be 1..{len(DAMAGE_CASES)} or one of {', '.join(names)}"
+        )
+    onset = _number(fault, "fault", "onset_s", lo=0, hi=duration_s, lo_open=False)
+    if onset >= duration_s:
+        raise ScenarioError("fault.onset_s", f"must be before the run ends ({duration_s:g} s)")
+    return {"fault_type": kind, "fault_case": int(case), "fault_onset_s": onset}
 
 
 def _nonlinearity(nl_data: dict[str, Any]) -> tuple[str, dict[str, float]]:

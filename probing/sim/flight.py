@@ -93,8 +93,11 @@ class Flight:
     seed : int
         Seed of JSBSim's random generators (turbulence).
     damage_case : int
-        NASA's damage case (:data:`DAMAGE_CASES`, ``gtm_t2`` only) the aircraft flies with
-        from the start, trimmed with it; 0 (the default) undamaged.
+        NASA's damage case (:data:`DAMAGE_CASES`, ``gtm_t2`` only); 0 (the default)
+        undamaged.  Without ``damage_onset_s`` the aircraft is trimmed with it.
+    damage_onset_s : float or None
+        Time after the trim (s) from which ``damage_case`` acts: the aircraft is trimmed
+        undamaged and the case switched on in flight (a fault).
     gamma_deg, bank_deg : float
         Flight-path angle (climb positive) and bank of a steady turn of the trim, deg; both
         0 (the default) trims straight and level.
@@ -110,6 +113,7 @@ class Flight:
     damage_case: int = 0
     gamma_deg: float = 0.0
     bank_deg: float = 0.0
+    damage_onset_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.speed_kind not in SPEED_KINDS:
@@ -120,6 +124,13 @@ class Flight:
             raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}")
         if self.damage_case and self.model != DAMAGE_MODEL:
             raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {self.model}")
+        if self.damage_onset_s is not None and (not self.damage_case or self.damage_onset_s < 0):
+            raise ValueError("a damage onset needs a damage case and a time >= 0")
+
+    @property
+    def trimmed_damage(self) -> int:
+        """The damage case the aircraft is trimmed with (0 when it comes in flight)."""
+        return self.damage_case if self.damage_onset_s is None else 0
 
     @property
     def condition(self) -> str:

@@ -51,7 +51,7 @@ def trim_spec(flight: Flight) -> dict:
         **{
             k: v
             for k, v in (
-                ("damage_case", flight.damage_case),
+                ("damage_case", flight.trimmed_damage),
                 ("gamma_deg", float(flight.gamma_deg)),
                 ("bank_deg", float(flight.bank_deg)),
             )
@@ -99,8 +99,8 @@ class TrimmedAircraft:
         self.key = trim_key(flight)
         self._condition = _condition(flight)
         self.plant = Plant(flight.model, flight.dt_s)
-        if flight.damage_case:
-            self.plant.damage(flight.damage_case)
+        if flight.trimmed_damage:
+            self.plant.damage(flight.trimmed_damage)
         trim_flight(self.plant, flight)
 
     def plant_for(self, flight: Flight) -> Plant:
@@ -114,6 +114,7 @@ class TrimmedAircraft:
         if _condition(flight) != self._condition:
             raise ValueError(f"{flight.condition} is not the trimmed aircraft's flight")
         self.plant.disturb(flight.turbulence, flight.seed)
+        self.plant.schedule(flight)
         return self.plant
 
 
@@ -125,7 +126,7 @@ def _condition(flight: Flight) -> tuple:
         flight.speed_kind,
         flight.speed,
         flight.dt_s,
-        flight.damage_case,
+        flight.trimmed_damage,
         flight.gamma_deg,
         flight.bank_deg,
     )

@@ -138,6 +138,8 @@ class Plant:
         self.dt_s = float(dt_s)
         self.turbulence = turbulence
         self.seed = int(seed)
+        self._steps = 0  # steps run since the trim (for a scheduled damage onset)
+        self._fault: tuple[int, int] | None = None  # (damage case, step index of its onset)
         root = sanitised_root(model)
         stock = stock_root()
         self.log = JSBSimLog()
@@ -269,6 +271,14 @@ class Plant:
             raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}, got {case!r}")
         self.fdm[DAMAGE_PROPERTY] = float(case)
 
+    def schedule(self, flight: Flight) -> None:
+        """After the trim: switch ``flight``'s damage case on at its onset, counted in steps
+        of :meth:`step` from now (the step that starts at the onset is the first damaged)."""
+        self._steps = 0
+        self._fault = None
+        if flight.damage_onset_s is not None:
+            self._fault = (flight.damage_case, round(flight.damage_onset_s / self.dt_s))
+
     def disturb(self, turbulence: str, seed: int) -> None:
         """Seed JSBSim's random generators and switch turbulence on: what follows the trim.
 
@@ -391,6 +401,18 @@ class Plant:
         built per step.
         """
         n = out.shape[0]
+        fault = self._fault
+        if fault is not None and fault[1] < self._steps + n:  # the onset falls in these steps
+            j = max(0, fault[1] - self._steps)
+            cmds = (None, None) if cmd_norm is None else (cmd_norm[:j], cmd_norm[j:])
+            els = (None, None) if elevator_deg is None else (elevator_deg[:j], elevator_deg[j:])
+            self._fault = None
+            if j:
+                self.step(cmds[0], nodes, out[:j], els[0])
+            self.damage(fault[0])
+            self.step(cmds[1], nodes, out[j:], els[1])
+            return
+        self._steps += n
         getters = [node.get_double_value for node in nodes]
         if elevator_deg is not None:
             getters.append(self._pos_node.get_double_value)
@@ -485,9 +507,10 @@ class Plant:
 def make_plant(flight: Flight) -> Plant:
     """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition."""
     plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
-    if flight.damage_case:
-        plant.damage(flight.damage_case)
+    if flight.trimmed_damage:
+        plant.damage(flight.trimmed_damage)
     trim_flight(plant, flight)
+    plant.schedule(flight)
     return plant
 
 
@@ -501,6 +524,6 @@ def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
     try:
         return plant.trim(flight.altitude_ft, **speed, **angles)
     except TrimError:
-        if flight.damage_case not in SYMMETRIC_DAMAGE or flight.bank_deg:
+        if flight.trimmed_damage not in SYMMETRIC_DAMAGE or flight.bank_deg:
             raise
         return plant.trim(flight.altitude_ft, **speed, **angles, longitudinal=True)

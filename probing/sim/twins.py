@@ -103,6 +103,12 @@ def twin_spec(flight: Flight, channels: Sequence[str], steps: int) -> dict[str, 
         "steps": int(steps),
         "turbulence": flight.turbulence,
         "seed": int(flight.seed),
+        # a damage case switched on in flight (the twin flies it too); absent when none
+        **(
+            {"fault": {"case": flight.damage_case, "onset_s": float(flight.damage_onset_s)}}
+            if flight.damage_onset_s is not None
+            else {}
+        ),
         "channels": list(channels),
         "source_sha256": _source_digest(),
     }

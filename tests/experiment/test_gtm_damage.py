@@ -163,3 +163,49 @@ def test_a_scenario_can_be_flown_in_a_climbing_turn(tmp_path: Path) -> None:
     assert json.loads(meta[b"probing.aircraft"])["bank_deg"] == 30.0
     ts = pq.read_table(out / "timeseries.parquet").to_pandas()
     assert np.all(np.isfinite(ts["theta_rad"]))
+
+
+def test_a_fault_appears_in_flight_for_the_probed_aircraft_and_its_twin(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``[fault] type = "gtm_damage"``: trimmed undamaged, the case switched on at onset_s.
+    Up to the onset the run is the fault-free one to the bit, probed aircraft and reference
+    twin alike (the twin flies the same fault, so it keeps removing what the probe did not
+    cause); after it both change. Grouped runs forked from one trimmed aircraft give the
+    same bytes as runs on their own (the onset is counted per run, not per process)."""
+    from probing.experiment.batch import run_grouped
+    from probing.experiment.run import run_scenario
+    from probing.experiment.scenario import load_scenario
+
+    monkeypatch.setenv("PROBING_TWIN_CACHE", str(tmp_path / "twins"))
+    root = Path(__file__).resolve().parents[2]
+    base = load_scenario(root / "scenarios" / "fig4" / "baseline.toml").replace(
+        {"probe.periods": 3, "probe.settle_periods": 1}
+    )
+    fault = base.replace(
+        {
+            "name": "fault",
+            "fault.type": "gtm_damage",
+            "fault.case": "left elevator off",
+            "fault.onset_s": 1.0,
+        }
+    )
+    assert fault.flight.damage_case == 5 and fault.flight.trimmed_damage == 0
+    files = {}
+    for scn in (base, fault):
+        out = run_scenario(scn, tmp_path / "alone", progress=False, twin_cache=False).out_dir
+        files[scn.name] = pq.read_table(out / "timeseries.parquet").to_pandas()
+    onset = round(1.0 / base.dt_s)
+    calm, hit = files[base.name], files["fault"]
+    for column in ("theta_rad", "theta_rad_reference", "q_rad_s"):
+        assert np.array_equal(calm[column][:onset], hit[column][:onset]), column
+        assert not np.array_equal(calm[column][onset:], hit[column][onset:]), column
+
+    def work(scn, aircraft) -> None:
+        run_scenario(scn, tmp_path / "grouped", progress=False, aircraft=aircraft)
+
+    for _, outcome in run_grouped([base, fault], lambda s: s, work):
+        outcome.get()
+    for name in ("probing.parquet", "timeseries.parquet"):
+        grouped = (tmp_path / "grouped" / "fault" / name).read_bytes()
+        assert grouped == (tmp_path / "alone" / "fault" / name).read_bytes(), name
