@@ -25,7 +25,9 @@ Modelling decisions (all documented in the generated XML and in ``docs/gtm.md``)
 * The 4-D elevator table (alpha, beta, stab, elev) is written as one 3-D table (alpha, beta,
   elev) per stabilizer breakpoint, blended with piecewise-linear "hat" weights in the
   stabilizer deflection: this is exactly the 4-D multilinear interpolation.
-* The four elevator panels are driven together (one symmetric deflection): 4 x 0.25 x table.
+* Every panel NASA models has its own servo and its own share of its surface's table: four
+  elevator panels with their roll and yaw (NASA's Stab1), upper and lower rudder, inboard and
+  outboard spoilers, four flap panels; panels at one deflection are looked up once.
 * Left aileron / left spoiler and positive rudder are the mirror images (y -> -y) of the
   tabulated right aileron / right spoiler / negative rudder: evaluated at -beta (and -delta
   for the rudder) with CY, Cl and Cn negated.
@@ -37,6 +39,7 @@ Modelling decisions (all documented in the generated XML and in ``docs/gtm.md``)
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -61,11 +64,40 @@ THRUST_PER_ENGINE_LBF = 17.0
 SERVO_BANDWIDTH_HZ = 5.0
 SERVO_RATE_LIMIT_DPS = 300.0
 ELEVATOR_LIMITS_DEG = (-30.0, 20.0)
-AILERON_LIMITS_DEG = (-30.0, 30.0)
+AILERON_LIMITS_DEG = (-20.0, 20.0)
 RUDDER_LIMITS_DEG = (-30.0, 30.0)
-SPOILER_LIMITS_DEG = (0.0, 65.0)
+FLAP_LIMITS_DEG = (0.0, 30.0)
 DEG_PER_NORM = 30.0
 GEAR_RATE_PER_S = 0.2  # full extension / retraction in 5 s
+
+# Control-surface panels, each with its own servo (NASA's Actuators/Acutator Dynamics blocks)
+# and its own aerodynamic share (Aero/Control Surfaces). Keys are NASA's panel names.
+ELEVATOR_PANELS = {
+    "LOB": "left-outboard-elevator",
+    "LIB": "left-inboard-elevator",
+    "RIB": "right-inboard-elevator",
+    "ROB": "right-outboard-elevator",
+}
+FLAP_PANELS = {
+    "LOB": "left-outboard-flap",
+    "LIB": "left-inboard-flap",
+    "RIB": "right-inboard-flap",
+    "ROB": "right-outboard-flap",
+}
+RUDDER_PANELS = {"U": "upper-rudder", "L": "lower-rudder"}
+SPOILER_PANELS = {
+    side: {"IB": f"{side}-inboard-spoiler", "OB": f"{side}-outboard-spoiler"}
+    for side in ("right", "left")
+}
+#: NASA's servo position limits of the spoiler panels (inboard 0..15, outboard 0..45 deg).
+SPOILER_LIMITS_DEG = {"IB": (0.0, 15.0), "OB": (0.0, 45.0)}
+#: Each panel's share of its surface's table, per coefficient [CX CY CZ Cl Cm Cn] (NASA's
+#: Rudder/Gains, Gains1 and Spoilers/Gains1..4); the shares of a surface's panels add to 1.
+RUDDER_SHARE = {"U": (0.5, 0.5, 0.5, 0.67, 0.67, 0.5), "L": (0.5, 0.5, 0.5, 0.33, 0.33, 0.5)}
+SPOILER_SHARE = {
+    "IB": (0.45, 0.45, 0.45, 0.26, 0.45, 0.26),
+    "OB": (0.55, 0.55, 0.55, 0.74, 0.55, 0.74),
+}
 
 COEFFS6 = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 LONG3 = ("CX", "CZ", "Cm")
@@ -200,6 +232,52 @@ def signed(sign: int, body: list[str]) -> list[str]:
     return ["<product>", f"{IND}{value(-1)}", *indent(body, 1), "</product>"]
 
 
+def scaled(factor: float, body: list[str]) -> list[str]:
+    """``factor`` times an expression."""
+    return ["<product>", f"{IND}{value(factor)}", *indent(body, 1), "</product>"]
+
+
+def summed(*bodies: list[str]) -> list[str]:
+    """The sum of expressions."""
+    return ["<sum>", *(line for body in bodies for line in indent(body, 1)), "</sum>"]
+
+
+def if_then(condition: str, then: list[str], otherwise: list[str]) -> list[str]:
+    """``then`` where the 0/1 property ``condition`` is 1, else ``otherwise`` (JSBSim evaluates
+    only the branch taken)."""
+    return [
+        "<ifthen>",
+        f"{IND}{prop(condition)}",
+        *indent(then, 1),
+        *indent(otherwise, 1),
+        "</ifthen>",
+    ]
+
+
+def pos(panel: str) -> str:
+    """A panel's position property."""
+    return f"fcs/{panel}-pos-deg"
+
+
+def mean_of(props: Sequence[str]) -> list[str]:
+    """The mean of two or four properties, summed pairwise so that it is exactly their value
+    when they are all equal (a + a, 2a + 2a and the power-of-two scaling are exact)."""
+    if len(props) == 2:
+        return scaled(0.5, summed([prop(props[0])], [prop(props[1])]))
+    assert len(props) == 4
+    pairs = (summed([prop(props[0])], [prop(props[1])]), summed([prop(props[2])], [prop(props[3])]))
+    return scaled(0.25, summed(*pairs))
+
+
+def all_equal(name: str, panels: Sequence[str]) -> list[str]:
+    """A 0/1 FCS function ``name``: 1 when the ``panels`` are all at one deflection.  It sits
+    in the channel of the panels' servos, after them, so it is current whenever they move
+    (and keeps its value while they do not)."""
+    eqs = [f"<eq>{prop(pos(a))}{prop(pos(b))}</eq>" for a, b in itertools.pairwise(panels)]
+    body = eqs if len(eqs) == 1 else ["<and>", *indent(eqs, 1), "</and>"]
+    return fcs_function(name.rsplit("/", 1)[-1], name, body)
+
+
 # --------------------------------------------------------------------------------------------
 # Database access
 # --------------------------------------------------------------------------------------------
@@ -330,20 +408,72 @@ def stab_weights(db: dict) -> list[str]:
     return lines
 
 
-def elevator(db: dict) -> list[str]:
-    """dC3_ele(alpha, beta, stab, elev): four panels deflected together, weight 4 x 0.25."""
+def elevator_table(db: dict, c: str, deflection: str) -> list[str]:
+    """T(de) = dC3_ele(alpha, beta, stab, de) of coefficient ``c`` (CX, CZ or Cm) at the
+    deflection property ``deflection``: the stabilizer slices blended by their weights."""
     t = db["dC3_ele"]
     a, b, stab, elev, d = arr(t.alpha), arr(t.beta), arr(t.stab), arr(t.elev), arr(t.data)
+    terms: list[str] = ["<sum>"]
+    for k in range(len(stab)):
+        body = table_3d(ALPHA, a, BETA, b, deflection, elev, d[:, :, k, :, LONG3.index(c)])
+        terms += indent(["<product>", f"{IND}{prop(f'aero/gtm/ele/w-stab{k}')}"], 1)
+        terms += indent(body, 2)
+        terms += indent(["</product>"], 1)
+    terms.append("</sum>")
+    return terms
+
+
+ELEVATOR_TOGETHER = "fcs/elevator-panels-together"
+ELEVATOR_EACH = "fcs/elevator-each-panel"
+
+
+def elevator_flags() -> list[str]:
+    """FCS functions: whether the elevator panels are together, and whether each panel's
+    table is to be looked up (panels apart, or a damage case that loses some)."""
+    lines = all_equal(ELEVATOR_TOGETHER, list(ELEVATOR_PANELS.values()))
+    lost = [f"<eq>{prop(DAMAGE_CASE)}{value(k)}</eq>" for k in ELEVATOR_LOST_IN]
+    each = ["<or>", f"  <not>{prop(ELEVATOR_TOGETHER)}</not>", *indent(lost, 1), "</or>"]
+    return lines + fcs_function("elevator each panel", ELEVATOR_EACH, each)
+
+
+def elevator_panel(key: str, c: str) -> str:
+    """The property holding T(de_i) of panel ``key`` and coefficient ``c``."""
+    return f"aero/gtm/ele-{key.lower()}/{c}"
+
+
+def elevator(db: dict) -> list[str]:
+    """NASA's ``Stab1``: the stabilizer T(0) plus four panels, each 0.25 (T(de_i) - T(0)) with
+    a rolling moment arm_i x its CZ and a yawing moment -arm_i x its CX.
+
+    Summed over the four panels the T(0) terms cancel (the shares add to 1, the arms to 0), so
+    CX, CZ, Cm = 0.25 sum T(de_i) and Cl = 0.25 sum arm_i T_CZ(de_i), Cn = -0.25 sum arm_i
+    T_CX(de_i).  Each panel's T(de_i) is a property; panels at one deflection (the common
+    case: the symmetric elevator command drives all four) take the first panel's T(de) with
+    Cl = Cn = 0, the same sums, and the other three are looked up only when they are needed
+    (panels apart, or a damage case that takes some away: ``elevator_loss``), flags the FCS
+    sets (``elevator_flags``).
+    """
+    assert sum(ELEVATOR_ARMS.values()) == 0.0
+    keys = list(ELEVATOR_PANELS)
     lines: list[str] = []
-    for i, c in enumerate(LONG3):
-        terms: list[str] = ["<sum>"]
-        for k in range(len(stab)):
-            body = table_3d(ALPHA, a, BETA, b, "fcs/elevator-pos-deg", elev, d[:, :, k, :, i])
-            terms += indent(["<product>", f"{IND}{prop(f'aero/gtm/ele/w-stab{k}')}"], 1)
-            terms += indent(body, 2)
-            terms += indent(["</product>"], 1)
-        terms.append("</sum>")
-        lines += function(f"aero/gtm/ele/{c}", terms)
+    for key, panel in ELEVATOR_PANELS.items():
+        for c in LONG3:
+            table = elevator_table(db, c, pos(panel))
+            body = table if key == keys[0] else if_then(ELEVATOR_EACH, table, [value(0)])
+            lines += function(elevator_panel(key, c), body, f"T(de) of the {panel}, {c}")
+    for c in LONG3:
+        apart = scaled(0.25, summed(*([prop(elevator_panel(k, c))] for k in keys)))
+        body = if_then(ELEVATOR_TOGETHER, [prop(elevator_panel(keys[0], c))], apart)
+        lines += function(f"aero/gtm/ele/{c}", body)
+    for c, source, sign in (("Cl", "CZ", 1.0), ("Cn", "CX", -1.0)):
+        terms = [
+            scaled(sign * 0.25 * ELEVATOR_ARMS[k], [prop(elevator_panel(k, source))]) for k in keys
+        ]
+        lines += function(
+            f"aero/gtm/ele/{c}",
+            if_then(ELEVATOR_TOGETHER, [value(0)], summed(*terms)),
+            f"{c} of elevator panels deflected unequally (NASA's RollYaw Coupling)",
+        )
     return lines
 
 
@@ -368,41 +498,76 @@ def aileron(db: dict) -> list[str]:
     return right_and_mirrored_left(db, "dC6_ail", "ail", "aileron", "ail")
 
 
+RUDDER_TOGETHER = "fcs/rudder-panels-together"
+
+
+def rudder_inputs() -> list[str]:
+    """FCS functions (after the rudder servos): each rudder's deflection split into the
+    tabulated negative side and the mirrored positive side, and whether they are together."""
+    lines: list[str] = []
+    for panel in RUDDER_PANELS.values():
+        lines += fcs_function(
+            f"{panel} negative side",
+            f"aero/gtm/{panel}-neg-deg",
+            ["<min>", f"  {prop(pos(panel))}", f"  {value(0)}", "</min>"],
+        )
+        lines += fcs_function(
+            f"{panel} mirrored side",
+            f"aero/gtm/{panel}-mirror-deg",
+            ["<min>", *indent(scaled(-1, [prop(pos(panel))]), 1), f"  {value(0)}", "</min>"],
+        )
+    return lines + all_equal(RUDDER_TOGETHER, list(RUDDER_PANELS.values()))
+
+
 def rudder(db: dict) -> list[str]:
-    """dC6_rud: tabulated for negative deflection; positive deflection is the mirror image."""
+    """dC6_rud: tabulated for negative deflection; positive deflection is the mirror image.
+
+    NASA's upper and lower rudder each take their share of the table (``RUDDER_SHARE``: half
+    of the forces and yaw, 0.67 / 0.33 of roll and pitch) at their own deflection; at one
+    deflection (``fcs/rudder-pos-deg``) they are looked up once (the shares add to 1).
+    """
     t = db["dC6_rud"]
     a, b, rud, d = arr(t.alpha), arr(t.beta), arr(t.rud), arr(t.data)
-    neg, mir = "aero/gtm/rudder-neg-deg", "aero/gtm/rudder-mirror-deg"
     lines: list[str] = []
-    lines += function(
-        neg,
-        ["<min>", f"  {prop('fcs/rudder-pos-deg')}", f"  {value(0)}", "</min>"],
-        "min(rudder, 0): the tabulated (trailing edge right) side",
-    )
-    lines += function(
-        mir,
-        [
-            "<min>",
-            "  <product>",
-            f"    {value(-1)}",
-            f"    {prop('fcs/rudder-pos-deg')}",
-            "  </product>",
-            f"  {value(0)}",
-            "</min>",
-        ],
-        "min(-rudder, 0): a positive deflection looked up as its mirror image",
-    )
+    lines: list[str] = []
     for i, c in enumerate(COEFFS6):
-        direct = table_3d(ALPHA, a, BETA, b, neg, rud, d[:, :, :, i])
-        mirrored = table_3d(ALPHA, a, BETA_MIRROR, b, mir, rud, d[:, :, :, i])
-        body = ["<sum>", *indent(direct, 1), *indent(signed(MIRROR_SIGN[c], mirrored), 1), "</sum>"]
-        lines += function(f"aero/gtm/rud/{c}", body)
+
+        def lookup(name: str, i: int = i, c: str = c) -> list[str]:
+            direct = table_3d(ALPHA, a, BETA, b, f"aero/gtm/{name}-neg-deg", rud, d[:, :, :, i])
+            mirrored = table_3d(
+                ALPHA, a, BETA_MIRROR, b, f"aero/gtm/{name}-mirror-deg", rud, d[:, :, :, i]
+            )
+            return summed(direct, signed(MIRROR_SIGN[c], mirrored))
+
+        each = [scaled(RUDDER_SHARE[k][i], lookup(p)) for k, p in RUDDER_PANELS.items()]
+        lines += function(
+            f"aero/gtm/rud/{c}",
+            if_then(RUDDER_TOGETHER, lookup(RUDDER_PANELS["U"]), summed(*each)),
+        )
     return lines
 
 
 def spoiler(db: dict) -> list[str]:
-    """dC6_spo: right spoiler as tabulated, left spoiler as its mirror image."""
-    return right_and_mirrored_left(db, "dC6_spo", "spo", "spoiler", "spo")
+    """dC6_spo: on each side an inboard and an outboard panel, each taking its share of the
+    table (``SPOILER_SHARE``) at its own deflection; the right side as tabulated, the left as
+    its mirror image. Panels of a side at one deflection are looked up once (the shares add
+    to 1)."""
+    t = db["dC6_spo"]
+    a, b, defl, d = arr(t.alpha), arr(t.beta), arr(t.spo), arr(t.data)
+    lines: list[str] = []
+    for side, beta in (("right", BETA), ("left", BETA_MIRROR)):
+        panels = SPOILER_PANELS[side]
+        together = f"fcs/{side}-spoiler-panels-together"
+        for i, c in enumerate(COEFFS6):
+            sign = 1 if side == "right" else MIRROR_SIGN[c]
+
+            def lookup(deflection: str, i: int = i, beta: str = beta) -> list[str]:
+                return table_3d(ALPHA, a, beta, b, deflection, defl, d[:, :, :, i])
+
+            each = [scaled(SPOILER_SHARE[k][i], lookup(pos(p))) for k, p in panels.items()]
+            body = if_then(together, lookup(f"fcs/{side}-spoiler-pos-deg"), summed(*each))
+            lines += function(f"aero/gtm/spo-{side}/{c}", signed(sign, body))
+    return lines
 
 
 def rate_damping(db: dict) -> list[str]:
@@ -445,14 +610,20 @@ def landing_gear(db: dict) -> list[str]:
     return lines
 
 
+FLAPS_TOGETHER = "fcs/flap-panels-together"
+
+
 def flaps(db: dict) -> list[str]:
-    """Flap derivatives (per degree): the four panels deflected together by fcs/flap-pos-deg."""
+    """Flap derivatives (per degree), one per panel times its deflection; panels at one
+    deflection (``fcs/flap-pos-deg``) take the four derivatives' sum."""
     t = db["flaps"]
-    total = sum(arr(getattr(t, f)) for f in ("flaplob", "flaplib", "flaprib", "flaprob"))
+    per_panel = {k: arr(getattr(t, f"flap{k.lower()}")) for k in FLAP_PANELS}
+    total = sum(per_panel.values())
     lines: list[str] = []
     for i, c in enumerate(COEFFS6):
-        body = ["<product>", f"  {value(total[i])}", f"  {prop('fcs/flap-pos-deg')}", "</product>"]
-        lines += function(f"aero/gtm/flp/{c}", body)
+        together = scaled(total[i], [prop("fcs/flap-pos-deg")])
+        each = [scaled(per_panel[k][i], [prop(pos(p))]) for k, p in FLAP_PANELS.items()]
+        lines += function(f"aero/gtm/flp/{c}", if_then(FLAPS_TOGETHER, together, summed(*each)))
     return lines
 
 
@@ -504,27 +675,26 @@ def elevator_at_zero(db: dict, c: str) -> list[str]:
 
 
 def elevator_loss(db: dict, c: str, lost: tuple[str, ...]) -> list[str]:
-    """Terms that remove the ``lost`` elevator panels (and the stabilizer, ``"STAB"``) from the
-    symmetric elevator increment T(de) = T(0) + sum over the panels of 0.25 (T(de) - T(0)):
-    minus 0.25 (T(de) - T(0)) per lost panel (minus T(0) for the stabilizer), and the roll and
-    yaw of the panels left, -sum of arm 0.25 (T(de) - T(0)) over the lost ones (the four arms
-    cancel when all panels act)."""
-    panels = [x for x in lost if x != "STAB"]
-    share = 0.25 * len(panels)
-    arm = 0.25 * sum(ELEVATOR_ARMS[x] for x in panels)  # of the lost panels
+    """Terms that take the ``lost`` elevator panels (and the stabilizer, ``"STAB"``) out of
+    NASA's ``Stab1`` sum T(0) + sum over the panels of 0.25 (T(de_i) - T(0)) (``elevator``):
+    per lost panel minus 0.25 (T(de_i) - T(0)), and minus its roll arm_i x that CZ and yaw
+    -arm_i x that CX; minus T(0) for the stabilizer."""
     source = {"CX": "CX", "CZ": "CZ", "Cm": "Cm", "Cl": "CZ", "Cn": "CX"}.get(c)
     if source is None:
         return []
-    factor = {"Cl": -arm, "Cn": arm}.get(c, -share)  # Cl = arm CZ, Cn = -arm CX of each panel
-    delta = [  # T(de) - T(0) of the source coefficient
-        "<difference>",
-        f"  {prop(f'aero/gtm/ele/{source}')}",
-        *indent(elevator_at_zero(db, source), 1),
-        "</difference>",
-    ]
-    terms = ["<product>", f"  {value(factor)}", *indent(delta, 1), "</product>"]
+    terms: list[str] = []
+    for key in (x for x in lost if x != "STAB"):
+        arm = ELEVATOR_ARMS[key]
+        factor = {"Cl": -arm, "Cn": arm}.get(c, -1.0) * 0.25
+        delta = [  # T(de_i) - T(0) of the source coefficient
+            "<difference>",
+            f"  {prop(elevator_panel(key, source))}",
+            *indent(elevator_at_zero(db, source), 1),
+            "</difference>",
+        ]
+        terms += scaled(factor, delta)
     if "STAB" in lost and c in LONG3:
-        terms += ["<product>", f"  {value(-1)}", *indent(elevator_at_zero(db, c), 1), "</product>"]
+        terms += scaled(-1, elevator_at_zero(db, c))
     return terms
 
 
@@ -541,8 +711,7 @@ def damage(db: dict) -> list[str]:
     * the lost surfaces' increments removed: the rudder (cases 1, 2), the left aileron
       (case 4), the left outboard flap panel (case 3), the left elevator panels (cases 5, 6)
       with the roll and yaw of the right ones left (NASA's ``Stab1``), the stabilizer
-      (case 6).  The elevator panels move together in this model, so NASA's per-panel sum
-      reduces to these terms exactly.
+      (case 6), each at its own deflection.
     """
     bas = db["dC6_damage"].bas
     b_alpha, b_beta, b_data = arr(bas.alpha), arr(bas.beta), arr(bas.data)
@@ -602,7 +771,7 @@ def damage(db: dict) -> list[str]:
                 terms += elevator_loss(db, c, ELEVATOR_LOST_IN[k])
             if k == 3 and flap_lob[i] != 0.0:  # the left outboard flap panel's derivative
                 terms += ["<product>", f"  {value(-flap_lob[i])}"]
-                terms += [f"  {prop('fcs/flap-pos-deg')}", "</product>"]
+                terms += [f"  {prop(pos(FLAP_PANELS['LOB']))}", "</product>"]
             branches.append(["<sum>", *indent(terms, 1), "</sum>"])
         lines += function(
             f"aero/gtm/dam/{c}",
@@ -629,6 +798,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     ),
     "CY": (
         "bas",
+        "ele",
         "ail-right",
         "ail-left",
         "rud",
@@ -645,6 +815,7 @@ GROUPS["CZ"] = GROUPS["CX"]
 GROUPS["Cm"] = GROUPS["CX"]
 GROUPS["Cl"] = GROUPS["CY"]
 GROUPS["Cn"] = GROUPS["CY"]
+GROUPS["CY"] = tuple(g for g in GROUPS["CY"] if g != "ele")  # the elevator has no side force
 
 
 def totals() -> list[str]:
@@ -695,14 +866,14 @@ def aerodynamics(db: dict) -> list[str]:
         ("derived inputs (mirrored sideslip, normalised rates)", aero_inputs()),
         ("C6_bas: basic airframe", basic(db)),
         ("dC3_ele: stabilizer interpolation weights", stab_weights(db)),
-        ("dC3_ele: elevator, 4 panels x 0.25 with one symmetric deflection", elevator(db)),
+        ("dC3_ele: stabilizer and four elevator panels (NASA's Stab1)", elevator(db)),
         ("dC6_ail: ailerons (right tabulated, left mirrored)", aileron(db)),
-        ("dC6_rud: rudder (negative tabulated, positive mirrored)", rudder(db)),
-        ("dC6_spo: spoilers (right tabulated, left mirrored)", spoiler(db)),
+        ("dC6_rud: upper and lower rudder (negative tabulated, positive mirrored)", rudder(db)),
+        ("dC6_spo: inboard and outboard spoilers (right tabulated, left mirrored)", spoiler(db)),
         ("dC3_q, dC3_p, dC3_r: forced-oscillation rate terms", rate_damping(db)),
         ("dC6_w: rotary-balance terms", rotary(db)),
         ("dC3_lgr: landing gear", landing_gear(db)),
-        ("flaps: per-degree derivatives, 4 panels together", flaps(db)),
+        ("flaps: per-degree derivatives of four panels", flaps(db)),
         ("dC6_damage: what the damage case changes", damage(db)),
         ("totals", totals()),
     )
@@ -753,32 +924,27 @@ def servo(
 
     With simulation/dt = 0 (trim, run_ic, linearisation) the servo sits at its steady state,
     the position-limited command. ``bypass`` (if given) names a 0/1 property: when 1 the
-    surface equals the unlimited command exactly.
+    surface equals the unlimited command exactly.  One ``<fcs_function>``: the command, its
+    limit and the rate are computed inline (JSBSim evaluates only the branch taken), which
+    costs a third of four chained components and gives the same numbers.
     """
     lo, hi = limits
-    total = f"fcs/{surface}-cmd-total"
-    lim = f"fcs/{surface}-cmd-limited"
-    rate = f"fcs/{surface}-servo-rate"
-    lines: list[str] = []
-    lines += fcs_function(f"{surface} cmd total", total, command)
-    lines += fcs_function(f"{surface} cmd limited", lim, clip([prop(total)], lo, hi))
-    gain = 2.0 * math.pi * bandwidth_hz
+    limited = clip(command, lo, hi)
     err = [
         "<product>",
-        f"  {value(gain)}",
+        f"  {value(2.0 * math.pi * bandwidth_hz)}",
         "  <difference>",
-        f"    {prop(lim)}",
+        *indent(limited, 2),
         f"    {prop(pos)}",
         "  </difference>",
         "</product>",
     ]
-    lines += fcs_function(f"{surface} servo rate", rate, clip(err, -rate_limit, rate_limit))
     step = [
         "<sum>",
         f"  {prop(pos)}",
         "  <product>",
         f"    {prop('simulation/dt')}",
-        f"    {prop(rate)}",
+        *indent(clip(err, -rate_limit, rate_limit), 2),
         "  </product>",
         "</sum>",
     ]
@@ -786,19 +952,18 @@ def servo(
         "<ifthen>",
         f"  <gt>{prop('simulation/dt')}{value(0)}</gt>",
         *indent(clip(step, lo, hi), 1),
-        f"  {prop(lim)}",
+        *indent(limited, 1),
         "</ifthen>",
     ]
     if bypass:
         integ = [
             "<ifthen>",
             f"  <gt>{prop(bypass)}{value(0.5)}</gt>",
-            f"  {prop(total)}",
+            *indent(command, 1),
             *indent(integ, 1),
             "</ifthen>",
         ]
-    lines += fcs_function(f"{surface} servo", pos, integ)
-    return lines
+    return fcs_function(f"{surface} servo", pos, integ)
 
 
 def command_sum(deg_prop: str, *norm_props: str) -> list[str]:
@@ -817,9 +982,48 @@ def command_sum(deg_prop: str, *norm_props: str) -> list[str]:
     ]
 
 
+def panel_servos(
+    panels: Sequence[str], command: str, limits: Sequence[tuple[float, float]], bypass: str = ""
+) -> list[str]:
+    """One NASA servo per panel (position limits ``limits``, one pair per panel), each
+    commanded by the surface's ``command`` (a property) plus its own ``fcs/<panel>-cmd-deg``
+    (0 unless a panel is driven on its own)."""
+    lines: list[str] = []
+    for panel, own in zip(panels, limits, strict=True):
+        body = summed([prop(command)], [prop(f"fcs/{panel}-cmd-deg")])
+        rate, bw = SERVO_RATE_LIMIT_DPS, SERVO_BANDWIDTH_HZ
+        lines += servo(panel, body, pos(panel), own, rate, bw, bypass or None)
+    return lines
+
+
+def servos_busy(name: str, servos: Sequence[tuple[list[str], str]]) -> list[str]:
+    """A 0/1 FCS function, 1 when any of ``servos`` (command expression, position property)
+    has its command away from its position.  A servo whose command equals its position (so
+    the command is inside the limits) keeps its position exactly, in flight and in trim, so
+    a channel of servos may skip every frame in which this is 0 and give the same numbers."""
+    away = [["<nq>", *indent(cmd, 1), f"  {prop(where)}", "</nq>"] for cmd, where in servos]
+    body = (
+        away[0] if len(away) == 1 else ["<or>", *(x for a in away for x in indent(a, 1)), "</or>"]
+    )
+    return fcs_function(f"{name} busy", f"fcs/{name}-busy", body)
+
+
+def panel_commands(command: str, panels: Sequence[str]) -> list[tuple[list[str], str]]:
+    """(command, position) of each panel servo ``panel_servos`` makes."""
+    return [(summed([prop(command)], [prop(f"fcs/{p}-cmd-deg")]), pos(p)) for p in panels]
+
+
 def flight_control() -> list[str]:
-    """The <flight_control> element: servos for every surface and the gear."""
-    rate, bw = SERVO_RATE_LIMIT_DPS, SERVO_BANDWIDTH_HZ
+    """The <flight_control> element: servos for every surface panel and the gear."""
+    spoilers = [p for side in SPOILER_PANELS.values() for p in side.values()]
+    all_panels = [
+        *ELEVATOR_PANELS.values(),
+        "right-aileron",
+        "left-aileron",
+        *RUDDER_PANELS.values(),
+        *spoilers,
+        *FLAP_PANELS.values(),
+    ]
     interface = [
         '<property value="0">fcs/elevator-cmd-deg</property>',
         '<property value="0">fcs/elevator-servo-bypass</property>',
@@ -827,65 +1031,70 @@ def flight_control() -> list[str]:
         '<property value="0">fcs/rudder-cmd-deg</property>',
         '<property value="0">fcs/left-spoiler-cmd-deg</property>',
         '<property value="0">fcs/right-spoiler-cmd-deg</property>',
-        '<property value="0">fcs/left-spoiler-pos-deg</property>',
-        '<property value="0">fcs/right-spoiler-pos-deg</property>',
         '<property value="0">fcs/stabilizer-pos-deg</property>',
         '<property value="0">fcs/flap-cmd-deg</property>',
+        *(f'<property value="0">fcs/{p}-cmd-deg</property>' for p in all_panels),
+        *(
+            f'<property value="1">{flag}</property>'  # all panels start at 0 deg
+            for flag in (
+                ELEVATOR_TOGETHER,
+                RUDDER_TOGETHER,
+                "fcs/right-spoiler-panels-together",
+                "fcs/left-spoiler-panels-together",
+                FLAPS_TOGETHER,
+            )
+        ),
         f'<property value="0">{DAMAGE_CASE}</property>',
         f'<property value="0">{MASS_CASE}</property>',
         f'<property value="0">{MASS_STALE}</property>',
     ]
-    pitch = servo(
-        "elevator",
+    elevator_total = fcs_function(
+        "elevator cmd total",
+        "fcs/elevator-cmd-total",
         command_sum("fcs/elevator-cmd-deg", "fcs/elevator-cmd-norm", "fcs/pitch-trim-cmd-norm"),
-        "fcs/elevator-pos-deg",
-        ELEVATOR_LIMITS_DEG,
-        rate,
-        bw,
-        "fcs/elevator-servo-bypass",
     )
-    aileron_cmd = command_sum("fcs/aileron-cmd-deg", "fcs/aileron-cmd-norm")
-    right = servo(
-        "right-aileron",
-        aileron_cmd,
-        "fcs/right-aileron-pos-deg",
-        AILERON_LIMITS_DEG,
-        rate,
-        bw,
-        None,
+    panels = list(ELEVATOR_PANELS.values())
+    pitch = elevator_total + panel_servos(
+        panels, "fcs/elevator-cmd-total", [ELEVATOR_LIMITS_DEG] * 4, "fcs/elevator-servo-bypass"
     )
-    left_cmd = ["<product>", f"  {value(-1)}", *indent(aileron_cmd, 1), "</product>"]
-    left = servo(
-        "left-aileron", left_cmd, "fcs/left-aileron-pos-deg", AILERON_LIMITS_DEG, rate, bw, None
+    pitch += fcs_function(
+        "elevator position", "fcs/elevator-pos-deg", mean_of([pos(p) for p in panels])
     )
-    yaw = servo(
-        "rudder",
+    pitch += elevator_flags()
+    watch = fcs_function(
+        "aileron cmd total",
+        "fcs/aileron-cmd-total",
+        command_sum("fcs/aileron-cmd-deg", "fcs/aileron-cmd-norm"),
+    )
+    watch += fcs_function(
+        "left aileron cmd", "fcs/aileron-cmd-mirrored", scaled(-1, [prop("fcs/aileron-cmd-total")])
+    )
+    right = panel_servos(["right-aileron"], "fcs/aileron-cmd-total", [AILERON_LIMITS_DEG])
+    left = panel_servos(["left-aileron"], "fcs/aileron-cmd-mirrored", [AILERON_LIMITS_DEG])
+    rudders = list(RUDDER_PANELS.values())
+    watch += fcs_function(
+        "rudder cmd total",
+        "fcs/rudder-cmd-total",
         command_sum("fcs/rudder-cmd-deg", "fcs/rudder-cmd-norm"),
-        "fcs/rudder-pos-deg",
-        RUDDER_LIMITS_DEG,
-        rate,
-        bw,
-        None,
     )
-    spo_r = servo(
-        "right-spoiler",
-        [prop("fcs/right-spoiler-cmd-deg")],
-        "fcs/right-spoiler-pos-deg",
-        SPOILER_LIMITS_DEG,
-        rate,
-        bw,
-        None,
-    )
-    spo_l = servo(
-        "left-spoiler",
-        [prop("fcs/left-spoiler-cmd-deg")],
-        "fcs/left-spoiler-pos-deg",
-        SPOILER_LIMITS_DEG,
-        rate,
-        bw,
-        None,
-    )
-    flap = fcs_function("flap position", "fcs/flap-pos-deg", [prop("fcs/flap-cmd-deg")])
+    yaw = panel_servos(rudders, "fcs/rudder-cmd-total", [RUDDER_LIMITS_DEG] * 2)
+    yaw += fcs_function("rudder position", "fcs/rudder-pos-deg", mean_of([pos(p) for p in rudders]))
+    yaw += rudder_inputs()
+    spo: list[str] = []
+    for side, side_panels in SPOILER_PANELS.items():
+        names = list(side_panels.values())
+        limits = [SPOILER_LIMITS_DEG[k] for k in side_panels]
+        spo += panel_servos(names, f"fcs/{side}-spoiler-cmd-deg", limits)
+        spo += fcs_function(
+            f"{side} spoiler position",
+            f"fcs/{side}-spoiler-pos-deg",
+            mean_of([pos(p) for p in names]),
+        )
+        spo += all_equal(f"fcs/{side}-spoiler-panels-together", names)
+    flaps = list(FLAP_PANELS.values())
+    flap = panel_servos(flaps, "fcs/flap-cmd-deg", [FLAP_LIMITS_DEG] * 4)
+    flap += fcs_function("flap position", "fcs/flap-pos-deg", mean_of([pos(p) for p in flaps]))
+    flap += all_equal(FLAPS_TOGETHER, flaps)
     gear = servo(
         "gear",
         [prop("gear/gear-cmd-norm")],
@@ -895,18 +1104,30 @@ def flight_control() -> list[str]:
         10.0,
         None,
     )
-    rad = fcs_function(
-        "elevator position rad",
-        "fcs/elevator-pos-rad",
-        ["<toradians>", f"  {prop('fcs/elevator-pos-deg')}", "</toradians>"],
+    high_lift = [
+        *panel_commands("fcs/right-spoiler-cmd-deg", SPOILER_PANELS["right"].values()),
+        *panel_commands("fcs/left-spoiler-cmd-deg", SPOILER_PANELS["left"].values()),
+        *panel_commands("fcs/flap-cmd-deg", flaps),
+    ]
+    watch += servos_busy(
+        "aileron",
+        [
+            *panel_commands("fcs/aileron-cmd-total", ["right-aileron"]),
+            *panel_commands("fcs/aileron-cmd-mirrored", ["left-aileron"]),
+        ],
     )
+    watch += servos_busy("rudder", panel_commands("fcs/rudder-cmd-total", rudders))
+    watch += servos_busy("high-lift", high_lift)
+    watch += servos_busy("gear", [([prop("gear/gear-cmd-norm")], "gear/gear-pos-norm")])
+    # (name, components, the property that must be 1 for the channel to run, if any)
     channels = (
-        ("pitch", pitch + rad),
-        ("roll", right + left),
-        ("yaw", yaw),
-        ("spoilers and flaps", spo_r + spo_l + flap),
-        ("landing gear", gear),
-        ("damage watch", damage_mass_watch()),
+        ("pitch", pitch, None),
+        ("servo watch", watch, None),
+        ("roll", right + left, "fcs/aileron-busy"),
+        ("yaw", yaw, "fcs/rudder-busy"),
+        ("spoilers and flaps", spo + flap, "fcs/high-lift-busy"),
+        ("landing gear", gear, "fcs/gear-busy"),
+        ("damage watch", damage_mass_watch(), None),
     )
     body: list[str] = [
         "<!-- Servo, as in NASA's GTM_DesignSim: y' = sat(2 pi 5 Hz (u - y), +-300 deg/s),",
@@ -917,11 +1138,20 @@ def flight_control() -> list[str]:
         "     Elevator: positive trailing edge down (nose down); fcs/elevator-servo-bypass = 1",
         "     makes the surface equal the (unlimited) command exactly.",
         "     Aileron (NASA sign): positive = right trailing edge down, left trailing edge up",
-        "     (rolls LEFT). Rudder (NASA sign): positive = trailing edge left (nose left). -->",
+        "     (rolls LEFT). Rudder (NASA sign): positive = trailing edge left (nose left).",
+        "     Every panel has its own servo, commanded by its surface's command plus its own",
+        "     fcs/<panel>-cmd-deg; the surface's position (fcs/elevator-pos-deg, ...) is the",
+        "     mean of its panels, exactly their deflection when they move together.",
+        "     Servos that all sit at their commands are not run (fcs/<surface>-busy = 0):",
+        "     they would keep their positions exactly. -->",
         *interface,
     ]
-    for name, comps in channels:
-        body.append(f'<channel name="{name}">')
+    for name, comps, execute in channels:
+        body.append(
+            f'<channel name="{name}" execute="{execute}">'
+            if execute
+            else f'<channel name="{name}">'
+        )
         body += indent(comps, 1)
         body.append("</channel>")
     body.append(f'<channel name="damage mass" execute="{MASS_STALE}">')

@@ -84,9 +84,10 @@ converter and the rest of the project are MIT. Model notes in detail:
 ## Model in brief
 
 * **Aerodynamics**: every table of the release except the all-zero dC3_sym:
-  C6_bas(alpha, beta); dC3_ele(alpha, beta, stab, elev) with the four panels deflected together;
-  dC6_ail (right, plus the mirrored left); dC6_rud (negative tabulated, positive mirrored);
-  dC6_spo (right, plus mirrored left); dC3_q/p/r forced-oscillation rate terms; dC6_w
+  C6_bas(alpha, beta); dC3_ele(alpha, beta, stab, elev) for four elevator panels with their
+  roll and yaw (NASA's Stab1); dC6_ail (right, plus the mirrored left); dC6_rud for the upper
+  and lower rudder (negative tabulated, positive mirrored); dC6_spo for inboard and outboard
+  spoilers (right, plus mirrored left); dC3_q/p/r forced-oscillation rate terms; dC6_w
   rotary-balance terms; dC3_lgr gear increment; flap derivatives; the six damage cases of
   dC6_damage. Multilinear interpolation, clamped at table ends. Totals:
   `aero/coefficient/{CX,CY,CZ,Cl,Cm,Cn}`.
@@ -96,10 +97,16 @@ converter and the rest of the project are MIT. Model notes in detail:
   rudder / left aileron / left outboard flap / left elevator panels (with the roll and yaw of
   the right ones) / stabilizer, and the weight, CG and inertia deltas. Details and the
   deviations from NASA's block diagram: `aircraft/gtm_t2/README.md`, "Damage cases".
+* **Surfaces**: every panel NASA models has its own servo and its own share of its surface's
+  table: four elevator panels, two ailerons, upper and lower rudder, inboard and outboard
+  spoilers on each side, four flap panels (`fcs/<panel>-cmd-deg` moves one panel on top of
+  its surface's command). The symmetric commands drive a surface's panels together, and
+  `fcs/elevator-pos-deg` etc. are their mean.
 * **Transcription check** (`tests/sim/test_gtm.py`): at 300 random states (alpha -5..40 deg, beta
-  +-20 deg, rates up to 1.5 rad/s, all surfaces) JSBSim's six totals agree with an independent
-  SciPy `RegularGridInterpolator` evaluation of the .mat tables to better than 1e-9 (test
-  tolerance 1e-9; 208 of the states damaged, every case). States are set with `ic/*`
+  +-20 deg, rates up to 1.5 rad/s, every panel, half of the states with each panel at a
+  deflection of its own) JSBSim's six totals agree with an independent SciPy
+  `RegularGridInterpolator` evaluation of the .mat tables to better than 1e-9 (test
+  tolerance 1e-9, worst 4.5e-10; 209 of the states damaged, every case). States are set with `ic/*`
   properties and `run_ic()`; during `run_ic` the time step is 0 and the servos sit exactly
   at their commands.
 * **Mass**: 57.75 lb, Ixx 1.221, Iyy 4.655, Izz 5.587, Ixz 0.274, Ixy 0.006 slug ft^2 (NASA's
@@ -108,7 +115,9 @@ converter and the rest of the project are MIT. Model notes in detail:
   reference point at 25 % MAC (both on the fuselage datum line).
 * **Thrust** (not from NASA): two engines, thrust = throttle x 17 lbf each, instant, through
   the CG height. **Servos**: NASA's first-order 5 Hz loop with the 300 deg/s rate limit inside
-  the loop; elevator -30..+20 deg; `fcs/elevator-servo-bypass` for a pure surface.
+  the loop; NASA's limits (elevator -30..+20, aileron +-20, rudder +-30, spoilers 0..15
+  inboard and 0..45 outboard, flaps 0..30 deg); `fcs/elevator-servo-bypass` for a pure
+  elevator.
 * **Gear**: JSBSim starts every model with `gear/gear-cmd-norm = 1` (down) and the model's
   `<property>` defaults cannot override that built-in property: set it to 0 before `run_ic`
   and trim (the gear servo then sits up at once while dt = 0).
@@ -161,10 +170,8 @@ DOC_TAIL = """
 * Trim elevator moves trailing edge down as speed grows (stable speed gradient).
 * The trim also settles a tiny bank (about 0.05 deg) because the database is not exactly
   mirror-symmetric at beta = 0 (and Ixy is nonzero); harmless.
-* Not modelled: per-panel surface commands (the four elevator panels, both rudders, the
-  spoiler and flap panels move together; a damage case removes panels from the aero sum),
-  dead zones, engine dynamics, thrust moments, ground effect, sensors; the landing-gear
-  contact points are approximate.
+* Not modelled: dead zones, engine dynamics, thrust moments, ground effect, sensors; the
+  landing-gear contact points are approximate.
 
 ## The damage cases, straight and level (800 ft, 75 KEAS)
 

@@ -12,14 +12,21 @@ as JSBSim clamps its tables). The fixture holds a few hundred random flight stat
 total body-axis coefficients, so ``tests/test_gtm.py`` can check the JSBSim model against it
 without the .mat file.
 
-Build-up (same conventions as documented in docs/gtm.md):
+Build-up (same conventions as documented in docs/gtm.md), every surface panel at its own
+deflection, as NASA's block diagram (``Aero/Control Surfaces``) sums them:
 
-* C = C6_bas(a, b) + dC3_ele(a, b, stab, de) + dC6_ail(a, b, dR) + M dC6_ail(a, -b, dL)
-  + dC6_rud(a, b, min(dr, 0)) + M dC6_rud(a, -b, min(-dr, 0)) + dC6_spo(a, b, sR)
-  + M dC6_spo(a, -b, sL) + dC3_q/p/r(a, hat) + dC6_w(a, omegahat, b) + dC3_lgr(a, gear)
-  + flaps * df + dC6_damage.bas(a, b, case), with M = diag(1, -1, 1, -1, 1, -1) (mirror
-  image: CY, Cl, Cn change sign); the damage term is 0 for case 0 (undamaged).
-* Aileron command da: right surface dR = +da, left surface dL = -da (NASA sign).
+* C = C6_bas(a, b) + elevator (below) + dC6_ail(a, b, dR) + M dC6_ail(a, -b, dL)
+  + sum over the upper and lower rudder of g_rud * [dC6_rud(a, b, min(dr, 0))
+  + M dC6_rud(a, -b, min(-dr, 0))] + sum over the inboard and outboard spoilers of
+  g_spo * [dC6_spo(a, b, sR) + M dC6_spo(a, -b, sL)] + dC3_q/p/r(a, hat) + dC6_w(a, omegahat,
+  b) + dC3_lgr(a, gear) + sum over the four flap panels of flap_i * df_i
+  + dC6_damage.bas(a, b, case), with M = diag(1, -1, 1, -1, 1, -1) (mirror image: CY, Cl, Cn
+  change sign) and g the panels' shares per coefficient (NASA's Gains blocks); the damage
+  term is 0 for case 0 (undamaged).
+* The elevator is NASA's Stab1 sum: T(0) + sum over four panels of 0.25 (T(de_i) - T(0))
+  with Cl = arm CZ, Cn = -arm CX of each panel (arms -0.07, -0.03, 0.03, 0.07).
+* Half of the states have every surface's panels at one deflection (as the symmetric
+  commands drive them), half have each panel at a deflection of its own.
 * Omega = p cos a cos b + q sin b + r sin a cos b; omegahat = Omega b / 2V;
   phat = (p - Omega cos a cos b) b / 2V, qhat = (q - Omega sin b) cbar / 2V,
   rhat = (r - Omega sin a cos b) b / 2V.
@@ -28,8 +35,7 @@ Build-up (same conventions as documented in docs/gtm.md):
   scaled by dC6_damage.ddscale(a, k, rate, coefficient), no dC6_w, and CY +=
   sum ddinc(a, k, rate, CY) * rate-hat; the rudder (k = 1, 2), the left outboard flap panel
   (k = 3), the left aileron (k = 4), the left elevator panels (k = 5, 6) and the stabilizer
-  (k = 6) removed. The elevator is NASA's Stab1 sum: T(0) + sum over four panels of
-  0.25 (T(de) - T(0)) with Cl = arm CZ, Cn = -arm CX (arms -0.07, -0.03, 0.03, 0.07).
+  (k = 6) removed.
 """
 
 from __future__ import annotations
@@ -47,6 +53,34 @@ CBAR_FT = 0.9153
 N_STATES = 300
 SEED = 20091209
 MIRROR = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+#: Panels, their model names and NASA's position limits (deg; Actuators/Acutator Dynamics).
+PANELS = {
+    "left-outboard-elevator": (-30.0, 20.0),
+    "left-inboard-elevator": (-30.0, 20.0),
+    "right-inboard-elevator": (-30.0, 20.0),
+    "right-outboard-elevator": (-30.0, 20.0),
+    "right-aileron": (-20.0, 20.0),
+    "left-aileron": (-20.0, 20.0),
+    "upper-rudder": (-30.0, 30.0),
+    "lower-rudder": (-30.0, 30.0),
+    "right-inboard-spoiler": (0.0, 15.0),
+    "right-outboard-spoiler": (0.0, 45.0),
+    "left-inboard-spoiler": (0.0, 15.0),
+    "left-outboard-spoiler": (0.0, 45.0),
+    "left-outboard-flap": (0.0, 30.0),
+    "left-inboard-flap": (0.0, 30.0),
+    "right-inboard-flap": (0.0, 30.0),
+    "right-outboard-flap": (0.0, 30.0),
+}
+#: The panels of one surface, which the symmetric commands drive together.
+PANELS_ELEVATOR = tuple(p for p in PANELS if p.endswith("elevator"))
+SURFACES = {
+    "elevator": PANELS_ELEVATOR,
+    "rudder": ("upper-rudder", "lower-rudder"),
+    "right spoiler": ("right-inboard-spoiler", "right-outboard-spoiler"),
+    "left spoiler": ("left-inboard-spoiler", "left-outboard-spoiler"),
+    "flap": tuple(p for p in PANELS if p.endswith("flap")),
+}
 STATE_NAMES = (
     "alpha_deg",
     "beta_deg",
@@ -54,30 +88,35 @@ STATE_NAMES = (
     "p_rad_sec",
     "q_rad_sec",
     "r_rad_sec",
-    "elevator_deg",
     "stabilizer_deg",
-    "aileron_deg",
-    "rudder_deg",
-    "left_spoiler_deg",
-    "right_spoiler_deg",
+    *PANELS,
     "gear_pos",
-    "flap_deg",
     "damage_case",
 )
+#: Each rudder's and spoiler's share of its table, [CX CY CZ Cl Cm Cn] (NASA's
+#: Aero/Control Surfaces/Rudder/Gains, Gains1 and Spoilers/Gains1..4 blocks).
+RUDDER_GAINS = {
+    "upper-rudder": np.array([0.5, 0.5, 0.5, 0.67, 0.67, 0.5]),
+    "lower-rudder": np.array([0.5, 0.5, 0.5, 0.33, 0.33, 0.5]),
+}
+SPOILER_GAINS = {
+    "inboard": np.array([0.45, 0.45, 0.45, 0.26, 0.45, 0.26]),
+    "outboard": np.array([0.55, 0.55, 0.55, 0.74, 0.55, 0.74]),
+}
 COEFF_NAMES = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 #: The surfaces NASA's damage cases remove (DamageModels_T2.m: gain 0), by case.
 LOST = {
     "rudder": (1, 2),
     "left outboard flap": (3,),
     "left aileron": (4,),
-    "LOB": (5, 6),
-    "LIB": (5, 6),
-    "RIB": (),
-    "ROB": (),
+    "left-outboard-elevator": (5, 6),
+    "left-inboard-elevator": (5, 6),
+    "right-inboard-elevator": (),
+    "right-outboard-elevator": (),
     "stabilizer": (6,),
 }
 #: Elevator panels and their moment arms (fraction of the span, right positive; NASA's Stab1).
-ELEVATOR_ARMS = {"LOB": -0.07, "LIB": -0.03, "RIB": 0.03, "ROB": 0.07}
+ELEVATOR_ARMS = dict(zip(PANELS_ELEVATOR, (-0.07, -0.03, 0.03, 0.07), strict=True))
 
 
 class Table:
@@ -112,12 +151,12 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     ele = mat["dC3_ele"]
     t_ele = Table([ele.alpha, ele.beta, ele.stab, ele.elev], ele.data)
     # NASA's Stab1: the stabilizer T(0) plus four panels, each 0.25 (T(de_i) - T(0)) with
-    # Cl = arm CZ and Cn = -arm CX; here all panels at one deflection de, some lost
+    # Cl = arm CZ and Cn = -arm CX; lost panels (gain 0) removed
     t0 = t_ele(a, b, s["stabilizer_deg"], np.zeros(n))
-    step = t_ele(a, b, s["stabilizer_deg"], s["elevator_deg"]) - t0
     gains = {p: ~np.isin(case, LOST[p]) for p in ("stabilizer", *ELEVATOR_ARMS)}
     out[:, [0, 2, 4]] += t0 * gains["stabilizer"][:, None]
     for panel, arm in ELEVATOR_ARMS.items():
+        step = t_ele(a, b, s["stabilizer_deg"], s[panel]) - t0
         v = 0.25 * step * gains[panel][:, None]
         out[:, [0, 2, 4]] += v
         out[:, 3] += arm * v[:, 1]  # Cl from the panel's CZ
@@ -125,20 +164,24 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
 
     ail = mat["dC6_ail"]
     t_ail = Table([ail.alpha, ail.beta, ail.ail], ail.data)
-    out += t_ail(a, b, s["aileron_deg"])
-    left = MIRROR * t_ail(a, -b, -s["aileron_deg"])
+    out += t_ail(a, b, s["right-aileron"])
+    left = MIRROR * t_ail(a, -b, s["left-aileron"])
     out += left * ~np.isin(case, LOST["left aileron"])[:, None]
 
     rud = mat["dC6_rud"]
     t_rud = Table([rud.alpha, rud.beta, rud.rud], rud.data)
-    dr = s["rudder_deg"]
-    rudder = t_rud(a, b, np.minimum(dr, 0.0)) + MIRROR * t_rud(a, -b, np.minimum(-dr, 0.0))
+    rudder = np.zeros((n, 6))
+    for panel, gain in RUDDER_GAINS.items():
+        dr = s[panel]
+        one = t_rud(a, b, np.minimum(dr, 0.0)) + MIRROR * t_rud(a, -b, np.minimum(-dr, 0.0))
+        rudder += gain * one
     out += rudder * ~np.isin(case, LOST["rudder"])[:, None]
 
     spo = mat["dC6_spo"]
     t_spo = Table([spo.alpha, spo.beta, spo.spo], spo.data)
-    out += t_spo(a, b, s["right_spoiler_deg"])
-    out += MIRROR * t_spo(a, -b, s["left_spoiler_deg"])
+    for where, gain in SPOILER_GAINS.items():
+        out += gain * t_spo(a, b, s[f"right-{where}-spoiler"])
+        out += gain * MIRROR * t_spo(a, -b, s[f"left-{where}-spoiler"])
 
     ar, br = np.radians(a), np.radians(b)
     p, q, r, v = s["p_rad_sec"], s["q_rad_sec"], s["r_rad_sec"], s["vt_fps"]
@@ -184,9 +227,11 @@ def evaluate(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
     out[:, [0, 2, 4]] += Table([lgr.alpha, np.array([0.0, 1.0])], lgr.data)(a, s["gear_pos"])
 
     fl = mat["flaps"]
-    per_deg = fl.flaplob + fl.flaplib + fl.flaprib + fl.flaprob
-    out += np.outer(s["flap_deg"], per_deg)
-    out -= np.outer(s["flap_deg"] * np.isin(case, LOST["left outboard flap"]), fl.flaplob)
+    lob = s["left-outboard-flap"]
+    out += np.outer(lob, fl.flaplob) + np.outer(s["left-inboard-flap"], fl.flaplib)
+    out += np.outer(s["right-inboard-flap"], fl.flaprib)
+    out += np.outer(s["right-outboard-flap"], fl.flaprob)
+    out -= np.outer(lob * np.isin(case, LOST["left outboard flap"]), fl.flaplob)
     out += damage_increments(mat, s)
     return out
 
@@ -206,33 +251,36 @@ def damage_increments(mat: dict, s: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def random_states(rng: np.random.Generator, n: int) -> dict[str, np.ndarray]:
-    """Random states inside (mostly) the tables' ranges, with some clamped corners."""
+    """Random states inside (mostly) the tables' ranges, with some clamped corners, the
+    panels inside NASA's servo limits: in half of the states each surface's panels share one
+    deflection, in the other half each has its own."""
     u = rng.uniform
     stab = np.where(u(size=n) < 0.5, 0.0, u(-12.0, 4.0, n))
     gear = rng.choice([0.0, 1.0, 0.5], size=n, p=[0.6, 0.2, 0.2]) * np.where(
         u(size=n) < 0.8, 1.0, u(size=n)
     )
-    return {
+    states = {
         "alpha_deg": u(-5.0, 40.0, n),
         "beta_deg": u(-20.0, 20.0, n),
         "vt_fps": u(90.0, 220.0, n),
         "p_rad_sec": u(-1.5, 1.5, n),
         "q_rad_sec": u(-1.0, 1.0, n),
         "r_rad_sec": u(-1.0, 1.0, n),
-        "elevator_deg": u(-30.0, 20.0, n),
         "stabilizer_deg": stab,
-        "aileron_deg": u(-30.0, 30.0, n),
-        "rudder_deg": u(-30.0, 30.0, n),
-        "left_spoiler_deg": np.where(u(size=n) < 0.5, 0.0, u(0.0, 65.0, n)),
-        "right_spoiler_deg": np.where(u(size=n) < 0.5, 0.0, u(0.0, 65.0, n)),
         "gear_pos": gear,
-        "flap_deg": np.where(u(size=n) < 0.7, 0.0, u(0.0, 30.0, n)),
-        # Drawn from a generator of its own, so the other states are those of the fixture
-        # before the damage cases came.
-        "damage_case": np.random.default_rng(SEED + 1)
-        .choice(7, size=n, p=[0.28] + [0.12] * 6)
-        .astype(float),
+        "damage_case": rng.choice(7, size=n, p=[0.28] + [0.12] * 6).astype(float),
     }
+    together = u(size=n) < 0.5
+    for panel, (lo, hi) in PANELS.items():
+        used = u(size=n) < (0.5 if "spoiler" in panel or "flap" in panel else 1.0)
+        states[panel] = np.where(used, u(lo, hi, n), 0.0)
+    for panels in SURFACES.values():
+        lo = max(PANELS[p][0] for p in panels)
+        hi = min(PANELS[p][1] for p in panels)
+        common = np.clip(states[panels[0]], lo, hi)
+        for p in panels:
+            states[p] = np.where(together, common, states[p])
+    return states
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -32,6 +32,25 @@ REFERENCE = ROOT / "tests" / "data" / "gtm_reference.npz"
 #: NASA's database, beside the repository (../shared/gtm/) where a developer has it.
 MAT = ROOT.parent / "shared" / "gtm" / "T2_polynomial_aerodatabase.mat"
 COEFFS = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+#: NASA's control-surface panels, each with its own servo and command.
+PANELS = (
+    "left-outboard-elevator",
+    "left-inboard-elevator",
+    "right-inboard-elevator",
+    "right-outboard-elevator",
+    "right-aileron",
+    "left-aileron",
+    "upper-rudder",
+    "lower-rudder",
+    "right-inboard-spoiler",
+    "right-outboard-spoiler",
+    "left-inboard-spoiler",
+    "left-outboard-spoiler",
+    "left-outboard-flap",
+    "left-inboard-flap",
+    "right-inboard-flap",
+    "right-outboard-flap",
+)
 S_FT2, CBAR_FT, SPAN_FT = 5.9018, 0.9153, 6.8488
 NOTICE = (
     "Copyright 2009 United States Government as represented by the Administrator of the "
@@ -63,8 +82,21 @@ def set_state(fdm, **s: float) -> None:
     fdm["fcs/right-spoiler-cmd-deg"] = s.get("right_spoiler_deg", 0.0)
     fdm["gear/gear-cmd-norm"] = s.get("gear_pos", 0.0)
     fdm["fcs/flap-cmd-deg"] = s.get("flap_deg", 0.0)
+    for panel in PANELS:  # a panel's own command, on top of its surface's
+        fdm[f"fcs/{panel}-cmd-deg"] = s.get(panel, 0.0)
     fdm["damage/case"] = s.get("damage_case", 0.0)
     fdm.run_ic()
+
+
+def group(fdm, name: str) -> np.ndarray:
+    """One aero group's increment [CX CY CZ Cl Cm Cn] (0 where the group has none)."""
+    out = []
+    for c in COEFFS:
+        try:
+            out.append(fdm[f"aero/gtm/{name}/{c}"])
+        except KeyError:
+            out.append(0.0)
+    return np.array(out)
 
 
 def coefficients(fdm) -> np.ndarray:
@@ -119,10 +151,12 @@ def test_reference_fixture_is_consistent() -> None:
 
 @pytest.mark.jsbsim
 def test_coefficients_match_independent_table_evaluation(fdm) -> None:
-    """JSBSim's totals equal the SciPy evaluation of NASA's tables within 1e-9 at 300 states,
-    208 of them damaged (every case: airframe increments, the damaged rate model with ddscale
-    and ddinc, the lost surfaces and the elevator panels' roll and yaw); the worst was 4.5e-10
-    when written."""
+    """JSBSim's totals equal the SciPy evaluation of NASA's tables within 1e-9 at 300 states:
+    most of them damaged (every case: airframe increments, the damaged rate model with
+    ddscale and ddinc, the lost surfaces and the elevator panels' roll and yaw), about half
+    with every panel at a deflection of its own (four elevator panels, two ailerons, upper
+    and lower rudder, four spoilers, four flaps), the other half with each surface's panels
+    together; the worst was 4.5e-10 when written."""
     ref = np.load(REFERENCE)
     names = [str(n) for n in ref["state_names"]]
     worst = 0.0
@@ -279,6 +313,114 @@ def test_control_signs(fdm) -> None:
     set_state(fdm, alpha_deg=4.0, rudder_deg=-10.0)
     neg = coefficients(fdm)
     np.testing.assert_allclose((rud - base) * [1, -1, 1, -1, 1, -1], neg - base, atol=1e-12)
+
+
+@pytest.mark.jsbsim
+def test_panels_share_their_surface_as_nasa_splits_it(fdm) -> None:
+    """Each panel takes NASA's share of its surface (Aero/Control Surfaces gains): the upper
+    rudder alone gives half the rudders' forces and yaw and 0.67 of their roll and pitch; the
+    inboard spoiler 0.45 of the forces and pitch and 0.26 of roll and yaw (at a deflection
+    both panels reach); each elevator panel a quarter of the pitching moment, the left
+    outboard panel rolling by its arm (-0.07 of the span) times its normal force."""
+    state = {"alpha_deg": 4.0, "beta_deg": 3.0}
+    set_state(fdm, **state)
+    base = {g: group(fdm, g) for g in ("rud", "spo-right", "ele")}
+    set_state(fdm, **state, rudder_deg=-8.0)
+    both = group(fdm, "rud") - base["rud"]
+    set_state(fdm, **state, **{"upper-rudder": -8.0})
+    upper = group(fdm, "rud") - base["rud"]
+    np.testing.assert_allclose(upper, both * [0.5, 0.5, 0.5, 0.67, 0.67, 0.5], rtol=1e-12)
+    set_state(fdm, **state, right_spoiler_deg=12.0)
+    both = group(fdm, "spo-right") - base["spo-right"]
+    set_state(fdm, **state, **{"right-inboard-spoiler": 12.0})
+    inboard = group(fdm, "spo-right") - base["spo-right"]
+    np.testing.assert_allclose(inboard, both * [0.45, 0.45, 0.45, 0.26, 0.45, 0.26], rtol=1e-12)
+    set_state(fdm, **state, elevator_deg=6.0)
+    both = group(fdm, "ele") - base["ele"]
+    assert both[3] == both[5] == 0.0  # panels together: no roll, no yaw
+    set_state(fdm, **state, **{"left-outboard-elevator": 6.0})
+    one = group(fdm, "ele") - base["ele"]
+    np.testing.assert_allclose(one[[0, 2, 4]], 0.25 * both[[0, 2, 4]], rtol=1e-12)
+    assert one[3] == pytest.approx(-0.07 * one[2], rel=1e-12)  # Cl = arm CZ
+    assert one[5] == pytest.approx(0.07 * one[0], rel=1e-12)  # Cn = -arm CX
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize(
+    ("case", "lost", "kept"),
+    [
+        (5, ("left-outboard-elevator", "left-inboard-elevator"), "right-inboard-elevator"),
+        (3, ("left-outboard-flap",), "left-inboard-flap"),
+        (1, ("upper-rudder", "lower-rudder"), None),
+        (4, ("left-aileron",), "right-aileron"),
+    ],
+)
+def test_a_lost_panel_does_nothing_and_the_others_still_act(
+    fdm, case: int, lost: tuple[str, ...], kept: str | None
+) -> None:
+    """With a damage case on, moving a panel it removes changes no coefficient at all, while
+    a panel it keeps still acts: the loss follows each panel, not the surface's mean."""
+    state = {"alpha_deg": 4.0, "beta_deg": 2.0, "damage_case": float(case)}
+    set_state(fdm, **state)
+    base = coefficients(fdm)
+    set_state(fdm, **state, **dict.fromkeys(lost, 7.0))
+    assert fdm[f"fcs/{lost[0]}-pos-deg"] == 7.0
+    np.testing.assert_allclose(coefficients(fdm), base, rtol=0, atol=1e-15)
+    if kept:
+        set_state(fdm, **state, **{kept: 7.0})
+        assert np.max(np.abs(coefficients(fdm) - base)) > 1e-3
+
+
+@pytest.mark.jsbsim
+def test_differential_elevator_rolls_and_each_panel_has_its_own_servo(new_plant) -> None:
+    """A panel's own command moves that panel alone, through its own NASA servo (one step:
+    2 pi 5 Hz dt of the command); the symmetric command moves all four together, and the
+    surface's position is their mean. Left panels down, right panels up rolls the aircraft
+    right (NASA's RollYaw Coupling), with no aileron and the mean elevator unchanged."""
+    plant = new_plant("gtm_t2", 1.0 / 200.0)
+    fdm = plant.fdm
+    set_state(fdm, alpha_deg=4.0)
+    dt = fdm["simulation/dt"]
+    fdm["fcs/left-outboard-elevator-cmd-deg"] = 1.0
+    fdm.run()
+    assert fdm["fcs/left-outboard-elevator-pos-deg"] == pytest.approx(2 * math.pi * 5 * dt)
+    for panel in PANELS[1:4]:
+        assert fdm[f"fcs/{panel}-pos-deg"] == 0.0
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(0.25 * 2 * math.pi * 5 * dt)
+    set_state(fdm, alpha_deg=4.0)
+    trimmed = fdm["fcs/elevator-pos-deg"]
+    for panel, sign in zip(PANELS[:4], (1, 1, -1, -1), strict=True):
+        fdm[f"fcs/{panel}-cmd-deg"] = 4.0 * sign
+    for _ in range(40):
+        fdm.run()
+    assert fdm["fcs/elevator-pos-deg"] == pytest.approx(trimmed, abs=1e-12)
+    assert fdm["fcs/left-aileron-pos-deg"] == fdm["fcs/right-aileron-pos-deg"] == 0.0
+    assert fdm["aero/gtm/ele/Cl"] > 1e-4 and fdm["velocities/p-rad_sec"] > 0.01
+
+
+@pytest.mark.jsbsim
+def test_idle_servos_are_skipped_and_wake_on_a_command(new_plant) -> None:
+    """Servos sitting at their commands are not run (they would not move); a new command
+    wakes them and they follow NASA's servo: one step of 2 pi 5 Hz dt, the left aileron
+    mirrored, NASA's +-20 deg aileron limit."""
+    fdm = new_plant("gtm_t2", 1.0 / 200.0).fdm
+    set_state(fdm, alpha_deg=4.0)
+    fdm.run()
+    assert fdm["fcs/aileron-busy"] == fdm["fcs/rudder-busy"] == fdm["fcs/high-lift-busy"] == 0
+    dt = fdm["simulation/dt"]
+    fdm["fcs/aileron-cmd-deg"] = 2.0
+    fdm.run()
+    assert fdm["fcs/aileron-busy"] == 1
+    assert fdm["fcs/right-aileron-pos-deg"] == pytest.approx(2.0 * 2 * math.pi * 5 * dt)
+    assert fdm["fcs/left-aileron-pos-deg"] == -fdm["fcs/right-aileron-pos-deg"]
+    fdm["fcs/aileron-cmd-deg"] = 35.0
+    fdm["fcs/flap-cmd-deg"] = 10.0
+    for _ in range(600):
+        fdm.run()
+    assert fdm["fcs/right-aileron-pos-deg"] == pytest.approx(20.0)
+    assert fdm["fcs/left-aileron-pos-deg"] == pytest.approx(-20.0)
+    for panel in PANELS[-4:]:
+        assert fdm[f"fcs/{panel}-pos-deg"] == pytest.approx(10.0, abs=1e-9)
 
 
 @pytest.mark.jsbsim
