@@ -781,35 +781,11 @@ def damage(db: dict) -> list[str]:
     return lines
 
 
+#: The surface groups every coefficient sums, in the order of the sums.
+SURFACE_GROUPS = ("bas", "ele", "ail-right", "ail-left", "rud", "spo-right", "spo-left")
 GROUPS: dict[str, tuple[str, ...]] = {
-    "CX": (
-        "bas",
-        "ele",
-        "ail-right",
-        "ail-left",
-        "rud",
-        "spo-right",
-        "spo-left",
-        "q",
-        "w",
-        "lgr",
-        "flp",
-        "dam",
-    ),
-    "CY": (
-        "bas",
-        "ele",
-        "ail-right",
-        "ail-left",
-        "rud",
-        "spo-right",
-        "spo-left",
-        "p",
-        "r",
-        "w",
-        "flp",
-        "dam",
-    ),
+    "CX": (*SURFACE_GROUPS, "q", "w", "lgr", "flp", "dam"),
+    "CY": (*SURFACE_GROUPS, "p", "r", "w", "flp", "dam"),
 }
 GROUPS["CZ"] = GROUPS["CX"]
 GROUPS["Cm"] = GROUPS["CX"]
