@@ -519,6 +519,12 @@ def rudder_inputs() -> list[str]:
     return lines + all_equal(RUDDER_TOGETHER, list(RUDDER_PANELS.values()))
 
 
+def shares_add_to_one(share: dict[str, tuple[float, ...]]) -> bool:
+    """Whether a surface's panel shares add to 1 for every coefficient, so that panels at one
+    deflection may be looked up once."""
+    return all(sum(s) == 1.0 for s in zip(*share.values(), strict=True))
+
+
 def rudder(db: dict) -> list[str]:
     """dC6_rud: tabulated for negative deflection; positive deflection is the mirror image.
 
@@ -526,6 +532,7 @@ def rudder(db: dict) -> list[str]:
     of the forces and yaw, 0.67 / 0.33 of roll and pitch) at their own deflection; at one
     deflection (``fcs/rudder-pos-deg``) they are looked up once (the shares add to 1).
     """
+    assert shares_add_to_one(RUDDER_SHARE)
     t = db["dC6_rud"]
     a, b, rud, d = arr(t.alpha), arr(t.beta), arr(t.rud), arr(t.data)
     lines: list[str] = []
@@ -552,6 +559,7 @@ def spoiler(db: dict) -> list[str]:
     table (``SPOILER_SHARE``) at its own deflection; the right side as tabulated, the left as
     its mirror image. Panels of a side at one deflection are looked up once (the shares add
     to 1)."""
+    assert shares_add_to_one(SPOILER_SHARE)
     t = db["dC6_spo"]
     a, b, defl, d = arr(t.alpha), arr(t.beta), arr(t.spo), arr(t.data)
     lines: list[str] = []
@@ -964,11 +972,11 @@ def panel_servos(
     """One NASA servo per panel (position limits ``limits``, one pair per panel), each
     commanded by the surface's ``command`` (a property) plus its own ``fcs/<panel>-cmd-deg``
     (0 unless a panel is driven on its own)."""
+    rate, bw = SERVO_RATE_LIMIT_DPS, SERVO_BANDWIDTH_HZ
     lines: list[str] = []
-    for panel, own in zip(panels, limits, strict=True):
-        body = summed([prop(command)], [prop(f"fcs/{panel}-cmd-deg")])
-        rate, bw = SERVO_RATE_LIMIT_DPS, SERVO_BANDWIDTH_HZ
-        lines += servo(panel, body, pos(panel), own, rate, bw, bypass or None)
+    commands = panel_commands(command, panels)
+    for panel, (body, where), own in zip(panels, commands, limits, strict=True):
+        lines += servo(panel, body, where, own, rate, bw, bypass or None)
     return lines
 
 
