@@ -3,8 +3,8 @@
 NASA's ``example6.m`` trims the undamaged T2 in a 45 deg bank climbing turn at 95 kt EAS and
 3 deg flight-path angle, holds every control at its trim value (open loop), switches a damage
 case on at 10 s and simulates to 15 s.  :func:`fly_case` does the same on ``gtm_t2``
-(JSBSim's turn trim, :meth:`probing.sim.plant.Plant.trim`; the damage through
-:meth:`~probing.sim.plant.Plant.damage`); :func:`run_example6` flies the undamaged aircraft
+(JSBSim's turn trim, :meth:`probing.sim.plant.Plant.trim`; the damage as a fault at its
+onset, :meth:`~probing.sim.plant.Plant.schedule`); :func:`run_example6` flies the undamaged aircraft
 and the six cases and writes one Parquet time history per case.  ``probing gtm-damage`` draws
 them and writes the summary (:mod:`analysis.gtm_damage`).
 """
@@ -12,7 +12,6 @@ them and writes the summary (:mod:`analysis.gtm_damage`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -20,8 +19,8 @@ import numpy as np
 import pyarrow as pa
 
 from probing.experiment.storage import AtomicParquetWriter, field, provenance
-from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL
-from probing.sim.plant import Plant
+from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, Flight
+from probing.sim.plant import make_plant
 
 __all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly_case", "run_example6"]
 
@@ -93,28 +92,25 @@ def fly_case(case: int, setup: Example6 = EXAMPLE6) -> dict[str, np.ndarray]:
         ``time_s`` and every column of :data:`SIGNALS`, one sample per step, the first at
         the trim (t = 0).
     """
-    plant = Plant(DAMAGE_MODEL, setup.dt_s)
-    plant.trim(
+    flight = Flight(
+        DAMAGE_MODEL,
         setup.altitude_ft,
-        speed_keas=setup.speed_keas,
+        "speed_keas",
+        setup.speed_keas,
+        setup.dt_s,
+        damage_case=case,
+        damage_onset_s=setup.onset_s if case else None,  # trimmed undamaged, damaged in flight
         gamma_deg=setup.gamma_deg,
         bank_deg=setup.bank_deg,
     )
-    fdm = plant.fdm
-    steps = round(setup.end_s / setup.dt_s)
-    onset = round(setup.onset_s / setup.dt_s)
-    reads: list[tuple[Callable[[], float], float]] = [
-        (fdm.get_property_manager().get_node(prop).get_double_value, factor)
-        for prop, factor, _ in SIGNALS.values()
-    ]
-    out = np.empty((steps + 1, len(reads)))
-    out[0] = [get() * factor for get, factor in reads]
-    for k in range(1, steps + 1):
-        if k == onset + 1:  # the damage acts from the step after onset on
-            plant.damage(case)
-        fdm.run()
-        out[k] = [get() * factor for get, factor in reads]
-    columns = {"time_s": np.arange(steps + 1) * setup.dt_s}
+    plant = make_plant(flight)
+    manager = plant.fdm.get_property_manager()
+    nodes = [manager.get_node(prop) for prop, _, _ in SIGNALS.values()]
+    out = np.empty((round(setup.end_s / setup.dt_s) + 1, len(nodes)))
+    out[0] = [node.get_double_value() for node in nodes]
+    plant.step(None, nodes, out[1:])  # open loop; the damage from the onset step on
+    out *= [factor for _, factor, _ in SIGNALS.values()]
+    columns = {"time_s": np.arange(out.shape[0]) * setup.dt_s}
     columns.update({c: out[:, j] for j, c in enumerate(SIGNALS)})
     return columns
 

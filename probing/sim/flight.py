@@ -18,6 +18,7 @@ __all__ = [
     "TURBULENCE_SEVERITY",
     "Flight",
     "SpeedKind",
+    "check_damage_case",
 ]
 
 #: The model with NASA's damage cases, and the cases in NASA's order (``damage/case`` 1..6).
@@ -32,6 +33,16 @@ DAMAGE_CASES = (
 )
 #: The damage cases that leave the aircraft mirror-symmetric (rudder, vertical tail).
 SYMMETRIC_DAMAGE = (1, 2)
+
+
+def check_damage_case(model: str, case: int, need_model: bool = False) -> None:
+    """Raise ValueError unless ``case`` is 0 (none) or one of NASA's cases on the model that
+    has them; with ``need_model`` the model must have them even for case 0 (a plant asked to
+    set its damage property)."""
+    if (case or need_model) and model != DAMAGE_MODEL:
+        raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {model}")
+    if case not in range(len(DAMAGE_CASES) + 1):
+        raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}, got {case!r}")
 
 
 @dataclass(frozen=True)
@@ -120,10 +131,7 @@ class Flight:
             raise ValueError(f"speed_kind must be one of {', '.join(SPEED_KINDS)}")
         if self.turbulence not in TURBULENCE_SEVERITY:
             raise ValueError(f"turbulence must be one of {', '.join(TURBULENCE_SEVERITY)}")
-        if self.damage_case not in range(len(DAMAGE_CASES) + 1):
-            raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}")
-        if self.damage_case and self.model != DAMAGE_MODEL:
-            raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {self.model}")
+        check_damage_case(self.model, self.damage_case)
         if self.damage_onset_s is not None and (not self.damage_case or self.damage_onset_s < 0):
             raise ValueError("a damage onset needs a damage case and a time >= 0")
 

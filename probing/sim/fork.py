@@ -99,8 +99,6 @@ class TrimmedAircraft:
         self.key = trim_key(flight)
         self._condition = _condition(flight)
         self.plant = Plant(flight.model, flight.dt_s)
-        if flight.trimmed_damage:
-            self.plant.damage(flight.trimmed_damage)
         trim_flight(self.plant, flight)
 
     def plant_for(self, flight: Flight) -> Plant:

@@ -26,12 +26,11 @@ from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
 from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
 from probing.sim.flight import (
-    DAMAGE_CASES,
-    DAMAGE_MODEL,
     SPEED_KINDS,
     SYMMETRIC_DAMAGE,
     TURBULENCE_SEVERITY,
     Flight,
+    check_damage_case,
 )
 
 __all__ = [
@@ -265,10 +264,7 @@ class Plant:
         ValueError
             If the model has no damage cases, or ``case`` is not one of them.
         """
-        if self.model != DAMAGE_MODEL:
-            raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {self.model}")
-        if case not in range(len(DAMAGE_CASES) + 1):
-            raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}, got {case!r}")
+        check_damage_case(self.model, case, need_model=True)
         self.fdm[DAMAGE_PROPERTY] = float(case)
 
     def schedule(self, flight: Flight) -> None:
@@ -507,18 +503,19 @@ class Plant:
 def make_plant(flight: Flight) -> Plant:
     """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition."""
     plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
-    if flight.trimmed_damage:
-        plant.damage(flight.trimmed_damage)
     trim_flight(plant, flight)
     plant.schedule(flight)
     return plant
 
 
 def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
-    """Trim ``plant`` (with its damage set) at the flight's condition: level, climbing or in
-    a steady turn.  JSBSim's full trim fails when a control has no authority left (the rudder
+    """Trim ``plant`` at the flight's condition, with the damage case it is trimmed with
+    (:attr:`Flight.trimmed_damage`): level, climbing or in a steady turn.  JSBSim's full trim
+    fails when a control has no authority left (the rudder
     in the symmetric damage cases, which leave nothing to trim laterally): the longitudinal
     trim is used there."""
+    if flight.trimmed_damage:
+        plant.damage(flight.trimmed_damage)
     speed = {flight.speed_kind: flight.speed}
     angles = {"gamma_deg": flight.gamma_deg, "bank_deg": flight.bank_deg}
     try:
