@@ -19,6 +19,7 @@ import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
 from probing.experiment.gtm_damage import case_file
+from probing.sim.flight import DAMAGE_CASES
 
 __all__ = ["SUMMARY_VARIABLES", "UNWRAPPED", "draw", "load", "summary"]
 
@@ -43,7 +44,7 @@ SUMMARY_VARIABLES = (
 def load(folder: Path) -> dict[int, tuple[pd.DataFrame, dict[str, Any]]]:
     """Case -> (time history, metadata) of every case stored in ``folder``."""
     out = {}
-    for case in range(7):
+    for case in range(len(DAMAGE_CASES) + 1):
         path = case_file(folder, case)
         if not path.exists():
             continue
