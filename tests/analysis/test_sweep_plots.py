@@ -323,10 +323,18 @@ def _done(summary: pd.DataFrame) -> np.ndarray:
     return (summary["status"] == "done").to_numpy()
 
 
-def test_backlash_figure_shows_the_measured_gains_over_the_closed_form(tmp_path):
-    folder = _backlash(tmp_path, failed={3})
-    fig, summary = _figure(folder)
-    ax1, _ = fig.axes[:2]
+def _assert_failed_marked(ax: Any, x: np.ndarray, summary: pd.DataFrame) -> None:
+    """The failed points, and only they, marked at their x (none: no marker at all)."""
+    failed = ~_done(summary)
+    if failed.any():
+        np.testing.assert_allclose(_failed_x(ax, int(failed.sum())), x[failed])
+    else:
+        assert not any(ln.get_label().startswith("failed") for ln in ax.get_lines())
+
+
+# What each kind's figure shows, read from its axes and compared with the summary's numbers.
+def _shows_backlash(fig: Any, summary: pd.DataFrame) -> None:
+    ax1 = fig.axes[0]
     width_over_a = summary["nonlinearity.width_deg"].to_numpy() / A
     x, y = _xy(ax1, "predicted a~/a, eq. (10)")
     np.testing.assert_allclose(y, np.clip(1 - x / 2, 0, None), atol=1e-12)
@@ -335,36 +343,32 @@ def test_backlash_figure_shows_the_measured_gains_over_the_closed_form(tmp_path)
     done = _done(summary)
     np.testing.assert_allclose(x, width_over_a[done])
     np.testing.assert_allclose(y, summary["measured_gain"][done])
-    np.testing.assert_allclose(_failed_x(ax1, 1), width_over_a[[3]])
-    plt.close(fig)
+    _assert_failed_marked(ax1, width_over_a, summary)
 
 
-def test_hysteresis_figure_follows_the_zipped_thresholds(tmp_path):
-    fig, summary = _figure(_hysteresis(tmp_path, failed=set()))
+def _shows_hysteresis(fig: Any, summary: pd.DataFrame) -> None:
     ax1 = fig.axes[0]
     x, y = _xy(ax1, "predicted a~/a, eq. (10)")  # x = S+/a; the relay switches iff a > S+
     np.testing.assert_array_equal(y, np.where(x < 1, 0.5, 0.0))
     x, y = _xy(ax1, "measured gain g")  # the stuck points (b~ != 0) are drawn apart
     thresholds = summary["nonlinearity.upper_threshold_deg"].to_numpy() / A
-    np.testing.assert_allclose(x, thresholds[thresholds < 1])
-    np.testing.assert_allclose(y, 0.5)
-    plt.close(fig)
+    plain = (thresholds < 1) & _done(summary)
+    np.testing.assert_allclose(x, thresholds[plain])
+    np.testing.assert_allclose(y, summary["measured_gain"][plain])
+    _assert_failed_marked(ax1, thresholds, summary)
 
 
-def test_rate_limit_figure_puts_the_gains_at_r_over_the_bound(tmp_path):
-    fig, summary = _figure(_rate_limit(tmp_path, failed={0}))
+def _shows_rate_limit(fig: Any, summary: pd.DataFrame) -> None:
     ax1 = fig.axes[0]
     x, y = _xy(ax1, "measured gain g")
     ratio = summary["rate_ratio"].to_numpy()
     np.testing.assert_allclose(x, ratio)  # failed points are NaN in the summary
     np.testing.assert_allclose(y, summary["measured_gain"], equal_nan=True)
     np.testing.assert_allclose(ratio, [0.25, 0.5, 1, 2, 4])  # r / (2a/t0) with t0 = 0.04 s
-    np.testing.assert_allclose(_failed_x(ax1, 1), [0.25])
-    plt.close(fig)
+    _assert_failed_marked(ax1, ratio, summary)
 
 
-def test_noise_figure_plots_measured_against_naive_and_closed_form(tmp_path):
-    fig, summary = _figure(_noise(tmp_path, failed={2}))
+def _shows_noise(fig: Any, summary: pd.DataFrame) -> None:
     ax1, ax2 = fig.axes[:2]
     for a in (0.005, 0.01):
         rows = summary[(summary["probe.amplitude_deg"] == a) & _done(summary)]
@@ -374,28 +378,89 @@ def test_noise_figure_plots_measured_against_naive_and_closed_form(tmp_path):
         np.testing.assert_allclose(y, rows["h_stderr"])
         x, y = _xy(ax2, f"a = {a:g} deg")
         np.testing.assert_allclose(y, rows["h_stderr"] / rows["predicted_h_stderr"])
-    assert len(_xy(ax1, "a = 0.005 deg")[0]) == 1  # point 2 failed, point 0 has sigma = 0
-    plt.close(fig)
 
 
-def test_flight_grid_figure_colours_measured_over_predicted(tmp_path):
-    fig, summary = _figure(_flight_grid(tmp_path, failed={0, 3, 8}))
+def _shows_flight_grid(fig: Any, summary: pd.DataFrame) -> None:
     ax1 = fig.axes[0]  # measured / predicted gain (the colour bars come after the panels)
     grid = np.ma.getdata(ax1.collections[0].get_array()).reshape(3, 3)
     mask = np.ma.getmaskarray(ax1.collections[0].get_array()).reshape(3, 3)
     expected = (summary["measured_gain"] / summary["predicted_gain"]).to_numpy().reshape(3, 3)
     np.testing.assert_array_equal(mask.reshape(-1), ~_done(summary))
     np.testing.assert_allclose(grid[~mask], expected[~mask], rtol=1e-12)
+
+
+def _shows_other(fig: Any, summary: pd.DataFrame) -> None:
+    ax1 = fig.axes[0]
+    x, y = _xy(ax1, "measured gain g")
+    index = np.arange(len(summary))
+    np.testing.assert_array_equal(x, index)
+    np.testing.assert_allclose(y, summary["measured_gain"], equal_nan=True)
+    _assert_failed_marked(ax1, index, summary)
+
+
+SHOWS = {
+    "backlash": _shows_backlash,
+    "hysteresis": _shows_hysteresis,
+    "rate_limit": _shows_rate_limit,
+    "noise": _shows_noise,
+    "flight_grid": _shows_flight_grid,
+    "other": _shows_other,
+}
+
+
+def _saved_figures(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """The figures ``plot_sweep`` (and so ``probing plot sweep``) saves, as they are saved."""
+    saved: list[Any] = []
+    save_figure = sweep_plots.save_figure
+
+    def spy(fig: Any, *args: Any, **kwargs: Any) -> list[Path]:
+        saved.append(fig)
+        return save_figure(fig, *args, **kwargs)
+
+    monkeypatch.setattr(sweep_plots, "save_figure", spy)
+    return saved
+
+
+def test_backlash_figure_shows_the_measured_gains_over_the_closed_form(tmp_path):
+    fig, summary = _figure(_backlash(tmp_path, failed={3}))
+    _shows_backlash(fig, summary)
+    np.testing.assert_allclose(
+        _failed_x(fig.axes[0], 1), summary["nonlinearity.width_deg"][[3]] / A
+    )
+    plt.close(fig)
+
+
+def test_hysteresis_figure_follows_the_zipped_thresholds(tmp_path):
+    fig, summary = _figure(_hysteresis(tmp_path, failed=set()))
+    _shows_hysteresis(fig, summary)
+    np.testing.assert_allclose(_xy(fig.axes[0], "measured gain g")[1], 0.5)
+    plt.close(fig)
+
+
+def test_rate_limit_figure_puts_the_gains_at_r_over_the_bound(tmp_path):
+    fig, summary = _figure(_rate_limit(tmp_path, failed={0}))
+    _shows_rate_limit(fig, summary)
+    np.testing.assert_allclose(_failed_x(fig.axes[0], 1), [0.25])
+    plt.close(fig)
+
+
+def test_noise_figure_plots_measured_against_naive_and_closed_form(tmp_path):
+    fig, summary = _figure(_noise(tmp_path, failed={2}))
+    _shows_noise(fig, summary)
+    assert len(_xy(fig.axes[0], "a = 0.005 deg")[0]) == 1  # point 2 failed, point 0 has sigma 0
+    plt.close(fig)
+
+
+def test_flight_grid_figure_colours_measured_over_predicted(tmp_path):
+    fig, summary = _figure(_flight_grid(tmp_path, failed={0, 3, 8}))
+    _shows_flight_grid(fig, summary)
     plt.close(fig)
 
 
 def test_other_figure_plots_gain_by_point_index(tmp_path):
     fig, summary = _figure(_other(tmp_path, failed={1}))
-    ax1 = fig.axes[0]
-    x, y = _xy(ax1, "measured gain g")
-    np.testing.assert_array_equal(x, [0, 1, 2])
-    np.testing.assert_allclose(y, summary["measured_gain"], equal_nan=True)
-    np.testing.assert_allclose(_failed_x(ax1, 1), [1])
+    _shows_other(fig, summary)
+    np.testing.assert_allclose(_failed_x(fig.axes[0], 1), [1])
     plt.close(fig)
 
 
@@ -420,13 +485,18 @@ def test_every_point_failed_still_draws_and_marks_them_all(tmp_path, case):
 
 
 @pytest.mark.parametrize("case", sorted(KINDS))
-def test_each_kind_is_classified_and_saved(tmp_path, case):
+def test_each_kind_is_classified_and_saved(tmp_path, case, monkeypatch):
+    """Each kind gets its layout, and the file written shows the summary's numbers."""
     make, kind, failed = KINDS[case]
     folder = make(tmp_path / "sweeps", failed)
     assert classify(load_sweep_data(folder)) == kind
+    saved = _saved_figures(monkeypatch)
     paths = plot_sweep(folder, tmp_path / "figures")
     assert paths == [tmp_path / "figures" / f"sweep_{load_sweep_data(folder).name}.png"]
     _assert_png(paths[0])
+    (fig,) = saved
+    summary = pd.read_parquet(folder / "summary.parquet")  # written in point order
+    SHOWS[case](fig, summary)
 
 
 # ------------------------------------------------------------------ the theory curve
@@ -515,8 +585,10 @@ def test_plot_sweep_draws_into_the_sweep_folder_by_default(tmp_path, capsys):
 
 
 def test_cli_plot_sweep_prints_the_files(tmp_path, capsys, monkeypatch):
+    """Both files printed and written, from one figure that shows the summary's gains."""
     monkeypatch.setattr(sweep_plots, "FORMATS", ("png", "pdf"))
-    folder = _other(tmp_path / "sweeps", set())
+    saved = _saved_figures(monkeypatch)
+    folder = _other(tmp_path / "sweeps", {2})
     figures = tmp_path / "figs"
     assert cli_main(["plot", "sweep", str(folder), "--figures", str(figures)]) == 0
     out, err = capsys.readouterr()
@@ -524,3 +596,7 @@ def test_cli_plot_sweep_prints_the_files(tmp_path, capsys, monkeypatch):
     assert err == ""
     _assert_png(figures / "sweep_order.png")
     assert (figures / "sweep_order.pdf").read_bytes().startswith(b"%PDF")
+    (fig,) = saved
+    summary = pd.read_parquet(folder / "summary.parquet")
+    _shows_other(fig, summary)
+    np.testing.assert_allclose(_xy(fig.axes[0], "measured gain g")[1], [1.0, 0.999, np.nan])

@@ -14,7 +14,6 @@ from analysis import gtm_damage
 from probing.cli import main as cli_main
 from probing.experiment.gtm_damage import EXAMPLE6, fly_case, run_example6
 from probing.sim.flight import Flight
-from probing.sim.plant import Plant
 
 pytestmark = pytest.mark.jsbsim
 
@@ -22,10 +21,10 @@ SHORT = dataclasses.replace(EXAMPLE6, onset_s=0.5, end_s=1.0)
 G_FT_S2 = 32.174
 
 
-def test_turn_trim_is_the_asked_steady_climbing_turn() -> None:
+def test_turn_trim_is_the_asked_steady_climbing_turn(new_plant) -> None:
     """JSBSim's turn trim at NASA's Example 6 condition: the bank, climb and EAS asked for,
     the coordinated-turn rate g tan(phi) / (V cos(gamma)), and a state that holds."""
-    plant = Plant("gtm_t2", EXAMPLE6.dt_s)
+    plant = new_plant("gtm_t2", EXAMPLE6.dt_s)
     plant.trim(800.0, speed_keas=95.0, gamma_deg=3.0, bank_deg=45.0)
     fdm = plant.fdm
     assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=1e-3)
@@ -53,16 +52,65 @@ def test_the_damage_acts_from_the_step_after_onset() -> None:
     assert len(calm["time_s"]) == round(SHORT.end_s / SHORT.dt_s) + 1
 
 
-def test_damage_is_refused_where_it_does_not_exist() -> None:
+def test_damage_is_refused_where_it_does_not_exist(new_plant) -> None:
     with pytest.raises(ValueError, match=r"0\.\.6"):
-        Plant("gtm_t2", EXAMPLE6.dt_s).damage(7)
+        new_plant("gtm_t2", EXAMPLE6.dt_s).damage(7)
     with pytest.raises(ValueError, match="gtm_t2 only"):
-        Plant("737", 0.01).damage(1)
+        new_plant("737", 0.01).damage(1)
 
 
-def test_files_summary_and_figures(tmp_path: Path) -> None:
+#: What each of NASA's four panels must show: legend label -> Parquet column.
+PANEL_COLUMNS = (
+    {"alpha": "alpha_deg", "beta": "beta_deg"},
+    {"gamma": "gamma_deg"},
+    {"p": "p_deg_s", "q": "q_deg_s", "r": "r_deg_s"},
+    {"phi": "phi_deg", "theta": "theta_deg"},
+)
+PANEL_UNITS = (("(deg)",), ("(deg)", "(kt)"), ("(deg/s)",), ("(deg",))
+
+
+def _assert_plotted(line, time_s, values, column: str) -> None:
+    """The line's x is the time history's time, its y the column; bank (``phi_deg``) is
+    drawn unwrapped: continuous, and equal to the stored angle modulo 360 deg."""
+    x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+    np.testing.assert_array_equal(x, time_s)
+    if column != "phi_deg":
+        np.testing.assert_array_equal(y, values, err_msg=column)
+        return
+    assert np.abs(np.diff(y)).max() < 90.0
+    np.testing.assert_allclose((y - values + 180.0) % 360.0 - 180.0, 0.0, atol=1e-9)
+
+
+def _assert_figure_shows(fig, case: int, damaged, undamaged) -> None:
+    """A figure of ``draw`` plots the stored time histories (read from Parquet here) of the
+    damaged flight and, dotted, the undamaged one, each variable in its panel."""
+    assert f"damage case {case}:" in fig.get_suptitle()
+    panels, twins = fig.axes[:4], fig.axes[4:]
+    for ax, columns, units in zip(panels, PANEL_COLUMNS, PANEL_UNITS, strict=True):
+        lines = {ln.get_label(): ln for ln in ax.get_lines() if not ln.get_label().startswith("_")}
+        assert set(lines) == {*columns, *(f"{lab}, undamaged" for lab in columns)}
+        for label, column in columns.items():
+            _assert_plotted(lines[label], damaged["time_s"], damaged[column], column)
+            dotted = lines[f"{label}, undamaged"]
+            assert dotted.get_linestyle() == ":"
+            _assert_plotted(dotted, undamaged["time_s"], undamaged[column], column)
+        onset = [ln for ln in ax.get_lines() if ln.get_label().startswith("_")]
+        assert [list(ln.get_xdata()) for ln in onset] == [[SHORT.onset_s] * 2]
+        assert all(unit in ax.get_title() for unit in units), ax.get_title()
+    for ax in panels[2:]:
+        assert ax.get_xlabel() == "time (s)"
+    (eas_axis,) = twins
+    assert eas_axis.get_ylabel() == "EAS (kt)"
+    eas, eas_nominal = eas_axis.get_lines()
+    assert eas.get_label() == "EAS" and eas_nominal.get_linestyle() == ":"
+    _assert_plotted(eas, damaged["time_s"], damaged["eas_kt"], "eas_kt")
+    _assert_plotted(eas_nominal, undamaged["time_s"], undamaged["eas_kt"], "eas_kt")
+
+
+def test_files_summary_and_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Seven time histories with units; the summary's rows and columns as the issue asks,
-    its values read from the histories; six figures, the same bytes when drawn again."""
+    its values read from the histories; six figures showing the stored histories, the same
+    bytes when drawn again."""
     paths = run_example6(tmp_path / "results", SHORT)
     assert [p.name for p in paths] == [f"case{k}.parquet" for k in range(7)]
     schema = pq.read_schema(paths[2])
@@ -81,9 +129,20 @@ def test_files_summary_and_figures(tmp_path: Path) -> None:
     assert table.loc[2, "beta_deg_end"] == ts["beta_deg"].iloc[-1]
     after = ts[ts["time_s"] >= SHORT.onset_s - 1e-12]
     assert table.loc[2, "beta_deg_max"] == after["beta_deg"].max()
+    drawn = []
+    save_figure = gtm_damage.save_figure
+
+    def spy(fig, *args, **kwargs):
+        drawn.append(fig)
+        return save_figure(fig, *args, **kwargs)
+
+    monkeypatch.setattr(gtm_damage, "save_figure", spy)
     first = gtm_damage.draw(cases, tmp_path / "f1")
-    again = gtm_damage.draw(cases, tmp_path / "f2")
     assert [p.name for p in first] == [f"gtm_damage_case{k}.png" for k in range(1, 7)]
+    stored = [pq.read_table(p).to_pandas() for p in paths]  # not through gtm_damage.load
+    for case, fig in zip(range(1, 7), drawn, strict=True):
+        _assert_figure_shows(fig, case, stored[case], stored[0])
+    again = gtm_damage.draw(cases, tmp_path / "f2")
     assert all(a.read_bytes() == b.read_bytes() for a, b in zip(first, again, strict=True))
 
 
