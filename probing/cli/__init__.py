@@ -1,4 +1,4 @@
-"""The probing command line: run, truth, sweep, fig4, plot, design, modes.
+"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
 folder that cannot be written, a Dask scheduler that does not answer), with one line on
@@ -26,6 +26,7 @@ Pulse-compression probing of aircraft dynamics through hard input nonlinearities
 commands:
   run      simulate a scenario and write its Parquet files
   truth    ground truth of a scenario (single pulse, linearisation, prediction)
+  monitor  fly a scenario probing continuously, with change detection after every period
   sweep    run a sweep file's points in parallel, resumably
   fig4     reproduce the paper's Fig. 4 (runs, figures, summary)
   plot     redraw the figures of fig4 or of a sweep from stored Parquet
@@ -108,6 +109,26 @@ def _cmd_truth(args: argparse.Namespace) -> int:
 
     def job() -> int:
         _print_truth(scn, args.out)
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _cmd_monitor(args: argparse.Namespace) -> int:
+    from probing.experiment.scenario import ScenarioError
+
+    scn = _load_scenario(args.scenario)
+    try:
+        scn.monitor_settings()
+    except ScenarioError as exc:
+        raise UsageError(f"{args.scenario}: {exc}") from None
+    _out_folder(args.out, "--out")
+
+    def job() -> int:
+        from probing.experiment.monitor import monitor_scenario
+
+        result = monitor_scenario(scn, args.out, timeseries=args.timeseries)
+        print(f"{scn.name}: {result.line()} -> {result.run.out_dir / 'monitor.parquet'}")
         return 0
 
     return _simulating(job, str(args.scenario))
@@ -395,10 +416,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
 
     run = command("run", "simulate a scenario and write probing.parquet and timeseries.parquet")
-    run.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
-    run.add_argument(
-        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
-    )
+    _scenario_arguments(run)
     run.add_argument(
         "--truth", action="store_true", help="also write truth.parquet and prediction.parquet"
     )
@@ -409,11 +427,19 @@ def build_parser() -> argparse.ArgumentParser:
         "ground truth of a scenario: single-pulse and linearised pulse responses "
         "(truth.parquet) and the probing output they predict (prediction.parquet)",
     )
-    truth.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
-    truth.add_argument(
-        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
-    )
+    _scenario_arguments(truth)
     truth.set_defaults(func=_cmd_truth)
+
+    monitor = command(
+        "monitor",
+        "fly a scenario probing continuously; after every period a change detector writes "
+        "monitor.parquet (docs/monitoring.md)",
+    )
+    _scenario_arguments(monitor)
+    monitor.add_argument(
+        "--timeseries", action="store_true", help="also write timeseries.parquet (large)"
+    )
+    monitor.set_defaults(func=_cmd_monitor)
 
     sweep = command("sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)")
     sweep.add_argument("sweep", type=Path, help="sweep TOML file (scenarios/sweeps/*.toml)")
@@ -506,6 +532,14 @@ def build_parser() -> argparse.ArgumentParser:
     damage.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
     damage.set_defaults(func=_cmd_gtm_damage)
     return parser
+
+
+def _scenario_arguments(parser: argparse.ArgumentParser) -> None:
+    """The scenario file and the results folder, as run, truth and monitor take them."""
+    parser.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
+    parser.add_argument(
+        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )
 
 
 def _design_arguments(parser: argparse.ArgumentParser) -> None:

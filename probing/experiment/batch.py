@@ -26,6 +26,7 @@ from typing import Any, TypeVar
 from probing.core.forked import Outcome, can_fork, forked_map
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import batch_of_runs
+from probing.sim.control import control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import TrimmedAircraft, trim_key
 from probing.sim.twins import store_twin, twin_stored
@@ -148,6 +149,8 @@ def _run_grouped(
         except Exception:  # each run loads and trims itself, and reports the failure as usual
             aircraft = None
         if aircraft is not None:
+            if any(s.control and s.control.active for s in members):
+                control_power(members[0].flight)  # once, inherited by every child
             if prepare is not None:
                 prepare(members, aircraft)
             twins = _twins_to_store(members)

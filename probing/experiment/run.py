@@ -23,7 +23,7 @@ from collections.abc import Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TextIO
+from typing import Protocol, TextIO
 
 import numpy as np
 
@@ -35,17 +35,20 @@ from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PROBING_SCHEMA,
+    OutputFolder,
     Settled,
     output_folder,
     probing_block,
     provenance,
     timeseries_schema,
 )
+from probing.sim.control import ClosedLoop, control_power
+from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
-__all__ = ["RunResult", "SettledMean", "run_scenario"]
+__all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
 
 PROBING_TEXT = (
     "probing output z (eq. 5), its DC-corrected form zeta (eq. 9) and the pulse-response "
@@ -96,6 +99,20 @@ class RunResult:
     settled: Settled | None = None
 
 
+class RunObserver(Protocol):
+    """What follows a run period by period (the monitor): it may write files of its own
+    into the run's folder, which appear with the run's files or not at all."""
+
+    def open(self, outputs: OutputFolder) -> None:
+        """Called once, with the run's output folder, before the first period."""
+
+    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
+        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M)."""
+
+    def finish(self) -> None:
+        """Called after the last period, before the run's files are closed."""
+
+
 # ------------------------------------------------------------------ set-up
 @dataclass
 class _Rig:
@@ -108,17 +125,43 @@ class _Rig:
     nodes: list
     y_trim: np.ndarray
     twin: ReferenceTwin | None
+    loop: ClosedLoop | None = None  # stepping one step at a time: autopilot, actuator fault
+    fault_nl: Nonlinearity | None = None  # a nonlinearity that appears on the probe path
+    nominal_twin: bool = False
 
     @classmethod
-    def build(cls, scn: Scenario, twin_cache: bool, aircraft: TrimmedAircraft | None) -> _Rig:
+    def build(
+        cls,
+        scn: Scenario,
+        twin_cache: bool,
+        aircraft: TrimmedAircraft | None,
+        nominal_twin: bool = False,
+    ) -> _Rig:
         probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
-        plant = aircraft.plant_for(scn.flight) if aircraft else make_plant(scn.flight)
+        flight = scn.flight
+        power = control_power(flight) if scn.control and scn.control.active else None
+        plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
+        loop = None
+        if scn.stepped_one_by_one:
+            loop = ClosedLoop(plant, scn.control or Control(), power, scn.actuator_fault)
         nodes = plant.channel_nodes(list(scn.channels))
         y_trim = np.array([n.get_double_value() for n in nodes])
         twin = None
         if scn.drift == "reference":
-            twin = open_twin(scn.flight, scn.channels, scn.total_steps, use_cache=twin_cache)
-        return cls(scn, probe, scn.build_nonlinearity(), plant, nodes, y_trim, twin)
+            twin_flight = flight.nominal if nominal_twin else flight
+            twin = open_twin(twin_flight, scn.channels, scn.total_steps, use_cache=twin_cache)
+        return cls(
+            scn,
+            probe,
+            scn.build_nonlinearity(),
+            plant,
+            nodes,
+            y_trim,
+            twin,
+            loop,
+            scn.build_fault_nonlinearity(),
+            nominal_twin,
+        )
 
     @property
     def period_steps(self) -> int:
@@ -145,6 +188,8 @@ class _Rig:
         }
         if self.twin:
             meta["twin"] = {"key": self.twin.key}  # not whether it was cached: same bytes
+            if self.nominal_twin:
+                meta["twin"]["nominal"] = True  # the fault-free model, not the flown one
         return provenance(**meta)
 
 
@@ -157,6 +202,7 @@ class _Chunk:
     count: int
     nl_out: np.ndarray  # (rows,) probe after the nonlinearity, deg
     elevator: np.ndarray  # (rows,) realised elevator, deg
+    control: np.ndarray | None  # (rows,) the autopilot's elevator command, deg (closed loop)
     measured: np.ndarray  # (rows, C) outputs with sensor noise
     reference: np.ndarray | None  # (rows, C) the twin's outputs
 
@@ -174,7 +220,9 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     ref = np.empty((chunk * n_steps, n_ch))
     elevator = np.empty(chunk * n_steps)
     nl_out = np.empty(chunk * n_steps)
+    control = np.empty(chunk * n_steps) if rig.loop else None
     nl_state = rig.nl.initial_state() if rig.nl else None
+    probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
     trim_deg = rig.plant.trim_result.elevator_deg
     for first in range(0, scn.periods, chunk):
         k = min(chunk, scn.periods - first)
@@ -185,16 +233,48 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
                 q, nl_state = rig.nl.process(x_period, scn.dt_s, nl_state)
             else:
                 q = x_period
+            q = probe_path.apply(q, first + i)
             nl_out[span] = q
-            cmd = rig.plant.elevator_command(trim_deg + q)
-            rig.plant.step(cmd, rig.nodes, out[span], elevator[span])
+            if rig.loop:
+                rig.loop.step(q, rig.nodes, out[span], elevator[span], control[span])
+            else:
+                cmd = rig.plant.elevator_command(trim_deg + q)
+                rig.plant.step(cmd, rig.nodes, out[span], elevator[span])
             rig.plant.check_state()
             if rig.twin:
                 ref[span] = rig.twin.next(n_steps)
         measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
         yield _Chunk(
-            first, k, nl_out[:rows], elevator[:rows], measured, ref[:rows] if rig.twin else None
+            first,
+            k,
+            nl_out[:rows],
+            elevator[:rows],
+            None if control is None else control[:rows],
+            measured,
+            ref[:rows] if rig.twin else None,
         )
+
+
+class _FaultOnset:
+    """A nonlinearity that appears on the probe path at a step: from the onset on, the probe
+    after the scenario's nonlinearity passes through it too (its state starts there)."""
+
+    def __init__(self, nl: Nonlinearity | None, onset_s: float, dt_s: float, n_steps: int):
+        self.nl, self.dt_s, self.n_steps = nl, dt_s, n_steps
+        self.onset = round(onset_s / dt_s) if nl is not None else None
+        self.state = nl.initial_state() if nl is not None else None
+
+    def apply(self, q: np.ndarray, period: int) -> np.ndarray:
+        """The period's probe path ``q`` (deg) with the fault from its onset on."""
+        if self.nl is None:
+            return q
+        start = self.onset - period * self.n_steps
+        if start >= self.n_steps:
+            return q
+        start = max(start, 0)
+        out = q.copy()
+        out[start:], self.state = self.nl.process(q[start:], self.dt_s, self.state)
+        return out
 
 
 # ------------------------------------------------------------------ drift correction
@@ -372,6 +452,9 @@ def run_scenario(
     twin_cache: bool = True,
     aircraft: TrimmedAircraft | None = None,
     keep_settled: bool = False,
+    observer: RunObserver | None = None,
+    timeseries: bool = True,
+    nominal_twin: bool = False,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -399,6 +482,13 @@ def run_scenario(
     keep_settled : bool
         Also hand back the first channel's settled periods (``RunResult.settled``), so a
         caller need not read them back from the file.
+    observer : RunObserver, optional
+        Told every chunk's estimates as they come (the monitor).
+    timeseries : bool
+        Write ``timeseries.parquet`` (False: only ``probing.parquet``, for long flights).
+    nominal_twin : bool
+        With ``drift = "reference"``: the twin flies the nominal aircraft, without the
+        scenario's damage (what a monitor may know), instead of the same flight.
 
     Returns
     -------
@@ -411,7 +501,7 @@ def run_scenario(
         On trim failure or divergence; no output file is left behind.
     """
     t_start = time.perf_counter()
-    rig = _Rig.build(scn, twin_cache, aircraft)
+    rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
     probe, channels = rig.probe, list(scn.channels)
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
     drift = _drift_correction(scn, probe, rig.chunk_periods * m)
@@ -419,10 +509,16 @@ def run_scenario(
     lag_s = np.arange(m) * probe.bit_duration_s
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     x_period = probe.samples(scn.dt_s, 1)
-    ts_schema = timeseries_schema(channels, rig.twin is not None)
+    ts_schema = timeseries_schema(channels, rig.twin is not None, rig.loop is not None)
     with rig.twin or nullcontext(), output_folder(folder, rig.metadata()) as outputs:
         w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels)
-        w_ts = outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels)
+        w_ts = (
+            outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels)
+            if timeseries
+            else None
+        )
+        if observer is not None:
+            observer.open(outputs)
         with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
             for c in _chunks(rig):
                 baseline = c.reference if c.reference is not None else rig.y_trim
@@ -432,8 +528,13 @@ def run_scenario(
                         probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
                     )
                 settled.add(est.periods, est.h, est.z)
-                w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
+                if observer is not None:
+                    observer.update(est.periods, est.h, est.z)
+                if w_ts is not None:
+                    w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
                 bar.advance(c.count)
+        if observer is not None:
+            observer.finish()
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,
@@ -456,6 +557,8 @@ def _timeseries_rows(
         "nl_out_deg": c.nl_out,
         "elevator_deg": c.elevator,
     }
+    if c.control is not None:
+        cols["control_deg"] = c.control
     for j, name in enumerate(channels):
         cols[name] = c.measured[:, j]
         if c.reference is not None:

@@ -19,13 +19,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from probing.core.monitor import MonitorSettings
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER
 from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
-from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, SPEED_KINDS, TURBULENCE_SEVERITY, Flight
+from probing.sim.flight import (
+    DAMAGE_CASES,
+    DAMAGE_MODEL,
+    SPEED_KINDS,
+    TURBULENCE_SEVERITY,
+    ActuatorFault,
+    Control,
+    Flight,
+)
 
 __all__ = [
     "DRIFT_MODES",
@@ -56,10 +65,23 @@ SECTIONS: dict[str, set[str] | None] = {
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
     "output": {"channels", "drift", "detrend_order", "estimator"},
     "disturbance": {"turbulence", "sensor_noise", "seed"},
-    "fault": {"type", "case", "onset_s"},
+    "fault": {"type", "case", "onset_s", "nonlinearity", "scale"}
+    | {n for t in NONLINEARITIES.values() for n in t.names},
+    "control": {f.name for f in dataclasses.fields(Control)},
+    "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
 }
-#: Fault types of the ``[fault]`` section (issue [5/6] adds more).
-FAULT_TYPES = ("gtm_damage",)
+#: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
+#: that appears on the probe path, and faults of the elevator's actuator.
+FAULT_TYPES = ("gtm_damage", "nonlinearity", "effectiveness", "stuck")
+#: Fields of each fault type besides ``type`` and ``onset_s``.
+_FAULT_FIELDS = {
+    "gtm_damage": ("case",),
+    "nonlinearity": ("nonlinearity",),  # and the nonlinearity's own parameters
+    "effectiveness": ("scale",),
+    "stuck": (),
+}
+#: Largest effectiveness scale (2: a surface twice as effective).
+_MAX_SCALE = 2.0
 _REQUIRED = {
     "aircraft": ("model",),
     "condition": ("altitude_ft",),
@@ -110,6 +132,11 @@ class Scenario:
     fault_type: str = "none"  # "none" or one of FAULT_TYPES
     fault_case: int = 0  # gtm_damage: NASA's damage case 1..6
     fault_onset_s: float = 0.0  # time after the trim when the fault appears, s
+    fault_nonlinearity: str = "none"  # nonlinearity: the type that appears at the onset
+    fault_nl_params: dict[str, float] = field(default_factory=dict)
+    fault_scale: float = 1.0  # effectiveness: scale of the surface's motion about trim
+    control: Control | None = None  # [control]: the autopilot (None: open loop)
+    monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -154,7 +181,43 @@ class Scenario:
             bank_deg=self.bank_deg,
             damage_case=self.fault_case,
             damage_onset_s=self.fault_onset_s if self.fault_type == "gtm_damage" else None,
+            control=self.control,
         )
+
+    @property
+    def actuator_fault(self) -> ActuatorFault | None:
+        """The elevator actuator's fault (``effectiveness``, ``stuck``), or None."""
+        if self.fault_type not in ("effectiveness", "stuck"):
+            return None
+        return ActuatorFault(self.fault_type, self.fault_onset_s, self.fault_scale)
+
+    def build_fault_nonlinearity(self) -> Nonlinearity | None:
+        """The nonlinearity that appears on the probe path at the onset (parameters in deg,
+        deg/s), or None without such a fault."""
+        if self.fault_type != "nonlinearity":
+            return None
+        return NONLINEARITIES[self.fault_nonlinearity].build(self.fault_nl_params)
+
+    def monitor_settings(self) -> MonitorSettings:
+        """The ``[monitor]`` settings (the defaults without the section).
+
+        Raises
+        ------
+        ScenarioError
+            If the defaults leave the run no period to test after the baseline (a given
+            section was checked when the scenario was read).
+        """
+        if self.monitor is not None:
+            return self.monitor
+        settings = MonitorSettings()
+        _check_baseline(self, settings.windows, settings.baseline_periods, given=False)
+        return settings
+
+    @property
+    def stepped_one_by_one(self) -> bool:
+        """True if the run steps one step at a time (:class:`probing.sim.control.ClosedLoop`):
+        an autopilot or an actuator fault acts between the probe and the surface."""
+        return bool(self.control and self.control.active) or self.actuator_fault is not None
 
     def build_nonlinearity(self) -> Nonlinearity | None:
         """The scenario's nonlinearity (parameters in deg, deg/s), or None for ``none``."""
@@ -195,13 +258,22 @@ class Scenario:
             "nonlinearity": nl,
             "output": out,
             "disturbance": disturbance,
-            # no [fault] section without a fault: digests stay as they were
+            # no [fault] or [control] section without one: digests stay as they were
             **({"fault": self._fault()} if self.fault_type != "none" else {}),
+            **({"control": self.control.to_dict()} if self.control is not None else {}),
+            **({"monitor": self.monitor.to_dict()} if self.monitor is not None else {}),
         }
 
     def _fault(self) -> dict[str, Any]:
         """The ``[fault]`` section."""
-        return {"type": self.fault_type, "case": self.fault_case, "onset_s": self.fault_onset_s}
+        out: dict[str, Any] = {"type": self.fault_type, "onset_s": self.fault_onset_s}
+        if self.fault_type == "gtm_damage":
+            out["case"] = self.fault_case
+        elif self.fault_type == "nonlinearity":
+            out.update(nonlinearity=self.fault_nonlinearity, **self.fault_nl_params)
+        elif self.fault_type == "effectiveness":
+            out["scale"] = self.fault_scale
+        return out
 
     def _condition(self) -> dict[str, float]:
         """The ``[condition]`` section; a straight-and-level trim leaves out its zero flight-path
@@ -464,23 +536,119 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         bank_deg=bank,
         text=text,
     )
-    fault = _fault(data.get("fault"), scn)
-    return dataclasses.replace(scn, **fault) if fault else scn
+    changes = {
+        **_fault(data.get("fault"), scn),
+        **_control(data.get("control")),
+        **_monitor(data.get("monitor"), scn),
+    }
+    return dataclasses.replace(scn, **changes) if changes else scn
+
+
+def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool) -> None:
+    """A monitor's baseline must exceed ``windows + 1`` periods and leave one settled period
+    of the run to test."""
+    settled = scn.periods - max(scn.settle_periods, scn.first_estimated_period)
+    if windows + 2 <= baseline < settled:
+        return
+    what = f"{baseline}" if given else f"the default, {baseline},"
+    raise ScenarioError(
+        "monitor.baseline_periods",
+        f"must be more than windows + 1 ({windows + 1}) and fewer than the run's "
+        f"{settled} settled periods; {what} is not",
+    )
+
+
+def _monitor(monitor: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
+    """The ``[monitor]`` section: the detector's settings, with a baseline that fits the run."""
+    if monitor is None:
+        return {}
+    defaults = MonitorSettings()
+    values: dict[str, Any] = {}
+    if "windows" in monitor:
+        values["windows"] = _integer(monitor, "monitor", "windows", lo=3, hi=64)
+    windows = values.get("windows", defaults.windows)
+    if "baseline_periods" in monitor:
+        values["baseline_periods"] = _integer(
+            monitor, "monitor", "baseline_periods", lo=1, hi=MAX_PERIODS
+        )
+    given = "baseline_periods" in monitor
+    _check_baseline(scn, windows, values.get("baseline_periods", defaults.baseline_periods), given)
+    if "false_alarms_per_hour" in monitor:
+        values["false_alarms_per_hour"] = _number(
+            monitor, "monitor", "false_alarms_per_hour", lo=0, hi=1e6, lo_open=True
+        )
+    if "shape_false_alarm" in monitor:
+        values["shape_false_alarm"] = _number(
+            monitor, "monitor", "shape_false_alarm", lo=0, hi=0.5, lo_open=True
+        )
+    for key in ("verdict_periods", "window_periods"):
+        if key in monitor:
+            values[key] = _integer(monitor, "monitor", key, lo=1, hi=1000)
+    return {"monitor": MonitorSettings(**values)}
+
+
+def _control(control: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``[control]`` section: switches (booleans) and bandwidths, validated."""
+    if control is None:
+        return {}
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(Control):
+        if f.name not in control:
+            continue
+        value = control[f.name]
+        if f.type in ("bool", bool):
+            if not isinstance(value, bool):
+                raise ScenarioError(f"control.{f.name}", f"must be true or false, got {value!r}")
+            values[f.name] = value
+        elif f.name == "damping":
+            values[f.name] = _number(control, "control", f.name, lo=0.1, hi=2.0)
+        elif f.name == "integral_time_s":
+            values[f.name] = _number(control, "control", f.name, lo=0, hi=1000)
+        else:
+            values[f.name] = _number(control, "control", f.name, lo=0, hi=50, lo_open=True)
+    return {"control": Control(**values)}
 
 
 def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
-    """The ``[fault]`` section, validated: a type, its case and its onset within the run."""
+    """The ``[fault]`` section, validated: a type, its own fields and its onset within the run."""
     if not fault:
         return {}
     model, duration_s = scn.model, scn.total_steps * scn.dt_s
     if "type" not in fault:
         raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULT_TYPES)})")
     kind = _choice(fault, "fault", "type", FAULT_TYPES)
-    if model != DAMAGE_MODEL:
-        raise ScenarioError("fault.type", f"{kind} exists for {DAMAGE_MODEL} only, not {model}")
-    for key in ("case", "onset_s"):
+    own = {"type", "onset_s", *_FAULT_FIELDS[kind]}
+    for key in fault:
+        if key not in own and kind != "nonlinearity":
+            raise ScenarioError(
+                f"fault.{field_label(key)}",
+                f"not a field of a {kind} fault (takes {', '.join(sorted(own - {'type'}))})",
+            )
+    for key in ("onset_s", *_FAULT_FIELDS[kind]):
         if key not in fault:
             raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
+    onset = _number(fault, "fault", "onset_s", lo=0, hi=duration_s, lo_open=False)
+    if onset >= duration_s:
+        raise ScenarioError("fault.onset_s", f"must be before the run ends ({duration_s:g} s)")
+    out: dict[str, Any] = {"fault_type": kind, "fault_onset_s": onset}
+    if kind == "gtm_damage":
+        out["fault_case"] = _damage_case(fault, model, kind)
+    elif kind == "nonlinearity":
+        nl_type, params = _nonlinearity(
+            fault, section="fault", type_key="nonlinearity", others=("type", "onset_s")
+        )
+        if nl_type == "none":
+            raise ScenarioError("fault.nonlinearity", "must name a nonlinearity, not none")
+        out.update(fault_nonlinearity=nl_type, fault_nl_params=params)
+    elif kind == "effectiveness":
+        out["fault_scale"] = _number(fault, "fault", "scale", lo=0, hi=_MAX_SCALE)
+    return out
+
+
+def _damage_case(fault: dict[str, Any], model: str, kind: str) -> int:
+    """The NASA damage case of a ``gtm_damage`` fault: 1..6 or its name, on the GTM only."""
+    if model != DAMAGE_MODEL:
+        raise ScenarioError("fault.type", f"{kind} exists for {DAMAGE_MODEL} only, not {model}")
     case = fault["case"]
     names = {name: k for k, name in enumerate(DAMAGE_CASES, start=1)}
     if isinstance(case, str) and case in names:
@@ -489,40 +657,44 @@ def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
         raise ScenarioError(
             "fault.case", f"must be 1..{len(DAMAGE_CASES)} or one of {', '.join(names)}"
         )
-    onset = _number(fault, "fault", "onset_s", lo=0, hi=duration_s, lo_open=False)
-    if onset >= duration_s:
-        raise ScenarioError("fault.onset_s", f"must be before the run ends ({duration_s:g} s)")
-    return {"fault_type": kind, "fault_case": int(case), "fault_onset_s": onset}
+    return int(case)
 
 
-def _nonlinearity(nl_data: dict[str, Any]) -> tuple[str, dict[str, float]]:
-    """The ``[nonlinearity]`` section: type and parameters, validated by building the class.
+def _nonlinearity(
+    nl_data: dict[str, Any],
+    section: str = "nonlinearity",
+    type_key: str = "type",
+    others: tuple[str, ...] = (),
+) -> tuple[str, dict[str, float]]:
+    """A nonlinearity's type and parameters (the ``[nonlinearity]`` section, or the fields of
+    a ``nonlinearity`` fault), validated by building the class.
 
     The schema checks that each parameter is a number within the deflection range
     (|x| <= 90 deg, rates up to 1e6 deg/s); every other rule (signs, the order of the edges)
     is the class's own (:mod:`probing.core.nonlinearities`), whose error names the argument.
+    ``others`` are the section's fields that are not the nonlinearity's.
     """
-    nl_type = _choice(nl_data, "nonlinearity", "type", tuple(NONLINEARITIES))
+    nl_type = _choice(nl_data, section, type_key, tuple(NONLINEARITIES))
     kind = NONLINEARITIES[nl_type]
     for key in nl_data:
-        if key != "type" and key not in kind.names:
+        if key != type_key and key not in others and key not in kind.names:
             allowed = ", ".join(kind.names) if kind.names else "no parameters"
             raise ScenarioError(
-                f"nonlinearity.{key}", f"not a parameter of {nl_type} (takes {allowed})"
+                f"{section}.{field_label(key)}", f"not a parameter of {nl_type} (takes {allowed})"
             )
     params: dict[str, float] = {}
     for p in kind.parameters:
         if p.name not in nl_data:
-            raise ScenarioError(f"nonlinearity.{p.name}", f"missing (required for {nl_type})")
+            raise ScenarioError(f"{section}.{p.name}", f"missing (required for {nl_type})")
         hi = _MAX_DEG_S if p.unit == "deg/s" else _MAX_DEG
-        params[p.name] = _number(nl_data, "nonlinearity", p.name, lo=-hi, hi=hi)
+        params[p.name] = _number(nl_data, section, p.name, lo=-hi, hi=hi)
     try:
         kind.build(params)
     except ParameterError as exc:
         param = kind.parameter(exc.argument)
         names = {q.argument: q.name for q in kind.parameters}
         raise ScenarioError(
-            f"nonlinearity.{param.name}",
+            f"{section}.{param.name}",
             f"{exc.requirement(names)}, got {params[param.name]:g}",
         ) from None
     return nl_type, params

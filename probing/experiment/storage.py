@@ -33,6 +33,7 @@ from probing.sim.channels import unit_of
 
 __all__ = [
     "CHANNEL_UNIT",
+    "MONITOR_SCHEMA",
     "PER_DEG",
     "PROBING_SCHEMA",
     "ROW_GROUP_ROWS",
@@ -225,6 +226,11 @@ class AtomicParquetWriter:
         self._pending, self._pending_rows = [], 0
         self._writer.write_table(table, row_group_size=max(table.num_rows, 1))
 
+    def add_metadata(self, items: dict[bytes, bytes]) -> None:
+        """Key-value metadata known only at the end (a monitor's verdict), added to the
+        file's footer before it is closed."""
+        self._writer.add_key_value_metadata(items)
+
     def close(self) -> None:
         """Write the buffered rows, finish the file and move it to its final name."""
         self._flush()
@@ -308,6 +314,20 @@ PROBING_SCHEMA = pa.schema(
     ]
 )
 
+MONITOR_SCHEMA = pa.schema(
+    [
+        field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
+        field("time_s", pa.float64(), "s", "time after trim at the end of the period"),
+        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
+        field("statistic", pa.float64(), "1", "Hotelling T^2 of the change (NaN: baseline)"),
+        field("threshold", pa.float64(), "1", "T^2 threshold for the false-alarm rate"),
+        field("alarm", pa.bool_(), "", "statistic > threshold"),
+        field("gain_change", pa.float64(), "1", "estimated scale of h against the baseline"),
+        field("shape_change", pa.float64(), "1", "shape residual T^2 over its threshold"),
+        field("verdict", pa.string(), "", "none, actuator (gain and offset) or airframe"),
+    ]
+)
+
 TRUTH_SCHEMA = pa.schema(
     [
         field("channel", pa.string(), "", "output channel (its name carries its unit)"),
@@ -319,14 +339,19 @@ TRUTH_SCHEMA = pa.schema(
 )
 
 
-def timeseries_schema(channels: list[str], reference: bool) -> pa.Schema:
-    """``timeseries.parquet``: one row per simulation step; channels in their own units."""
+def timeseries_schema(channels: list[str], reference: bool, control: bool = False) -> pa.Schema:
+    """``timeseries.parquet``: one row per simulation step; channels in their own units;
+    with ``control``, the pitch loop's elevator command too."""
     fields = [
         field("time_s", pa.float64(), "s", "time after trim, at the end of the step"),
         field("probe_deg", pa.float64(), "deg", "probe a sigma, relative to trim"),
         field("nl_out_deg", pa.float64(), "deg", "probe after the nonlinearity"),
         field("elevator_deg", pa.float64(), "deg", "realised elevator deflection"),
     ]
+    if control:
+        fields.append(
+            field("control_deg", pa.float64(), "deg", "the autopilot's elevator command, from trim")
+        )
     fields += [
         field(c, pa.float64(), unit_of(c), "measured (sensor noise added)") for c in channels
     ]

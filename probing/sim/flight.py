@@ -7,15 +7,19 @@ is loaded here.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import asdict, dataclass
 from typing import Any
 
 __all__ = [
+    "ACTUATOR_FAULTS",
     "DAMAGE_CASES",
     "DAMAGE_MODEL",
     "SPEED_KINDS",
     "SYMMETRIC_DAMAGE",
     "TURBULENCE_SEVERITY",
+    "ActuatorFault",
+    "Control",
     "Flight",
     "SpeedKind",
     "check_damage_case",
@@ -43,6 +47,83 @@ def check_damage_case(model: str, case: int, need_model: bool = False) -> None:
         raise ValueError(f"damage cases exist for {DAMAGE_MODEL} only, not {model}")
     if case not in range(len(DAMAGE_CASES) + 1):
         raise ValueError(f"damage case must be 0..{len(DAMAGE_CASES)}, got {case!r}")
+
+
+@dataclass(frozen=True)
+class Control:
+    """The autopilot of a closed-loop flight (:mod:`probing.sim.control`): which loops hold
+    their trimmed value, and how fast.
+
+    Each loop places the closed-loop poles of a second-order model of its axis (the
+    aircraft's control power at the trim times the command, ``docs/control.md``); its gains
+    follow from the bandwidth and the aircraft, so one set of defaults suits a sub-scale
+    model and a transport alike.
+
+    Attributes
+    ----------
+    pitch_hold : bool
+        Elevator holds the trimmed pitch attitude (PID on theta, rate damping on q).
+    bank_hold : bool
+        Aileron holds the trimmed bank angle (wings level after a straight trim).
+    speed_hold : bool
+        Throttle holds the trimmed true airspeed (PI).
+    pitch_bandwidth_rad_s, bank_bandwidth_rad_s, speed_bandwidth_rad_s : float
+        Natural frequency of each loop, rad/s.
+    damping : float
+        Damping ratio of the pitch and bank loops.
+    integral_time_s : float
+        Integral time of every loop, s (the integrator's gain is the proportional gain over
+        it); 0 switches the integrators off.
+    """
+
+    pitch_hold: bool = False
+    bank_hold: bool = False
+    speed_hold: bool = False
+    pitch_bandwidth_rad_s: float = 4.0
+    bank_bandwidth_rad_s: float = 1.5
+    speed_bandwidth_rad_s: float = 0.2
+    damping: float = 0.8
+    integral_time_s: float = 3.0
+
+    @property
+    def active(self) -> bool:
+        """True if any loop is closed."""
+        return self.pitch_hold or self.bank_hold or self.speed_hold
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain values, for keys and metadata."""
+        return asdict(self)
+
+
+#: Actuator faults that act on the elevator the probe drives, from an onset on.
+ACTUATOR_FAULTS = ("effectiveness", "stuck")
+
+
+@dataclass(frozen=True)
+class ActuatorFault:
+    """A fault of the probed surface's actuator, from ``onset_s`` after the trim on.
+
+    Attributes
+    ----------
+    kind : str
+        ``"effectiveness"``: the surface's motion about its trimmed position is scaled by
+        ``scale`` (an actuator that lost authority, a partial jam); ``"stuck"``: the surface
+        holds the position it has at the onset.
+    onset_s : float
+        Time after the trim, s.
+    scale : float
+        The scale of ``"effectiveness"`` (1 for ``"stuck"``).
+    """
+
+    kind: str
+    onset_s: float
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ACTUATOR_FAULTS:
+            raise ValueError(f"kind must be one of {', '.join(ACTUATOR_FAULTS)}")
+        if self.onset_s < 0:
+            raise ValueError("onset_s must be >= 0")
 
 
 @dataclass(frozen=True)
@@ -112,6 +193,9 @@ class Flight:
     gamma_deg, bank_deg : float
         Flight-path angle (climb positive) and bank of a steady turn of the trim, deg; both
         0 (the default) trims straight and level.
+    control : Control or None
+        The autopilot engaged after the trim (None: open loop, every control held at its
+        trim value).  It does not change the trim, only what follows it.
     """
 
     model: str
@@ -125,6 +209,7 @@ class Flight:
     gamma_deg: float = 0.0
     bank_deg: float = 0.0
     damage_onset_s: float | None = None
+    control: Control | None = None
 
     def __post_init__(self) -> None:
         if self.speed_kind not in SPEED_KINDS:
@@ -147,6 +232,14 @@ class Flight:
             f"{self.model} at altitude_ft = {self.altitude_ft:g}, "
             f"{self.speed_kind} = {self.speed:g}"
         )
+
+    @property
+    def nominal(self) -> Flight:
+        """The same flight without the damage that comes in flight: what a monitor's
+        reference model flies."""
+        if self.damage_onset_s is None:
+            return self
+        return dataclasses.replace(self, damage_case=0, damage_onset_s=None)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain values, for keys and metadata."""

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from probing.sim.channels import CHANNELS
+from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.linear import zoh
 from probing.sim.plant import make_plant
@@ -35,10 +36,14 @@ def single_pulse_response(
 ) -> dict[str, np.ndarray]:
     """Response to one bit of ``amplitude_deg`` at t = 0, per deg, sampled at each bit's end.
 
+    In a closed-loop flight (``flight.control``) both twins fly with the autopilot and the
+    pulse enters between it and the elevator, as the probe does: the closed-loop response.
+
     Parameters
     ----------
     flight : Flight
-        Aircraft, condition, step, turbulence and seed (both twins fly the same gusts).
+        Aircraft, condition, step, turbulence, seed (both twins fly the same gusts) and
+        autopilot.
     channels : sequence of str
         Output channels.
     amplitude_deg : float
@@ -54,16 +59,29 @@ def single_pulse_response(
         Channel -> h, shape (n_bits,), in the channel's unit per deg.
     """
     n_steps = n_bits * steps_per_bit
+    closed = flight.control is not None and flight.control.active
+    power = control_power(flight) if closed else None
     pulsed, reference = make_plant(flight), make_plant(flight)
     trim = pulsed.trim_result
-    surface = np.full(n_steps, trim.elevator_deg)
-    surface[:steps_per_bit] += amplitude_deg
     out_p = np.empty((n_steps, len(channels)))
     out_r = np.empty((n_steps, len(channels)))
-    pulsed.step(pulsed.elevator_command(surface), pulsed.channel_nodes(list(channels)), out_p)
-    pulsed.check_state()
-    cmd_trim = np.full(n_steps, trim.elevator_cmd_norm)
-    reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r)
+    if closed:  # both fly with the autopilot; the pulse enters between it and the surface
+        pulse = np.zeros(n_steps)
+        pulse[:steps_per_bit] = amplitude_deg
+        ClosedLoop(pulsed, flight.control, power).step(
+            pulse, pulsed.channel_nodes(list(channels)), out_p
+        )
+        pulsed.check_state()
+        ClosedLoop(reference, flight.control, power).step(
+            None, reference.channel_nodes(list(channels)), out_r
+        )
+    else:
+        surface = np.full(n_steps, trim.elevator_deg)
+        surface[:steps_per_bit] += amplitude_deg
+        pulsed.step(pulsed.elevator_command(surface), pulsed.channel_nodes(list(channels)), out_p)
+        pulsed.check_state()
+        cmd_trim = np.full(n_steps, trim.elevator_cmd_norm)
+        reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r)
     h = (out_p - out_r)[steps_per_bit - 1 :: steps_per_bit] / amplitude_deg
     return {c: h[:, j] for j, c in enumerate(channels)}
 
@@ -87,8 +105,11 @@ def linear_pulse_response(
     Returns
     -------
     dict
-        Channel -> h, shape (n_bits,), in the channel's unit per deg.
+        Channel -> h, shape (n_bits,), in the channel's unit per deg; empty for a
+        closed-loop flight (the linearisation is the open-loop aircraft's).
     """
+    if flight.control is not None and flight.control.active:
+        return {}
     plant = make_plant(flight)
     lin = plant.linearise()
     gain = plant.elevator_gain_deg_per_norm()

@@ -34,8 +34,10 @@ import numpy as np
 
 from probing.sim import aircraft as _aircraft_module
 from probing.sim import channels as _channels_module
+from probing.sim import control as _control_module
 from probing.sim import plant as _plant_module
 from probing.sim.aircraft import cache_dir
+from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import trim_spec
 from probing.sim.plant import Plant, make_plant
@@ -68,9 +70,9 @@ def twin_cache_dir() -> Path:
 @functools.cache
 def _source_digest() -> str:
     """SHA-256 of the code that defines the twin's numbers: the plant (trim, stepping), the
-    aircraft's sanitising, the channel table and this module."""
+    aircraft's sanitising, the channel table, the autopilot and this module."""
     digest = hashlib.sha256()
-    modules = (_aircraft_module, _channels_module, _plant_module)
+    modules = (_aircraft_module, _channels_module, _plant_module, _control_module)
     for path in (*(Path(m.__file__) for m in modules), Path(__file__)):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
@@ -109,9 +111,15 @@ def twin_spec(flight: Flight, channels: Sequence[str], steps: int) -> dict[str, 
             if flight.damage_onset_s is not None
             else {}
         ),
+        # the autopilot the twin flies with (absent in open loop)
+        **({"control": flight.control.to_dict()} if _closed(flight) else {}),
         "channels": list(channels),
         "source_sha256": _source_digest(),
     }
+
+
+def _closed(flight: Flight) -> bool:
+    return flight.control is not None and flight.control.active
 
 
 def twin_key(flight: Flight, channels: Sequence[str], steps: int) -> str:
@@ -188,6 +196,7 @@ class ReferenceTwin:
         self._writer: BinaryIO | None = None  # the temporary file of a new entry
         self._tmp: Path | None = None
         self._plant: Plant | None = None
+        self._loop: ClosedLoop | None = None
         self._nodes: list = []
         if use_cache:
             self._reader = _open_entry(self.path, self.total_steps, self.n_channels)
@@ -196,8 +205,11 @@ class ReferenceTwin:
                 self._open_temporary()
         if not self.cached:
             try:
+                power = control_power(flight) if _closed(flight) else None
                 self._plant = plant if plant is not None else make_plant(flight)
                 self._nodes = self._plant.channel_nodes(list(channels))
+                if power is not None:
+                    self._loop = ClosedLoop(self._plant, flight.control, power)
             except BaseException:
                 self.close(success=False)
                 raise
@@ -249,7 +261,10 @@ class ReferenceTwin:
                 raise OSError(f"{self.path}: truncated at step {self._next}")
         else:
             assert self._plant is not None
-            self._plant.step(None, self._nodes, block)
+            if self._loop is not None:
+                self._loop.step(None, self._nodes, block)
+            else:
+                self._plant.step(None, self._nodes, block)
             self._plant.check_state()
             self.steps_simulated += n
             if self._writer is not None:
@@ -265,7 +280,7 @@ class ReferenceTwin:
 
         A failure to store (disk full, ...) only means that the next run simulates again.
         """
-        self._plant = None
+        self._plant = self._loop = None
         if self._reader is not None:
             self._reader.close()
             self._reader = None

@@ -1,0 +1,193 @@
+"""``probing monitor``: a flight probed continuously, with a change detector after every period.
+
+The flight is the scenario's run (:func:`probing.experiment.run.run_scenario`), with its
+fault if it has one.  The monitor knows nothing of the fault: it learns its baseline from the
+flight's own first settled periods, and with ``drift = "reference"`` its reference twin is the
+*nominal* aircraft flying the same commands (:attr:`probing.sim.flight.Flight.nominal`), not a
+twin that knows the damage.  ``drift = "detrend"`` needs no model at all.
+
+After every completed period each channel's :class:`~probing.core.monitor.ChangeDetector`
+tests the period's estimate; ``monitor.parquet`` gets one row per period and channel, and its
+metadata the first alarm and the flight's verdict (``docs/monitoring.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
+from probing.experiment.run import RunResult, run_scenario
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import MONITOR_SCHEMA, AtomicParquetWriter, OutputFolder, metadata
+from probing.sim.fork import TrimmedAircraft
+
+__all__ = ["MONITOR_TEXT", "MonitorResult", "monitor_scenario"]
+
+MONITOR_TEXT = (
+    "change detection after every probe period, one row per period and channel: Hotelling "
+    "T^2 of the period's pulse-response estimate against the flight's own baseline, its "
+    "threshold for the false-alarm rate, the gain against the baseline and the shape test"
+)
+
+
+@dataclass
+class MonitorResult:
+    """What a monitored flight found.
+
+    Attributes
+    ----------
+    run : RunResult
+        The flight's run.
+    first_alarm_s : float or None
+        Time after the trim of the end of the first alarmed period, s (None: no alarm).
+    first_alarm_period : int or None
+        That period.
+    verdict : str
+        ``"none"``, ``"actuator"`` or ``"airframe"``.
+    alpha : float
+        False-alarm probability per period and channel the thresholds are set for.
+    """
+
+    run: RunResult
+    first_alarm_s: float | None
+    first_alarm_period: int | None
+    verdict: str
+    alpha: float
+
+    def line(self) -> str:
+        """The two facts on one line, as the command prints them."""
+        when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"
+        return f"first alarm: {when} (period {self.first_alarm_period}); verdict: {self.verdict}"
+
+
+class _Monitor:
+    """The detectors of a flight's channels, fed by the run (a :class:`RunObserver`)."""
+
+    def __init__(self, scn: Scenario, settings: MonitorSettings) -> None:
+        self.scn, self.settings = scn, settings
+        self.period_s = scn.bits_per_period * scn.bit_duration_s
+        self.alpha = settings.alpha(self.period_s, len(scn.channels))
+        m = scn.bits_per_period
+        self.detectors = [
+            ChangeDetector(
+                m,
+                settings.baseline_periods,
+                self.alpha,
+                settings.windows,
+                settings.shape_false_alarm,
+                settings.window_periods,
+            )
+            for _ in scn.channels
+        ]
+        self.first = max(scn.settle_periods, scn.first_estimated_period)
+        self.rows: list[tuple[int, str]] = []  # (period, verdict) of alarmed rows
+        self.writer: AtomicParquetWriter | None = None
+
+    def open(self, outputs: OutputFolder) -> None:
+        self.writer = outputs.writer(
+            "monitor.parquet", MONITOR_SCHEMA, MONITOR_TEXT, list(self.scn.channels)
+        )
+
+    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
+        cols: dict[str, list] = {f.name: [] for f in MONITOR_SCHEMA}
+        for i, p in enumerate(periods.tolist()):
+            if p < self.first:
+                continue
+            for j, (channel, det) in enumerate(zip(self.scn.channels, self.detectors, strict=True)):
+                d = det.update(h[i, j])
+                for name, value in (
+                    ("period", p),
+                    ("time_s", (p + 1) * self.period_s),
+                    ("channel", channel),
+                    ("statistic", d.statistic),
+                    ("threshold", d.threshold),
+                    ("alarm", d.alarm),
+                    ("gain_change", d.gain_change),
+                    ("shape_change", d.shape_change),
+                    ("verdict", d.verdict),
+                ):
+                    cols[name].append(value)
+                if d.alarm:
+                    self.rows.append((p, d.verdict))
+        if cols["period"] and self.writer is not None:
+            self.writer.write(cols)
+
+    def finish(self) -> None:
+        """The first alarm and the verdict into the file's footer."""
+        first, verdict = self._found()
+        assert self.writer is not None
+        self.writer.add_metadata(
+            metadata(
+                first_alarm_s=None if first is None else (first + 1) * self.period_s,
+                first_alarm_period=first,
+                verdict=verdict,
+                detector={
+                    **self.settings.to_dict(),
+                    "alpha_per_period": self.alpha,
+                    "period_s": self.period_s,
+                    "threshold": self.detectors[0].threshold,
+                    "shape_threshold": self.detectors[0].shape_threshold,
+                },
+            )
+        )
+
+    def _found(self) -> tuple[int | None, str]:
+        first = min((p for p, _ in self.rows), default=None)
+        return first, flight_verdict(self.rows, self.settings.verdict_periods)
+
+    def result(self, run: RunResult) -> MonitorResult:
+        first, verdict = self._found()
+        time_s = None if first is None else (first + 1) * self.period_s
+        return MonitorResult(run, time_s, first, verdict, self.alpha)
+
+
+def monitor_scenario(
+    scn: Scenario,
+    out: str | Path,
+    *,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+    folder: str | Path | None = None,
+    twin_cache: bool = True,
+    aircraft: TrimmedAircraft | None = None,
+    timeseries: bool = False,
+) -> MonitorResult:
+    """Fly a scenario with the monitor: ``out/<name>/monitor.parquet`` and ``probing.parquet``.
+
+    Parameters
+    ----------
+    scn : Scenario
+        A validated scenario; its ``[monitor]`` section (or the defaults) sets the detector.
+    out, progress, stream, folder, twin_cache, aircraft
+        As for :func:`probing.experiment.run.run_scenario`.
+    timeseries : bool
+        Also write ``timeseries.parquet`` (large for long flights).
+
+    Returns
+    -------
+    MonitorResult
+        First alarm and verdict.
+
+    Raises
+    ------
+    probing.experiment.scenario.ScenarioError
+        If the run is too short for the baseline (checked before anything runs).
+    """
+    monitor = _Monitor(scn, scn.monitor_settings())
+    run = run_scenario(
+        scn,
+        out,
+        progress=progress,
+        stream=stream,
+        folder=folder,
+        twin_cache=twin_cache,
+        aircraft=aircraft,
+        observer=monitor,
+        timeseries=timeseries,
+        nominal_twin=True,
+    )
+    return monitor.result(run)

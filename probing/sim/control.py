@@ -1,0 +1,295 @@
+"""A simple autopilot for closed-loop flights, with the probe between it and the elevator.
+
+The paper's Fig. 1 injects the probe between the command and the surface.  A
+:class:`ClosedLoop` steps a trimmed :class:`~probing.sim.plant.Plant` one step at a time:
+before each step it reads the aircraft's state, computes the loops that
+:class:`~probing.sim.flight.Control` closes, and writes
+
+* elevator: trim + pitch-hold command + the probe path's deflection (the probe after its
+  nonlinearity), through the actuator fault if one has begun, as the exact surface
+  deflection (the plant's calibrated map);
+* aileron: trim + bank-hold command (normalised);
+* throttle: trim + speed-hold command, on every engine (normalised, clipped to 0..1).
+
+Each loop is a PID that places the poles of its axis modelled as a double integrator (pitch,
+bank: ``x'' = K u``) or an integrator (speed: ``V' = K u``), with K the aircraft's control
+power at the trim (JSBSim's linearisation, :func:`control_power`):
+
+    u_pitch = -(w^2 e + 2 zeta w q + w^2 / T_i * integral(e)) / M_de,   e = theta - theta_trim
+
+and alike for bank (phi, p, L_da) and speed (V, first order: u = -(w e + w / T_i integral(e))
+/ X_th).  One set of bandwidths therefore suits the sub-scale GTM (M_de = -0.73 rad/s^2 per
+deg) and a 737 (-0.036) alike; the aircraft's own stiffness and damping add to the loop's.
+
+With every loop open and no actuator fault, :meth:`ClosedLoop.step` steps exactly as
+:meth:`Plant.step` does with the same surface deflections (tested bit for bit).
+"""
+
+from __future__ import annotations
+
+import bisect
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from probing.sim.flight import ActuatorFault, Control, Flight
+from probing.sim.fork import trim_key
+from probing.sim.plant import Plant, trim_flight
+
+__all__ = ["ClosedLoop", "ControlPower", "control_power"]
+
+_THETA, _Q = "attitude/theta-rad", "velocities/q-rad_sec"
+_PHI, _P = "attitude/phi-rad", "velocities/p-rad_sec"
+_VT = "velocities/vt-fps"
+_AILERON = "fcs/aileron-cmd-norm"
+
+
+@dataclass(frozen=True)
+class ControlPower:
+    """The aircraft's control power at a trim, from JSBSim's linearisation.
+
+    Attributes
+    ----------
+    pitch_rad_s2_per_deg : float
+        d(q')/d(elevator), rad/s^2 per deg of surface deflection.
+    roll_rad_s2_per_norm : float
+        d(p')/d(aileron command), rad/s^2 per unit of normalised command.
+    speed_fps2_per_norm : float
+        d(V')/d(throttle command on every engine), ft/s^2 per unit.
+    """
+
+    pitch_rad_s2_per_deg: float
+    roll_rad_s2_per_norm: float
+    speed_fps2_per_norm: float
+
+
+@functools.lru_cache(maxsize=8)
+def _control_power(key: str, flight: Flight) -> ControlPower:
+    plant = Plant(flight.model, flight.dt_s)  # a throwaway copy: linearising moves the state
+    trim_flight(plant, flight)
+    lin = plant.linearise()
+    b, x, u = lin["B"], lin["x_names"], lin["u_names"]
+    return ControlPower(
+        pitch_rad_s2_per_deg=float(b[x.index("Q"), u.index("DeCmd")])
+        / plant.elevator_gain_deg_per_norm(),
+        roll_rad_s2_per_norm=float(b[x.index("P"), u.index("DaCmd")]),
+        speed_fps2_per_norm=float(b[x.index("Vt"), u.index("ThtlCmd")]),
+    )
+
+
+def control_power(flight: Flight) -> ControlPower:
+    """The control power of ``flight``'s aircraft at its trim (remembered per trimmed state).
+
+    Computed on a copy of the aircraft loaded and trimmed for the purpose, because JSBSim's
+    linearisation leaves the state it linearised about moved by ~1e-8; call it before
+    forking runs so that they inherit it.
+
+    Raises
+    ------
+    probing.sim.errors.TrimError
+        If the aircraft does not trim.
+    ValueError
+        If a control has no power (a loop on it could not be closed).
+    """
+    power = _control_power(trim_key(flight), flight)
+    for name, value in vars(power).items():
+        if not np.isfinite(value) or value == 0.0:
+            raise ValueError(f"{flight.condition}: no control power ({name} = {value})")
+    return power
+
+
+class ClosedLoop:
+    """A trimmed plant flown by the autopilot, with the probe path on the elevator.
+
+    Parameters
+    ----------
+    plant : Plant
+        Trimmed (and disturbed, scheduled) plant; it is stepped.
+    control : Control
+        The loops to close (all open is allowed: the plant is then flown open loop one step
+        at a time, with the actuator fault applied).
+    power : ControlPower or None
+        The aircraft's control power (:func:`control_power`); needed when a loop is closed.
+    fault : ActuatorFault or None
+        A fault of the elevator's actuator from its onset on.
+    """
+
+    def __init__(
+        self,
+        plant: Plant,
+        control: Control,
+        power: ControlPower | None = None,
+        fault: ActuatorFault | None = None,
+    ) -> None:
+        if control.active and power is None:
+            raise ValueError("a closed loop needs the aircraft's control power")
+        trim = plant.trim_result
+        assert trim is not None, "trim first"
+        self.plant, self.control, self.fault = plant, control, fault
+        pm = plant.fdm.get_property_manager()
+        self._get = {k: pm.get_node(k).get_double_value for k in (_THETA, _Q, _PHI, _P, _VT)}
+        self._ref = {k: get() for k, get in self._get.items()}
+        self._aileron = pm.get_node(_AILERON)
+        self._aileron0 = self._aileron.get_double_value()
+        self._throttles = []
+        i = 0
+        while pm.hasNode(f"fcs/throttle-cmd-norm[{i}]"):
+            self._throttles.append(pm.get_node(f"fcs/throttle-cmd-norm[{i}]"))
+            i += 1
+        self._throttle0 = trim.throttle_norm
+        self._trim_deg = trim.elevator_deg
+        self._lo, self._hi = plant.elevator_range_deg
+        self._map_deg = plant._map_deg.tolist()  # sorted by surface (the calibrated map)
+        self._map_cmd = plant._map_cmd.tolist()
+        self._gains = _gains(control, power) if control.active else None
+        self._integral = [0.0, 0.0, 0.0]  # pitch, bank, speed
+        self._stuck_deg: float | None = None
+        self.dt_s = plant.dt_s
+
+    def _command(self, surface_deg: float) -> float:
+        """The normalised command that puts the elevator at ``surface_deg`` (clipped to its
+        range): the plant's calibrated map, one scalar at a time."""
+        s = min(max(surface_deg, self._lo), self._hi)
+        xs, ys = self._map_deg, self._map_cmd
+        if s == xs[-1]:
+            return ys[-1]
+        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
+        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
+        return slope * (s - xs[j]) + ys[j]  # numpy.interp's own formula: the same bits
+
+    def step(
+        self,
+        probe_deg: np.ndarray | None,
+        nodes: list,
+        out: np.ndarray,
+        elevator_deg: np.ndarray | None = None,
+        control_deg: np.ndarray | None = None,
+    ) -> None:
+        """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
+
+        Parameters
+        ----------
+        probe_deg : numpy.ndarray or None
+            The probe path's deflection (the probe after its nonlinearity) added to the
+            elevator at each step, deg, shape ``(n,)``; None: no probe (a reference twin).
+        nodes : list
+            Property nodes of the channels (:meth:`Plant.channel_nodes`).
+        out : numpy.ndarray
+            ``(n, len(nodes))``, filled in place.
+        elevator_deg : numpy.ndarray, optional
+            ``(n,)``, receives the realised elevator deflection after each step (deg).
+        control_deg : numpy.ndarray, optional
+            ``(n,)``, receives the pitch loop's elevator command at each step (deg from trim).
+        """
+        plant, fdm = self.plant, self.plant.fdm
+        n = out.shape[0]
+        first = plant._steps
+        damage = plant._fault
+        fault = self.fault
+        onset = round(fault.onset_s / self.dt_s) if fault is not None else -1
+        g = self._get
+        get_theta, get_q, get_phi, get_p, get_v = (g[k] for k in (_THETA, _Q, _PHI, _P, _VT))
+        theta0, phi0, v0 = self._ref[_THETA], self._ref[_PHI], self._ref[_VT]
+        gains, integral, dt = self._gains, self._integral, self.dt_s
+        c = self.control
+        set_el = plant._cmd_node.set_double_value
+        get_pos = plant._pos_node.get_double_value
+        set_ail = self._aileron.set_double_value
+        set_thr = [t.set_double_value for t in self._throttles]
+        getters = [node.get_double_value for node in nodes]
+        probe = probe_deg.tolist() if probe_deg is not None else None
+        trim_deg, aileron0, throttle0 = self._trim_deg, self._aileron0, self._throttle0
+        values: list[float] = []
+        append = values.append
+        realised: list[float] = []
+        commanded: list[float] = []
+        run = fdm.run
+        for k in range(n):
+            step = first + k
+            u_el = 0.0
+            if gains is not None:
+                if c.pitch_hold:
+                    e = get_theta() - theta0
+                    integral[0] += e * dt
+                    u_el = gains.pitch(e, get_q(), integral[0])
+                if c.bank_hold:
+                    e = get_phi() - phi0
+                    integral[1] += e * dt
+                    set_ail(min(max(aileron0 + gains.bank(e, get_p(), integral[1]), -1.0), 1.0))
+                if c.speed_hold:
+                    e = get_v() - v0
+                    integral[2] += e * dt
+                    thr = min(max(throttle0 + gains.speed(e, integral[2]), 0.0), 1.0)
+                    for s in set_thr:
+                        s(thr)
+            surface = trim_deg + u_el + (probe[k] if probe is not None else 0.0)
+            if step >= onset >= 0:
+                if fault.kind == "stuck":
+                    if self._stuck_deg is None:
+                        self._stuck_deg = get_pos()
+                    surface = self._stuck_deg
+                else:
+                    surface = trim_deg + fault.scale * (surface - trim_deg)
+            set_el(self._command(surface))
+            if damage is not None and step == damage[1]:
+                plant.damage(damage[0])
+                plant._fault = damage = None
+            run()
+            for get in getters:
+                append(get())
+            if elevator_deg is not None:
+                realised.append(get_pos())
+            if control_deg is not None:
+                commanded.append(u_el)
+        plant._steps = first + n
+        out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
+        if elevator_deg is not None:
+            elevator_deg[:] = realised
+        if control_deg is not None:
+            control_deg[:] = commanded
+
+
+@dataclass(frozen=True)
+class _Gains:
+    """The PID gains of the three loops (see the module docstring)."""
+
+    kp_pitch: float
+    kd_pitch: float
+    ki_pitch: float
+    kp_bank: float
+    kd_bank: float
+    ki_bank: float
+    kp_speed: float
+    ki_speed: float
+
+    def pitch(self, e: float, rate: float, integral: float) -> float:
+        return -(self.kp_pitch * e + self.kd_pitch * rate + self.ki_pitch * integral)
+
+    def bank(self, e: float, rate: float, integral: float) -> float:
+        return -(self.kp_bank * e + self.kd_bank * rate + self.ki_bank * integral)
+
+    def speed(self, e: float, integral: float) -> float:
+        return -(self.kp_speed * e + self.ki_speed * integral)
+
+
+def _gains(control: Control, power: ControlPower) -> _Gains:
+    wp, wb, wv = (
+        control.pitch_bandwidth_rad_s,
+        control.bank_bandwidth_rad_s,
+        control.speed_bandwidth_rad_s,
+    )
+    zeta = control.damping
+    ti = control.integral_time_s
+    m, ell, x = power.pitch_rad_s2_per_deg, power.roll_rad_s2_per_norm, power.speed_fps2_per_norm
+    inv_ti = 1.0 / ti if ti > 0 else 0.0
+    return _Gains(
+        kp_pitch=wp**2 / m,
+        kd_pitch=2 * zeta * wp / m,
+        ki_pitch=wp**2 * inv_ti / m,
+        kp_bank=wb**2 / ell,
+        kd_bank=2 * zeta * wb / ell,
+        ki_bank=wb**2 * inv_ti / ell,
+        kp_speed=wv / x,
+        ki_speed=wv * inv_ti / x,
+    )

@@ -1,0 +1,258 @@
+"""Closed loop, faults in flight and the monitor, on the GTM.
+
+Independent truths: the single-pulse twin flown with the same autopilot (superposed over the
+probe history), the core nonlinearity classes applied here to the probe, the scenario with
+and without its fault, and what the fault is (the monitor is told nothing of it).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from probing.core.nonlinearities import NONLINEARITIES
+from probing.core.prbs import Probe
+from probing.experiment.monitor import monitor_scenario
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import parse_scenario
+from probing.experiment.truth import compute_truth
+
+pytestmark = pytest.mark.jsbsim
+
+ROOT = Path(__file__).resolve().parents[2]
+#: A quarter of NASA's pitch-attitude noise (NoiseParams_T2.m: 0.02 deg): this short probe
+#: (M = 63) then estimates the gain to about 4 % per period.
+THETA_NOISE_RAD = np.radians(0.005)
+
+
+def closed_loop(**changes) -> dict:
+    """A short closed-loop GTM flight: M = 63 at t0 = 0.01 s (T = 0.63 s), a = 0.2 deg,
+    pitch, bank and speed held, pitch noise, the monitor learning 30 periods."""
+    data = {
+        "name": "cl",
+        "aircraft": {"model": "gtm_t2"},
+        "condition": {"altitude_ft": 800, "speed_kcas": 75},
+        "simulation": {"dt_s": 0.01},
+        "probe": {
+            "order": 6,
+            "bit_duration_s": 0.01,
+            "amplitude_deg": 0.2,
+            "periods": 60,
+            "settle_periods": 2,
+        },
+        "nonlinearity": {"type": "none"},
+        "output": {"channels": ["theta_rad"], "drift": "reference", "estimator": "ac"},
+        "disturbance": {"seed": 4, "sensor_noise": {"theta_rad": THETA_NOISE_RAD}},
+        "control": {"pitch_hold": True, "bank_hold": True, "speed_hold": True},
+        "monitor": {"baseline_periods": 30, "windows": 4},
+    }
+    for key, value in changes.items():
+        section, _, name = key.partition(".")
+        if value is None:
+            data[section].pop(name) if name else data.pop(section)
+        elif name:
+            data.setdefault(section, {})[name] = value
+        else:
+            data[section] = value
+    return data
+
+
+def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+# ------------------------------------------------------------------ closed-loop truth
+def test_closed_loop_probing_matches_its_single_pulse_truth(tmp_path):
+    """Closed loop, the paper's probe (M = 511, a = 0.005 deg), no noise: every settled
+    period's z agrees with the single-pulse response of the twin flown with the same
+    autopilot, superposed over the probe history, within the open-loop test's 1 %; and the
+    closed loop's response is not the open loop's (the autopilot acts within the memory)."""
+    common = {
+        "probe.order": 9,
+        "probe.amplitude_deg": 0.005,
+        "probe.periods": 5,
+        "output.channels": ["theta_rad", "q_rad_s"],
+        "output.estimator": None,
+        "disturbance": {"seed": 0},
+        "monitor": None,
+    }
+    z = {}
+    for name, control in (("closed", "keep"), ("open", None)):
+        changes = {**common, "name": name}
+        if control is None:
+            changes["control"] = None
+        scn = parse_scenario(closed_loop(**changes))
+        run_scenario(scn, tmp_path, progress=False)
+        pr = pd.read_parquet(tmp_path / name / "probing.parquet")
+        z[name] = pr[(pr.channel == "theta_rad") & (pr.period == 4)].z.to_numpy()
+        if name == "open":
+            continue
+        compute_truth(scn, tmp_path)
+        pred = pd.read_parquet(tmp_path / name / "prediction.parquet")
+        for channel in ("theta_rad", "q_rad_s"):
+            for period in range(2, 5):
+                sel = (pr.channel == channel) & (pr.period == period)
+                got = pr[sel].z.to_numpy()
+                want = pred[(pred.channel == channel) & (pred.period == period)].z.to_numpy()
+                assert rel_l2(got, want) < 0.01, (channel, period, rel_l2(got, want))
+        truth = pd.read_parquet(tmp_path / name / "truth.parquet")
+        assert truth.h_lin.isna().all()  # the linearisation is the open-loop aircraft's
+    assert rel_l2(z["closed"], z["open"]) > 0.3
+
+
+# ------------------------------------------------------------------ faults on the probe path
+def test_a_nonlinearity_fault_acts_on_the_probe_path_from_its_onset(tmp_path):
+    """nl_out_deg is the probe through [nonlinearity] and, from the onset step on, through the
+    fault's nonlinearity too (its state starting there), as the core classes compute it."""
+    onset_s = 1.3  # inside period 2, not on a bit edge
+    data = closed_loop(
+        name="nlfault",
+        **{
+            "probe.periods": 4,
+            "control": None,
+            "monitor": None,
+            "nonlinearity": {"type": "deadband", "lower_deg": -0.02, "upper_deg": 0.02},
+            "fault": {
+                "type": "nonlinearity",
+                "nonlinearity": "backlash",
+                "width_deg": 0.1,
+                "onset_s": onset_s,
+            },
+        },
+    )
+    scn = parse_scenario(data)
+    run_scenario(scn, tmp_path, progress=False)
+    ts = pd.read_parquet(tmp_path / "nlfault" / "timeseries.parquet")
+    probe = Probe(6, 0.01, 0.2).samples(0.01, 4)
+    deadband = NONLINEARITIES["deadband"].build({"lower_deg": -0.02, "upper_deg": 0.02})
+    q = deadband.apply(probe, 0.01)
+    k = round(onset_s / 0.01)
+    backlash = NONLINEARITIES["backlash"].build({"width_deg": 0.1})
+    expected = np.concatenate((q[:k], backlash.apply(q[k:], 0.01)))
+    assert np.array_equal(ts.nl_out_deg.to_numpy(), expected)
+    assert not np.array_equal(expected[k:], q[k:])  # the fault changed something
+
+
+# ------------------------------------------------------------------ the monitor
+@pytest.fixture(scope="module")
+def flights(tmp_path_factory) -> dict:
+    """The same closed-loop flight with no fault, a dead band growing to a~/a = 0.6 at 25 s,
+    NASA's left elevator lost at 25 s, and no noise at all."""
+    out = tmp_path_factory.mktemp("monitor")
+    cases = {
+        "healthy": {},
+        "deadband": {
+            "fault": {
+                "type": "nonlinearity",
+                "nonlinearity": "deadband",
+                "lower_deg": -0.08,
+                "upper_deg": 0.08,
+                "onset_s": 25.0,
+            }
+        },
+        "elevator": {"fault": {"type": "gtm_damage", "case": 5, "onset_s": 25.0}},
+        "quiet": {"disturbance": {"seed": 4}},
+    }
+    results = {}
+    for name, changes in cases.items():
+        scn = parse_scenario(closed_loop(name=name, **changes))
+        results[name] = (scn, monitor_scenario(scn, out, progress=False), out / name)
+    return results
+
+
+def test_a_healthy_flight_raises_no_alarm_noisy_or_noise_free(flights):
+    for name in ("healthy", "quiet"):
+        _, result, folder = flights[name]
+        assert result.first_alarm_s is None and result.verdict == "none", name
+        mon = pd.read_parquet(folder / "monitor.parquet")
+        assert not mon.alarm.any()
+
+
+def test_a_dead_band_onset_is_found_and_called_an_actuator_fault(flights):
+    """Dead band of +-0.4 a from 25 s (a~/a = 0.6, eq. 10): the first alarm comes within two
+    periods of the onset, the gain against the baseline is 0.6, and the shape is unchanged."""
+    _, result, folder = flights["deadband"]
+    period_s = 63 * 0.01
+    assert 25.0 < result.first_alarm_s <= 25.0 + 2 * period_s
+    assert result.verdict == "actuator"
+    mon = pd.read_parquet(folder / "monitor.parquet")
+    after = mon[mon.time_s > 25.0 + period_s]
+    assert after.gain_change.median() == pytest.approx(0.6, abs=0.03)
+    alarmed = after[after.alarm]
+    assert len(alarmed) >= 0.8 * len(after)
+    assert (alarmed.verdict == "actuator").mean() >= 0.85  # the shape test's level is 1 %
+
+
+def test_a_lost_elevator_panel_is_found_and_called_an_airframe_change(flights):
+    """NASA's case 5 from 25 s: found in the first period after the onset, and its shape
+    changed (the monitor's twin is the nominal aircraft, as it must be)."""
+    _, result, folder = flights["elevator"]
+    assert 25.0 < result.first_alarm_s <= 25.0 + 2 * 63 * 0.01
+    assert result.verdict == "airframe"
+    meta = pq.read_schema(folder / "probing.parquet").metadata
+    assert json.loads(meta[b"probing.twin"])["nominal"] is True
+
+
+def test_monitor_file_has_a_row_per_period_and_its_verdict_in_the_metadata(flights):
+    scn, result, folder = flights["deadband"]
+    table = pq.read_table(folder / "monitor.parquet")
+    mon = table.to_pandas()
+    meta = pq.read_metadata(folder / "monitor.parquet").metadata  # the file's footer
+    first = max(scn.settle_periods, scn.first_estimated_period)
+    assert mon.period.tolist() == list(range(first, scn.periods))
+    assert mon.statistic.iloc[:30].isna().all() and mon.statistic.iloc[30:].notna().all()
+    assert (mon.alarm == (mon.statistic > mon.threshold)).all()
+    assert json.loads(meta[b"probing.first_alarm_s"]) == pytest.approx(result.first_alarm_s)
+    assert meta[b"probing.verdict"] == b"actuator"
+    detector = json.loads(meta[b"probing.detector"])
+    assert detector["baseline_periods"] == 30 and detector["windows"] == 4
+    assert detector["alpha_per_period"] == pytest.approx(0.1 * 63 * 0.01 / 3600)
+    assert table.schema.field("time_s").metadata[b"unit"] == b"s"
+
+
+def _toml(data: dict) -> str:
+    lines = []
+    for key, value in data.items():
+        if not isinstance(value, dict):
+            lines.append(f"{key} = {json.dumps(value)}")
+    for section, table in data.items():
+        if isinstance(table, dict):
+            lines.append(f"[{section}]")
+            for key, value in table.items():
+                if isinstance(value, dict):
+                    inner = ", ".join(f"{k} = {json.dumps(v)}" for k, v in value.items())
+                    lines.append(f"{key} = {{ {inner} }}")
+                else:
+                    lines.append(f"{key} = {json.dumps(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def _probing(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "probing", *args], capture_output=True, text=True, cwd=ROOT
+    )
+
+
+def test_cli_monitor_one_line_and_short_runs_refused(tmp_path):
+    good = tmp_path / "good.toml"
+    good.write_text(_toml(closed_loop(name="good", **{"probe.periods": 34})))
+    res = _probing("monitor", str(good), "--out", str(tmp_path / "out"))
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert len(lines) == 1 and "first alarm: none" in lines[0] and "verdict: none" in lines[0]
+    assert (tmp_path / "out" / "good" / "monitor.parquet").exists()
+    assert not (tmp_path / "out" / "good" / "timeseries.parquet").exists()
+
+    short = tmp_path / "short.toml"
+    short.write_text(_toml(closed_loop(name="short", **{"monitor": None, "probe.periods": 40})))
+    res = _probing("monitor", str(short), "--out", str(tmp_path / "out2"))
+    assert res.returncode == 2 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert "monitor.baseline_periods" in res.stderr and "Traceback" not in res.stderr
+    assert not (tmp_path / "out2").exists()
