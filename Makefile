@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage bench clean
+.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor bench clean
 
 setup: $(STAMP)
 
@@ -53,6 +53,18 @@ modes: setup
 # NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md).
 gtm-damage: setup
 	$(PY) -m probing gtm-damage
+
+# The health-monitoring study (docs/monitoring.md): every sweep in scenarios/monitor (written
+# by scenarios/monitor/generate.py), resumable, JOBS=n workers, EXECUTOR=dask for Dask; then
+# its table (docs/monitoring_summary.md) and figures (figures/monitor_*.png).
+MONITOR_SWEEPS := $(sort $(wildcard scenarios/monitor/*.toml))
+MONITOR_OUT ?= results/monitor
+EXECUTOR ?=
+monitor: setup
+	@for f in $(filter-out scenarios/monitor/base.toml,$(MONITOR_SWEEPS)); do \
+	  $(PY) -m probing sweep $$f --out $(MONITOR_OUT) $(if $(JOBS),-j $(JOBS)) \
+	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
+	$(PY) -m probing plot monitor $(MONITOR_OUT) --figures figures --summary docs/monitoring_summary.md
 
 bench: setup
 	$(PY) -m bench

@@ -10,6 +10,8 @@ __all__ = ["fmt", "sweep_table"]
 
 #: Summary columns shown after a sweep, in order.
 SWEEP_COLUMNS = ("status", "predicted_gain", "measured_gain", "shape_error", "h_stderr")
+#: ... after a monitor sweep.
+MONITOR_COLUMNS = ("status", "fault_onset_s", "first_alarm_s", "verdict")
 
 
 def fmt(value: Any, digits: int = 6) -> str:
@@ -22,7 +24,8 @@ def fmt(value: Any, digits: int = 6) -> str:
 
 def sweep_table(summary: Any, fields: Sequence[str], max_rows: int = 40) -> str:
     """The summary of a sweep as a plain-text table: index, the varied fields (short names),
-    status, predicted and measured gain, shape error, standard error of h.
+    status, predicted and measured gain, shape error, standard error of h (a monitor sweep:
+    fault onset, first alarm, verdict).
 
     Parameters
     ----------
@@ -33,8 +36,9 @@ def sweep_table(summary: Any, fields: Sequence[str], max_rows: int = 40) -> str:
     max_rows : int
         Rows shown at most; a last line says how many more are in the file.
     """
-    columns = ["index", *fields, *SWEEP_COLUMNS]
-    head = ["#", *(f.rsplit(".", 1)[-1] for f in fields), *SWEEP_COLUMNS]
+    shown = MONITOR_COLUMNS if "first_alarm_s" in summary else SWEEP_COLUMNS
+    columns = ["index", *fields, *shown]
+    head = ["#", *(f.rsplit(".", 1)[-1] for f in fields), *shown]
     rows = [[fmt(r[c]) for c in columns] for r in summary.head(max_rows).to_dict("records")]
     widths = [max(len(x) for x in col) for col in zip(head, *rows, strict=True)]
     lines = [

@@ -247,6 +247,8 @@ def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    if args.target == "monitor":
+        return _plot_monitor(args)
     if args.target == "sweep":
         figures = args.figures if args.figures is not None else args.results / "figures"
         _out_folder(figures, "--figures")
@@ -256,6 +258,31 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         args.figures = Path("figures")
     _check_fig4_outputs(args.results, args, "RESULTS")  # summary.csv and .md go there
     return _finish_fig4(args.results, args, time.perf_counter())
+
+
+def _plot_monitor(args: argparse.Namespace) -> int:
+    """The monitor study's tables and figures from its stored flights."""
+    if not args.results.is_dir():
+        raise UsageError(f"RESULTS: {args.results} is not a folder")
+    figures = args.figures if args.figures is not None else args.results / "figures"
+    summary = args.summary if args.summary is not None else args.results / "summary.md"
+    _out_folder(figures, "--figures")
+    _out_folder(summary.parent, "--summary")
+    from analysis.monitoring import evaluate, load_study, summary_markdown
+    from analysis.monitoring_plots import draw_all
+
+    try:
+        study = load_study(args.results)
+    except FileNotFoundError as exc:
+        raise UsageError(str(exc)) from None
+    flights = evaluate(study)
+    text = summary_markdown(flights)
+    summary.write_text(text)
+    print(text)
+    for path in draw_all(flights, figures):
+        print(f"figure -> {path}")
+    print(f"summary -> {summary}")
+    return 0
 
 
 # ------------------------------------------------------------------ design
@@ -491,17 +518,25 @@ def build_parser() -> argparse.ArgumentParser:
     fig4.set_defaults(func=_cmd_fig4)
 
     plot = command("plot", "redraw figures from stored Parquet (no simulation)")
-    plot.add_argument("target", choices=["fig4", "sweep"], help="which figure set")
+    plot.add_argument("target", choices=["fig4", "sweep", "monitor"], help="which figure set")
     plot.add_argument(
         "results",
         type=Path,
-        help="results folder written by `probing fig4`, or a sweep folder (results/sweeps/NAME)",
+        help="results folder written by `probing fig4`, a sweep folder (results/sweeps/NAME), "
+        "or the monitor study's folder (results/monitor, make monitor)",
     )
     plot.add_argument(
         "--figures",
         type=Path,
         default=None,
-        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep)",
+        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep or the "
+        "monitor study)",
+    )
+    plot.add_argument(
+        "--summary",
+        type=Path,
+        default=None,
+        help="monitor: write the study's tables here (default: RESULTS/summary.md)",
     )
     plot.add_argument(
         "--copy-summary", type=Path, default=None, help="fig4: also copy summary.md to this file"

@@ -58,6 +58,15 @@ class MonitorResult:
     verdict: str
     alpha: float
 
+    def facts(self) -> dict[str, float | int | str | None]:
+        """The result as plain JSON values (a sweep point's record)."""
+        return {
+            "first_alarm_s": self.first_alarm_s,
+            "first_alarm_period": self.first_alarm_period,
+            "verdict": self.verdict,
+            "alpha_per_period": self.alpha,
+        }
+
     def line(self) -> str:
         """The two facts on one line, as the command prints them."""
         when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"

@@ -61,6 +61,7 @@ class _Task:
     scenario: Scenario
     target: str  # final folder
     failed_file: str
+    monitor: bool = False  # a monitored flight (probing monitor) instead of a run
 
 
 def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[str, Any]:
@@ -72,6 +73,7 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
     anything unexpected, ``skipped`` when the folder already existed), ``message``,
     ``wall_s``.
     """
+    from probing.experiment.monitor import monitor_scenario
     from probing.experiment.run import run_scenario
     from probing.sim.errors import DivergenceError, TrimError
 
@@ -82,15 +84,22 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     t0 = time.perf_counter()
+    monitored = None
     try:
-        result = run_scenario(
-            task.scenario,
-            final.parent,
-            progress=False,
-            folder=tmp,
-            aircraft=aircraft,
-            keep_settled=True,
-        )
+        if task.monitor:
+            monitored = monitor_scenario(
+                task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
+            )
+            result = monitored.run
+        else:
+            result = run_scenario(
+                task.scenario,
+                final.parent,
+                progress=False,
+                folder=tmp,
+                aircraft=aircraft,
+                keep_settled=True,
+            )
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
     except Exception as exc:  # recorded, reported, and the sweep goes on
@@ -104,10 +113,13 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
             "wall_s": wall,
             "steps_simulated": result.steps_simulated,
             "scenario": task.scenario.to_dict(),
-            # Statistics of the first channel, computed here, in parallel, for the summary.
-            "settled": settled_stats(tmp, task.scenario, result.settled),
-            "predicted": predictions(task.scenario) if task.kind == "point" else {},
         }
+        if monitored is not None:
+            info["monitor"] = monitored.facts()
+        else:
+            # Statistics of the first channel, computed here, in parallel, for the summary.
+            info["settled"] = settled_stats(tmp, task.scenario, result.settled)
+            info["predicted"] = predictions(task.scenario) if task.kind == "point" else {}
         write_json_atomic(tmp / POINT_FILE, info, compact=True)
         try:
             os.rename(tmp, final)
@@ -435,7 +447,11 @@ def _pending(sweep: Sweep, sweep_dir: Path, retry_failed: bool, result: SweepRes
         _task("reference", rid, scn, refs_dir, failed_dir)
         for rid, scn in sweep.references().items()
     ]
-    tasks += [_task("point", p.point_id, p.scenario, points_dir, failed_dir) for p in sweep.points]
+    monitor = sweep.kind == "monitor"
+    tasks += [
+        _task("point", p.point_id, p.scenario, points_dir, failed_dir, monitor)
+        for p in sweep.points
+    ]
     todo = []
     for t in tasks:
         if (Path(t.target) / POINT_FILE).exists():
@@ -482,19 +498,23 @@ def _execute(
             bar.advance(1, what, f"{failed} failed")
 
 
-def _task(kind: str, run_id: str, scn: Scenario, base: Path, failed_dir: Path) -> _Task:
+def _task(
+    kind: str, run_id: str, scn: Scenario, base: Path, failed_dir: Path, monitor: bool = False
+) -> _Task:
     return _Task(
         kind=kind,
         run_id=run_id,
         scenario=scn,
         target=str(point_folder(base, run_id)),
         failed_file=str(failed_dir / f"{run_id}.json"),
+        monitor=monitor,
     )
 
 
 def _manifest(sweep: Sweep) -> dict[str, Any]:
     return {
         "name": sweep.name,
+        "kind": sweep.kind,
         "source": sweep.source,
         "sweep_toml": sweep.text,
         "base": sweep.base.to_dict(),

@@ -45,6 +45,7 @@ from probing.experiment.scenario import (
 __all__ = [
     "MAX_POINTS",
     "POINT_FILE",
+    "SWEEP_KINDS",
     "Sweep",
     "SweepPoint",
     "load_sweep",
@@ -54,7 +55,9 @@ __all__ = [
 ]
 
 MAX_POINTS = 100_000
-_TOP_KEYS = ("name", "base", "description", "fixed", "grid", "zip")
+_TOP_KEYS = ("name", "base", "description", "kind", "fixed", "grid", "zip")
+#: What a sweep's points run: ``probing run`` (the default) or ``probing monitor``.
+SWEEP_KINDS = ("probing", "monitor")
 #: The file that marks a finished run folder (written last, inside the folder).
 POINT_FILE = "point.json"
 
@@ -114,9 +117,13 @@ class Sweep:
     fields: tuple[str, ...]
     points: tuple[SweepPoint, ...]
     description: str = ""
+    kind: str = "probing"
 
     def references(self) -> dict[str, Scenario]:
-        """Distinct reference scenarios that are not themselves points, by id."""
+        """Distinct reference scenarios that are not themselves points, by id (none for a
+        monitor sweep: its points measure no gain against a reference)."""
+        if self.kind == "monitor":
+            return {}
         ids = {p.point_id for p in self.points}
         return {p.reference_id: p.reference for p in self.points if p.reference_id not in ids}
 
@@ -175,6 +182,11 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
     description = data.get("description", "")
     if not isinstance(description, str):
         raise ScenarioError("description", "must be a string", source)
+    kind = data.get("kind", "probing")
+    if kind not in SWEEP_KINDS:
+        raise ScenarioError(
+            "kind", f"must be one of {', '.join(SWEEP_KINDS)}; got {kind!r}", source
+        )
     base_rel = data.get("base")
     if not isinstance(base_rel, str) or not base_rel:
         raise ScenarioError("base", "missing: a scenario file, relative to the sweep file", source)
@@ -243,6 +255,14 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
             )
         by_id[pid] = index
         ref = scn if scn.nonlinearity == "none" else scn.replace({"nonlinearity.type": "none"})
+        if kind == "monitor":
+            try:
+                scn.monitor_settings()
+            except ScenarioError as exc:
+                where = ", ".join(f"{k}={v!r}" for k, v in values.items())
+                raise ScenarioError(
+                    exc.field, f"{exc.message} (point {index}: {where})", source
+                ) from None
         points.append(SweepPoint(index, values, scn, pid, ref, ref.digest()))
     return Sweep(
         name=name,
@@ -252,6 +272,7 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         fields=tuple(grid_keys + zip_keys),
         points=tuple(points),
         description=description,
+        kind=kind,
     )
 
 

@@ -63,6 +63,16 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
     "wall_s": ("s", "wall time of the point's run"),
     "steps_simulated": ("1", "JSBSim steps the point's run simulated"),
     "reference_id": ("", "point_id of the run without the nonlinearity"),
+    # monitor sweeps (probing monitor's points)
+    "fault_type": ("", "the point's [fault] type, none without one"),
+    "fault_onset_s": ("s", "time after the trim when the fault appears (NaN without one)"),
+    "drift": ("", "the point's drift correction (reference: the nominal twin; detrend)"),
+    "first_alarm_s": ("s", "end of the first alarmed period, after the trim (NaN: no alarm)"),
+    "first_alarm_period": ("1", "the first alarmed period (-1: no alarm)"),
+    "verdict": ("", "the monitor's verdict: none, actuator or airframe"),
+    "alpha_per_period": ("1", "false-alarm probability per period and channel"),
+    "period_s": ("s", "probe period T = M t0"),
+    "flight_s": ("s", "length of the flight"),
 }
 
 
@@ -135,6 +145,8 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     """
     import pandas as pd
 
+    if sweep.kind == "monitor":
+        return pd.DataFrame(_monitor_rows(sweep, Path(sweep_dir)))
     sweep_dir = Path(sweep_dir)
     points_dir, refs_dir, failed_dir = sweep_folders(sweep_dir)
     ref_cache: dict[str, np.ndarray | None] = {}
@@ -211,6 +223,53 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     return pd.DataFrame(rows)
 
 
+def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
+    """A monitor sweep's summary: per point its fault, drift and what the monitor found."""
+    points_dir, _, failed_dir = sweep_folders(sweep_dir)
+    rows = []
+    for p in sweep.points:
+        scn = p.scenario
+        row: dict[str, Any] = {"index": p.index, "point_id": p.point_id}
+        row.update({k: p.values[k] for k in sweep.fields})
+        row.update(
+            status="missing",
+            message="",
+            channel=scn.channels[0],
+            fault_type=scn.fault_type,
+            fault_onset_s=scn.fault_onset_s if scn.fault_type != "none" else math.nan,
+            drift=scn.drift,
+            first_alarm_s=math.nan,
+            first_alarm_period=-1,
+            verdict="",
+            alpha_per_period=math.nan,
+            period_s=scn.bits_per_period * scn.bit_duration_s,
+            flight_s=scn.total_steps * scn.dt_s,
+            wall_s=math.nan,
+            steps_simulated=0,
+        )
+        folder = point_folder(points_dir, p.point_id)
+        failed_file = failed_dir / f"{p.point_id}.json"
+        if (folder / POINT_FILE).exists():
+            info = json.loads((folder / POINT_FILE).read_text())
+            found = info["monitor"]
+            row.update(
+                status="done",
+                wall_s=info["wall_s"],
+                steps_simulated=info["steps_simulated"],
+                first_alarm_s=_number(found["first_alarm_s"]),
+                first_alarm_period=-1
+                if found["first_alarm_period"] is None
+                else found["first_alarm_period"],
+                verdict=found["verdict"],
+                alpha_per_period=found["alpha_per_period"],
+            )
+        elif failed_file.exists():
+            info = json.loads(failed_file.read_text())
+            row.update(status=info["status"], message=info["message"], wall_s=info["wall_s"])
+        rows.append(row)
+    return rows
+
+
 def write_summary(df: Any, path: Path, sweep: Sweep) -> None:
     """Write the summary atomically, with units and descriptions per column (field
     metadata), ``probing.units`` per channel, the sweep file and the versions."""
@@ -248,7 +307,7 @@ def read_summary(sweep_dir: str | Path) -> Any:
 
 
 def open_dataset(sweep_dir: str | Path, table: str = "probing") -> Any:
-    """The points' ``probing`` or ``timeseries`` files as one pyarrow dataset.
+    """The points' ``probing``, ``timeseries`` or ``monitor`` files as one pyarrow dataset.
 
     The Hive-style folder names add a ``point_id`` column to join with ``summary.parquet``
     (on ``point_id`` and ``channel`` for the ``probing`` files)::
@@ -260,8 +319,8 @@ def open_dataset(sweep_dir: str | Path, table: str = "probing") -> Any:
     """
     import pyarrow.dataset as pads
 
-    if table not in ("probing", "timeseries"):
-        raise ValueError(f"table must be 'probing' or 'timeseries', got {table!r}")
+    if table not in ("probing", "timeseries", "monitor"):
+        raise ValueError(f"table must be 'probing', 'timeseries' or 'monitor', got {table!r}")
     points_dir = Path(sweep_dir) / "points"
     files = sorted(str(f) for f in points_dir.glob(f"point_id=*/{table}.parquet"))
     return pads.dataset(

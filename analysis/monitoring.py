@@ -1,0 +1,262 @@
+"""The health-monitoring study from stored flights (``make monitor``, ``docs/monitoring.md``).
+
+Reads the monitor sweeps' ``summary.parquet`` and every flight's ``monitor.parquet`` (and, for
+the figures of the probing output, one flight's ``probing.parquet``); runs no simulation.
+The monitor was told nothing of the faults; here, knowing each fault's onset, every flight is
+scored:
+
+* a **false alarm** is an alarm *event* (an alarmed period after one without) in a period that
+  ended before the onset (a flight without a fault: every tested period); the rate is events
+  per monitored hour (tested periods times T), with Poisson's exact 95 % interval;
+* the **detection delay** is the end of the first alarmed period after the onset, minus the
+  onset, in s and in periods T;
+* the **verdict** is the majority of the first ``verdict_periods`` alarms after the onset
+  (:func:`probing.core.monitor.flight_verdict`); right means ``airframe`` for NASA's damage
+  cases and ``actuator`` for the actuator's faults;
+* the **ROC** sweeps the threshold by a factor c: detection within the goal's periods against
+  false alarms per hour of the healthy periods at c times the threshold.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+
+from probing.core.monitor import flight_verdict
+
+__all__ = [
+    "FAULTS",
+    "Fault",
+    "evaluate",
+    "false_alarm_rate",
+    "fault_table",
+    "load_study",
+    "roc",
+    "summary_markdown",
+]
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault of the study: its label, the verdict that is right, and the goal.
+
+    Attributes
+    ----------
+    label : str
+        For tables and figures.
+    truth : str
+        ``"airframe"``, ``"actuator"`` or ``"none"``.
+    goal_periods : int
+        Detection within this many probe periods after the onset ...
+    goal_probability : float
+        ... with at least this probability (the issue's goals).
+    """
+
+    label: str
+    truth: str
+    goal_periods: int
+    goal_probability: float
+
+
+#: Sweep name (without ``monitor-``) -> the fault; effectiveness is split by its scale.
+FAULTS: dict[str, Fault] = {
+    "none": Fault("no fault", "none", 0, 0.0),
+    "damage5": Fault("case 5: left elevator off", "airframe", 3, 0.95),
+    "damage6": Fault("case 6: left stabilizer off", "airframe", 3, 0.95),
+    "deadband": Fault("dead band, a~/a = 0.8", "actuator", 5, 0.9),
+    "backlash": Fault("backlash, a~/a = 0.8", "actuator", 5, 0.9),
+    "rate-limit": Fault("rate limit at (2a/t0) / 2", "actuator", 5, 0.9),
+    "effectiveness-0.8": Fault("effectiveness 0.8", "actuator", 5, 0.9),
+    "effectiveness-0.5": Fault("effectiveness 0.5", "actuator", 5, 0.9),
+    "stuck": Fault("elevator stuck", "actuator", 5, 0.9),
+}
+
+
+def _fault_key(sweep: str, row: pd.Series) -> str:
+    key = sweep.removeprefix("monitor-")
+    if key == "effectiveness":
+        key = f"effectiveness-{row['fault.scale']:g}"
+    return key
+
+
+def load_study(results: str | Path) -> pd.DataFrame:
+    """Every finished flight of the study's sweeps: its summary row, the fault key and the
+    path of its folder.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``results`` holds no monitor sweep.
+    """
+    results = Path(results)
+    frames = []
+    for summary in sorted(results.glob("monitor-*/summary.parquet")):
+        df = pd.read_parquet(summary)
+        df = df[df.status == "done"].copy()
+        sweep = summary.parent.name
+        df["fault"] = [_fault_key(sweep, r) for _, r in df.iterrows()]
+        df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
+        df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
+        frames.append(df)
+    if not frames:
+        raise FileNotFoundError(f"{results}: no monitor sweep (monitor-*/summary.parquet)")
+    return pd.concat(frames, ignore_index=True)
+
+
+def _events(alarm: np.ndarray) -> int:
+    """Alarm events: alarmed periods that follow one without."""
+    a = np.asarray(alarm, dtype=bool)
+    return int(np.sum(a & ~np.concatenate(([False], a[:-1]))))
+
+
+def evaluate(study: pd.DataFrame) -> pd.DataFrame:
+    """One row per flight: monitored healthy hours, false-alarm events, detection delay
+    (s and periods; NaN: not detected), the verdict after the onset, and the ROC scores.
+
+    Columns added to ``study``: ``healthy_h``, ``false_alarms``, ``delay_s``,
+    ``delay_periods``, ``verdict_after``, ``score`` (the largest statistic over threshold in
+    the goal's periods after the onset), and ``healthy_ratios`` (statistic over threshold of
+    every healthy tested period, in order, for the ROC).
+    """
+    rows = []
+    for _, f in study.iterrows():
+        mon = pd.read_parquet(Path(f.folder) / "monitor.parquet")
+        meta = pq.read_metadata(Path(f.folder) / "monitor.parquet").metadata
+        verdict_periods = json.loads(meta[b"probing.detector"])["verdict_periods"]
+        onset = f.fault_onset_s if math.isfinite(f.fault_onset_s) else math.inf
+        tested = mon[mon.statistic.notna()]
+        healthy = tested[tested.time_s <= onset]
+        after = tested[tested.time_s > onset]
+        ratio = (after.statistic / after.threshold).to_numpy()
+        alarmed = after[after.alarm]
+        delay = float(alarmed.time_s.iloc[0] - onset) if len(alarmed) else math.nan
+        goal = FAULTS[f.fault].goal_periods
+        within = after.time_s <= onset + goal * f.period_s
+        rows.append(
+            {
+                "healthy_h": len(healthy) * f.period_s / 3600.0,
+                "false_alarms": _events(healthy.alarm.to_numpy()),
+                "delay_s": delay,
+                "delay_periods": delay / f.period_s,
+                "verdict_after": flight_verdict(
+                    list(zip(alarmed.period, alarmed.verdict, strict=True)), verdict_periods
+                ),
+                "score": float(ratio[within.to_numpy()].max()) if within.any() else math.nan,
+                "healthy_ratios": (healthy.statistic / healthy.threshold).to_numpy(),
+            }
+        )
+    return pd.concat([study.reset_index(drop=True), pd.DataFrame(rows)], axis=1)
+
+
+def false_alarm_rate(flights: pd.DataFrame, level: float = 0.95) -> tuple[int, float, float, float]:
+    """False-alarm events, monitored healthy hours, and the exact Poisson interval of the
+    rate per hour at ``level``: (events, hours, low, high)."""
+    from scipy.stats import chi2
+
+    events, hours = int(flights.false_alarms.sum()), float(flights.healthy_h.sum())
+    tail = (1 - level) / 2
+    low = chi2.ppf(tail, 2 * events) / 2 / hours if events else 0.0
+    high = chi2.ppf(1 - tail, 2 * events + 2) / 2 / hours
+    return events, hours, low, high
+
+
+def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
+    """Per fault and drift correction: flights, detection probability within the goal and at
+    all, delay (median and 95th percentile, s and periods), verdict counts and how often the
+    verdict is right."""
+    out = []
+    for (fault, drift), g in flights.groupby(["fault", "drift"], sort=False):
+        spec = FAULTS[fault]
+        if spec.truth == "none":
+            continue
+        period_s = float(g.period_s.iloc[0])
+        detected = g.delay_s.notna()
+        in_goal = g.delay_s <= spec.goal_periods * period_s
+        delays = g.delay_s[detected]
+        counts = g.verdict_after.value_counts()
+        out.append(
+            {
+                "fault": spec.label,
+                "drift": drift,
+                "flights": len(g),
+                "goal": f"{spec.goal_probability:g} within {spec.goal_periods} T",
+                "p_detect_goal": float(in_goal.mean()),
+                "p_detect": float(detected.mean()),
+                "delay_median_s": float(delays.median()) if len(delays) else math.nan,
+                "delay_p95_s": float(delays.quantile(0.95)) if len(delays) else math.nan,
+                "delay_median_T": float(delays.median() / period_s) if len(delays) else math.nan,
+                "delay_p95_T": float(delays.quantile(0.95) / period_s) if len(delays) else math.nan,
+                "actuator": int(counts.get("actuator", 0)),
+                "airframe": int(counts.get("airframe", 0)),
+                "none": int(counts.get("none", 0)),
+                "verdict_right": float((g.verdict_after == spec.truth)[detected].mean())
+                if detected.any()
+                else math.nan,
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def roc(
+    flights: pd.DataFrame, fault: str, drift: str, factors: Sequence[float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ROC of a fault: for each threshold factor c, false alarms per healthy hour (every
+    flight of this drift correction) and the detection probability within the goal."""
+    same = flights[flights.drift == drift]
+    hours = same.healthy_h.sum()
+    faulty = same[same.fault == fault]
+    fa, pd_ = [], []
+    for c in factors:
+        events = sum(_events(r > c) for r in same.healthy_ratios)
+        fa.append(events / hours if hours else math.nan)
+        pd_.append(float((faulty.score > c).mean()))
+    return np.array(fa), np.array(pd_)
+
+
+def summary_markdown(flights: pd.DataFrame) -> str:
+    """The study's tables as Markdown: false alarms per hour, then detection and verdicts
+    per fault."""
+    lines = ["# Health-monitoring study: results", ""]
+    lines.append(
+        "Written by `make monitor` (`analysis.monitoring`); the set-up and the reading are in "
+        "[monitoring.md](monitoring.md)."
+    )
+    lines += ["", "## False alarms", ""]
+    lines.append("| drift | flights | monitored h | events | per hour | 95 % interval |")
+    lines.append("|---|---|---|---|---|---|")
+    for drift, g in flights.groupby("drift", sort=False):
+        events, hours, low, high = false_alarm_rate(g)
+        lines.append(
+            f"| {drift} | {len(g)} | {hours:.2f} | {events} | {events / hours:.3f} | "
+            f"{low:.3f} - {high:.3f} |"
+        )
+    healthy = flights[flights.fault == "none"]
+    for drift, g in healthy.groupby("drift", sort=False):
+        events, hours, low, high = false_alarm_rate(g)
+        lines.append(
+            f"\nFlights without a fault alone, {drift}: {events} events in {hours:.2f} h "
+            f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
+        )
+    table = fault_table(flights)
+    lines += ["", "## Detection and verdicts", ""]
+    head = (
+        "| fault | drift | flights | goal | detected in goal | detected | delay median s (T) "
+        "| delay 95 % s (T) | actuator | airframe | none | verdict right |"
+    )
+    lines += [head, "|" + "---|" * 12]
+    for r in table.to_dict("records"):
+        lines.append(
+            f"| {r['fault']} | {r['drift']} | {r['flights']} | {r['goal']} | "
+            f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | "
+            f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
+            f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
+            f"{r['airframe']} | {r['none']} | {r['verdict_right']:.2f} |"
+        )
+    return "\n".join(lines) + "\n"

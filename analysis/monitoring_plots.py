@@ -1,0 +1,147 @@
+"""The figures of the health-monitoring study (``figures/monitor_*.png``, docs/monitoring.md)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
+from analysis.figures import RC, save_figure
+from analysis.monitoring import FAULTS, roc
+
+__all__ = ["detection_figure", "draw_all", "fault_figure", "roc_figure", "verdict_figure"]
+
+DRIFT_STYLE = {"reference": "-", "detrend": "--"}
+
+
+def _faults(flights: pd.DataFrame) -> list[str]:
+    present = set(flights.fault)
+    return [k for k in FAULTS if k in present and FAULTS[k].truth != "none"]
+
+
+def detection_figure(flights: pd.DataFrame) -> plt.Figure:
+    """Probability of detection by n probe periods after the onset, per fault and drift."""
+    with plt.rc_context(RC):
+        fig, ax = plt.subplots(figsize=(6.5, 3.6))
+        n = np.linspace(0, 12, 241)
+        for i, key in enumerate(_faults(flights)):
+            color = f"C{i}"
+            for drift, style in DRIFT_STYLE.items():
+                g = flights[(flights.fault == key) & (flights.drift == drift)]
+                if not len(g):
+                    continue
+                periods = g.delay_periods.to_numpy()
+                p = [(periods <= x).mean() for x in n]
+                label = FAULTS[key].label if drift == "reference" else None
+                ax.plot(n, p, style, color=color, label=label)
+        ax.axvline(3, color="0.5", lw=0.6)
+        ax.axvline(5, color="0.5", lw=0.6)
+        ax.axhline(0.95, color="0.5", lw=0.6, ls=":")
+        ax.axhline(0.9, color="0.5", lw=0.6, ls=":")
+        ax.set_xlabel("time after the onset (probe periods T)")
+        ax.set_ylabel("probability of detection")
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title("Detection: nominal twin (solid), detrending without a model (dashed)")
+        ax.legend(loc="center right", frameon=False)
+        fig.tight_layout()
+    return fig
+
+
+def roc_figure(flights: pd.DataFrame) -> plt.Figure:
+    """ROC per fault: detection within the goal's periods against false alarms per hour,
+    the threshold scaled by a factor; the dot is the monitor's own threshold (factor 1)."""
+    factors = np.geomspace(0.05, 50, 121)
+    with plt.rc_context(RC):
+        fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.4), sharey=True)
+        for ax, drift in zip(axes, DRIFT_STYLE, strict=True):
+            for i, key in enumerate(_faults(flights)):
+                fa, pd_ = roc(flights, key, drift, factors)
+                if not np.isfinite(fa).any():
+                    continue
+                ax.plot(np.maximum(fa, 1e-3), pd_, color=f"C{i}", label=FAULTS[key].label)
+                one = int(np.argmin(np.abs(factors - 1.0)))
+                ax.plot(max(fa[one], 1e-3), pd_[one], "o", color=f"C{i}", ms=3)
+            ax.set_xscale("log")
+            ax.axvline(0.1, color="0.5", lw=0.6)
+            ax.set_xlabel("false alarms per monitored hour (0: drawn at 1e-3)")
+            ax.set_title(f"drift = {drift}")
+        axes[0].set_ylabel("probability of detection within the goal")
+        axes[0].legend(loc="lower right", frameon=False, fontsize=6)
+        fig.tight_layout()
+    return fig
+
+
+def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
+    """The verdicts after the onset per fault (rows) and drift (panels): counts."""
+    cols = ["actuator", "airframe", "none"]
+    keys = _faults(flights)
+    with plt.rc_context({**RC, "axes.grid": False}):
+        fig, axes = plt.subplots(1, 2, figsize=(7.5, 0.45 * len(keys) + 1.2), sharey=True)
+        for ax, drift in zip(axes, DRIFT_STYLE, strict=True):
+            m = np.zeros((len(keys), len(cols)))
+            for i, key in enumerate(keys):
+                g = flights[(flights.fault == key) & (flights.drift == drift)]
+                for j, c in enumerate(cols):
+                    m[i, j] = (g.verdict_after == c).sum()
+            ax.imshow(m, cmap="Blues", aspect="auto")
+            for i in range(len(keys)):
+                truth = cols.index(FAULTS[keys[i]].truth)
+                for j in range(len(cols)):
+                    weight = "bold" if j == truth else "normal"
+                    ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center", weight=weight)
+            ax.set_xticks(range(len(cols)), cols)
+            ax.set_yticks(range(len(keys)), [FAULTS[k].label for k in keys])
+            ax.set_title(f"verdict, drift = {drift} (right one in bold)")
+        fig.tight_layout()
+    return fig
+
+
+def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
+    """One flight with the fault (the lowest seed, nominal twin): its mean pulse-response
+    estimate over the window before the onset and after it, and the test statistic."""
+    g = flights[(flights.fault == key) & (flights.drift == "reference")].sort_values("seed")
+    f = g.iloc[0]
+    folder = Path(f.folder)
+    pr = pd.read_parquet(folder / "probing.parquet")
+    mon = pd.read_parquet(folder / "monitor.parquet")
+    window = 4
+    onset_period = math.floor(f.fault_onset_s / f.period_s)
+    before = range(onset_period - window, onset_period)
+    after = range(onset_period + 1, onset_period + 1 + window)
+    with plt.rc_context(RC):
+        fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.5, 3.0))
+        for periods, label, color in ((before, "before", "C0"), (after, "after", "C3")):
+            sel = pr[pr.period.isin(periods)]
+            h = sel.groupby("tap").h_est.mean()
+            lag = sel.groupby("tap").lag_s.first()
+            ax.plot(
+                lag, h, color=color, label=f"{label} the onset (periods {periods[0]}-{periods[-1]})"
+            )
+        ax.set_xlabel("lag (s)")
+        ax.set_ylabel("h_est of theta (rad/deg)")
+        ax.set_title(f"{FAULTS[key].label}: pulse-response estimate")
+        ax.legend(frameon=False)
+        tested = mon[mon.statistic.notna()]
+        bx.semilogy(tested.time_s, tested.statistic / tested.threshold, ".-", ms=2)
+        bx.axhline(1.0, color="C3", lw=0.8, label="threshold")
+        bx.axvline(f.fault_onset_s, color="0.3", ls="--", lw=0.8, label="onset")
+        bx.set_xlabel("time after the trim (s)")
+        bx.set_ylabel("statistic / threshold")
+        bx.set_title(f"seed {f.seed}: first alarm {f.delay_s:.1f} s after the onset")
+        bx.legend(frameon=False)
+        fig.tight_layout()
+    return fig
+
+
+def draw_all(flights: pd.DataFrame, figures: Path) -> list[Path]:
+    """Every figure of the study into ``figures`` (PNG); returns the files."""
+    paths = []
+    paths += save_figure(detection_figure(flights), figures / "monitor_detection")
+    paths += save_figure(roc_figure(flights), figures / "monitor_roc")
+    paths += save_figure(verdict_figure(flights), figures / "monitor_verdicts")
+    for key in _faults(flights):
+        paths += save_figure(fault_figure(flights, key), figures / f"monitor_{key}")
+    return paths
