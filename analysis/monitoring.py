@@ -10,11 +10,13 @@ scored:
   per monitored hour (tested periods times T), with Poisson's exact 95 % interval;
 * the **detection delay** is the end of the first alarmed period after the onset, minus the
   onset, in s and in periods T;
-* the **verdict** is the majority of the first ``verdict_periods`` alarms after the onset
-  (:func:`probing.core.monitor.flight_verdict`); right means ``airframe`` for NASA's damage
-  cases and ``actuator`` for the actuator's faults;
-* the **ROC** sweeps the threshold by a factor c: detection within the goal's periods against
-  false alarms per hour of the healthy periods at c times the threshold.
+* the **verdict** is the monitor's own (the file's ``probing.verdict``: each channel's
+  isolation on the ``verdict_periods`` from its first alarm on) when that first alarm came
+  after the onset; a flight whose first alarm was a false one has none for its fault.
+  Right means ``airframe`` for NASA's damage cases and ``actuator`` for the actuator's;
+* the **ROC** sweeps the threshold (-log10 of the false-alarm probability per period) by a
+  factor c: detection within the goal's periods against false alarms per hour of the healthy
+  periods at c times the threshold (a false-alarm probability alpha^c).
 """
 
 from __future__ import annotations
@@ -28,8 +30,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
-
-from probing.core.monitor import flight_verdict
 
 __all__ = [
     "FAULTS",
@@ -129,7 +129,7 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     for _, f in study.iterrows():
         mon = pd.read_parquet(Path(f.folder) / "monitor.parquet")
         meta = pq.read_metadata(Path(f.folder) / "monitor.parquet").metadata
-        verdict_periods = json.loads(meta[b"probing.detector"])["verdict_periods"]
+        first_alarm = json.loads(meta[b"probing.first_alarm_s"])
         onset = f.fault_onset_s if math.isfinite(f.fault_onset_s) else math.inf
         tested = mon[mon.statistic.notna()]
         healthy = tested[tested.time_s <= onset]
@@ -145,9 +145,9 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
                 "false_alarms": _events(healthy.alarm.to_numpy()),
                 "delay_s": delay,
                 "delay_periods": delay / f.period_s,
-                "verdict_after": flight_verdict(
-                    list(zip(alarmed.period, alarmed.verdict, strict=True)), verdict_periods
-                ),
+                "verdict_after": meta[b"probing.verdict"].decode()
+                if first_alarm is not None and first_alarm > onset
+                else "none",
                 "score": float(ratio[within.to_numpy()].max()) if within.any() else math.nan,
                 "healthy_ratios": (healthy.statistic / healthy.threshold).to_numpy(),
             }

@@ -52,7 +52,8 @@ def detection_figure(flights: pd.DataFrame) -> plt.Figure:
 
 def roc_figure(flights: pd.DataFrame) -> plt.Figure:
     """ROC per fault: detection within the goal's periods against false alarms per hour,
-    the threshold scaled by a factor; the dot is the monitor's own threshold (factor 1)."""
+    the threshold (-log10 alpha) scaled by a factor c (alpha to the power c); the dot is the
+    monitor's own threshold (c = 1)."""
     factors = np.geomspace(0.05, 50, 121)
     with plt.rc_context(RC):
         fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.4), sharey=True)
@@ -105,8 +106,10 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     g = flights[(flights.fault == key) & (flights.drift == "reference")].sort_values("seed")
     f = g.iloc[0]
     folder = Path(f.folder)
-    pr = pd.read_parquet(folder / "probing.parquet")
     mon = pd.read_parquet(folder / "monitor.parquet")
+    channel = mon.channel.iloc[0]  # the monitored output (not the surface, an instrument)
+    pr = pd.read_parquet(folder / "probing.parquet")
+    pr = pr[pr.channel == channel]
     window = 4
     onset_period = math.floor(f.fault_onset_s / f.period_s)
     before = range(onset_period - window, onset_period)
@@ -121,15 +124,15 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
                 lag, h, color=color, label=f"{label} the onset (periods {periods[0]}-{periods[-1]})"
             )
         ax.set_xlabel("lag (s)")
-        ax.set_ylabel("h_est of theta (rad/deg)")
+        ax.set_ylabel(f"h_est of {channel} (per deg)")
         ax.set_title(f"{FAULTS[key].label}: pulse-response estimate")
         ax.legend(frameon=False)
         tested = mon[mon.statistic.notna()]
-        bx.semilogy(tested.time_s, tested.statistic / tested.threshold, ".-", ms=2)
-        bx.axhline(1.0, color="C3", lw=0.8, label="threshold")
+        bx.semilogy(tested.time_s, np.maximum(tested.statistic, 1e-2), ".-", ms=2)
+        bx.axhline(tested.threshold.iloc[0], color="C3", lw=0.8, label="threshold")
         bx.axvline(f.fault_onset_s, color="0.3", ls="--", lw=0.8, label="onset")
         bx.set_xlabel("time after the trim (s)")
-        bx.set_ylabel("statistic / threshold")
+        bx.set_ylabel("statistic: -log10 p of no change")
         bx.set_title(f"seed {f.seed}: first alarm {f.delay_s:.1f} s after the onset")
         bx.legend(frameon=False)
         fig.tight_layout()

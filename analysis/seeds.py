@@ -100,7 +100,7 @@ def _group(data: Any, indices: list[int], label: str) -> list[GroupStats]:
     infos = [json.loads((f / "point.json").read_text()) for f in folders]
     m = scn.bits_per_period
     ref = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).reference()
-    detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    detrend_order = scn.detrend_order if scn.detrends else None
     out = []
     for channel in scn.channels:
         settled = [

@@ -806,6 +806,20 @@ def render_bias(r: dict) -> Rendered:
     return Rendered([Row(q, v, b, ratio) for q, v, b, ratio in rows], lines)
 
 
+def bench_monitor(args: argparse.Namespace) -> dict:
+    """The detector's cost and a long monitored flight's memory (``bench.monitor``)."""
+    from bench.monitor import bench_monitor as run
+
+    return run(quick=args.quick, repeats=args.repeats)
+
+
+def render_monitor(r: dict) -> Rendered:
+    from bench.monitor import render_monitor as render_section
+
+    rows, lines = render_section(r)
+    return Rendered([Row(**row) for row in rows], lines)
+
+
 SECTIONS: list[Section] = [
     Section("step_loop", "Step-loop efficiency", bench_step_loop, render_step_loop),
     Section("correlator", "Correlator", bench_correlator, render_correlator),
@@ -816,6 +830,7 @@ SECTIONS: list[Section] = [
     Section("per_point", "Per-point cost", bench_per_point, render_per_point),
     Section("fig4", "make fig4", bench_fig4, render_fig4),
     Section("bias", "Slow-mode bias", bench_bias, render_bias),
+    Section("monitor", "The monitor", bench_monitor, render_monitor),
 ]
 
 
@@ -864,6 +879,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--write", type=Path, default=None, help="report file (default docs/benchmarks.md)"
     )
     parser.add_argument("--child-flight", type=float, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--child-monitor", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     quick = args.quick
     defaults = {
@@ -886,6 +902,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     if args.child_flight is not None:
         print(json.dumps(child_flight(args.child_flight)))
+        return 0
+    if args.child_monitor is not None:
+        from bench.monitor import child_monitor
+
+        print(json.dumps(child_monitor(args.child_monitor)))
         return 0
     t0 = time.perf_counter()
     warm_up()

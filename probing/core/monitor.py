@@ -15,22 +15,47 @@ baseline) points at the actuator side; a change of shape points at the airframe.
    covariance S (B - 1 degrees of freedom): learned from the flight itself, with nothing
    assumed about the noise but that periods are independent and Gaussian.
 3. **Detection.**  After every later period, the mean of the last n <= W periods (``window``
-   W; n grows to W after the baseline) gives d = mean(v) - v0, tested with Hotelling's T^2
-   for a new observation, T^2 = d' S^-1 d / (1/n + 1/B), which under no change is exactly
-   (B - 1) K / (B - K) F(K, B - K).  The threshold is that distribution's 1 - alpha point,
-   alpha the false-alarm probability per period (a rate per hour times the period length):
-   the expected number of alarmed periods per hour is the rate, and alarms of overlapping
-   windows come in runs, so alarm *events* are fewer.
-4. **Isolation.**  d is fitted as (g - 1) v0 + c u (a gain on the baseline and an offset,
-   u = W 1), generalised least squares with S.  The residual's T^2 is the Hotelling
-   statistic of a (K - 2)-dimensional part of d, (B - 1)(K - 2) / (B - K + 2)
-   F(K - 2, B - K + 2) under an unchanged shape.  ``shape_change`` is it over its
-   ``shape_alpha`` threshold: above 1 the shape changed beyond the noise.  An alarmed period
-   is ``"airframe"`` if it did, ``"actuator"`` if a gain and offset explain the change.
+   W; n grows to W after the baseline) is tested two ways:
+
+   * Hotelling's T^2 of d = mean(v) - v0, T^2 = d' S^-1 d / (1/n + 1/B), which under no
+     change is exactly (B - 1) K / (B - K) F(K, B - K): any change;
+   * the gain g = v0' mean(v) / v0' v0 against 1, whose baseline scatter is v0' S v0 /
+     |v0|^4 (S is independent of v0 for Gaussian periods), so (g - 1) / (its scale) is
+     exactly Student's t with B - 1 degrees of freedom: the one direction a probe designed
+     for a gain change (``probing design --detect-gain-change``) is sized for.
+
+   The period's p-value is twice the smaller of the two (Bonferroni), and its
+   ``statistic`` is -log10 of it; the ``threshold`` is -log10(alpha), alpha the false-alarm
+   probability per period (a rate per hour times the period length).  The expected number of
+   alarmed periods per hour is then at most the rate; alarms of overlapping windows come in
+   runs, so alarm *events* are fewer.
+4. **Isolation**, on an alarm.
+
+   * From the channel alone: d is fitted as (g - 1) v0 + c u (a gain on the baseline and an
+     offset, u = W 1), generalised least squares with S.  The residual's T^2 is the
+     Hotelling statistic of a (K - 2)-dimensional part of d, (B - 1)(K - 2) / (B - K + 2)
+     F(K - 2, B - K + 2) under an unchanged shape.  Exact in open loop, where the
+     nonlinearity is all that stands between probe and airframe.
+   * With the surface's measured deflection (``update(h, surface)``): in the periodic steady
+     state the output and the surface answer the same probe, so at every frequency
+     H_y(k) = P(k) H_s(k), P the airframe alone, whatever the autopilot and the actuator do.
+     The baseline gives P0(k) = mean H_y / mean H_s (Wiener-damped where H_s is noise);
+     each period's residual
+     r = h_y - IDFT(P0 H_s) changes only if the airframe did.  Its reduced form is tested
+     against the baseline's residuals with the same T^2 (K dimensions), which isolates in
+     closed loop and for a rate limit too, where the probe's shape itself changes.  A
+     surface whose response is indistinguishable from none (its gain against the baseline
+     inside the t interval of 0) has failed: nothing reaches the airframe, and the verdict is
+     the actuator's.
+
+   ``shape_change`` is that statistic over its ``shape_alpha`` threshold: above 1 the
+   airframe changed beyond the noise.  An alarmed period is ``"airframe"`` if it did,
+   ``"actuator"`` otherwise.
 
 All of it is exact for independent Gaussian periods (the ``cyclic`` and ``ac`` estimators
 with white sensor noise); the streaming estimator's periods overlap and are correlated, so
-the false-alarm rate holds only approximately there (``docs/monitoring.md``).
+the false-alarm rate holds only approximately there, and P0 fitted from the baseline itself
+makes the surface residual's test slightly liberal (about 1/B) (``docs/monitoring.md``).
 """
 
 from __future__ import annotations
@@ -38,12 +63,16 @@ from __future__ import annotations
 import collections
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import fdtri
+from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
 __all__ = ["ChangeDetector", "Decision", "MonitorSettings", "flight_verdict", "window_matrix"]
+
+#: Smallest p-value reported (its -log10, 300, caps the statistic).
+_P_FLOOR = 1e-300
 
 
 def window_matrix(m: int, windows: int) -> np.ndarray:
@@ -79,15 +108,16 @@ class Decision:
     Attributes
     ----------
     statistic : float
-        Hotelling's T^2 of the change (NaN while the baseline is learned).
+        -log10 of the period's p-value of no change (NaN while the baseline is learned).
     threshold : float
-        Its threshold for the false-alarm probability per period.
+        -log10 of the false-alarm probability per period.
     alarm : bool
         ``statistic > threshold``.
     gain_change : float
-        The estimated scale g of the period against the baseline (1: unchanged).
+        The estimated scale g of the period against the baseline (1: unchanged; GLS with an
+        offset).
     shape_change : float
-        The shape residual's T^2 over its threshold (> 1: the shape changed).
+        The airframe test's statistic over its threshold (> 1: the airframe changed).
     verdict : str
         ``"none"`` (no alarm), ``"actuator"`` or ``"airframe"``.
     """
@@ -98,6 +128,37 @@ class Decision:
     gain_change: float
     shape_change: float
     verdict: str
+
+
+class _Hotelling:
+    """Mean and covariance of B reduced periods, and T^2 of a new mean of n of them."""
+
+    def __init__(self, v: np.ndarray) -> None:
+        self.b, self.k = v.shape
+        self.mean = v.mean(axis=0)
+        s = np.cov(v, rowvar=False, ddof=1)
+        # a floor far below any noise (1e-12 of the estimate) keeps S invertible when the
+        # baseline repeats exactly
+        floor = 1e-12 * np.trace(s) / self.k + 1e-24 * float(self.mean @ self.mean) / self.k
+        s += (floor + 1e-300) * np.eye(self.k)
+        self.s = s
+        self.s_inv = np.linalg.inv(s)
+
+    def t2(self, d: np.ndarray, n: int) -> float:
+        """T^2 of a deviation ``d`` of a mean of ``n`` new periods from the baseline mean."""
+        return float(d @ self.s_inv @ d) / (1.0 / n + 1.0 / self.b)
+
+    def p_value(self, t2: float, k: int | None = None) -> float:
+        """P(T^2 > t2) under no change, for a ``k``-dimensional statistic (default K)."""
+        k = self.k if k is None else k
+        n = self.b - 1
+        return float(fdtrc(k, n - k + 1, t2 * (n - k + 1) / (n * k)))
+
+    def threshold(self, alpha: float, k: int | None = None) -> float:
+        """The T^2 exceeded with probability ``alpha`` under no change."""
+        k = self.k if k is None else k
+        n = self.b - 1
+        return n * k / (n - k + 1) * float(fdtri(k, n - k + 1, 1.0 - alpha))
 
 
 class ChangeDetector:
@@ -114,9 +175,12 @@ class ChangeDetector:
     windows : int
         K, the number of tap windows (>= 3: gain, offset and at least one shape direction).
     shape_alpha : float
-        Probability that an unchanged shape is called changed.
+        Probability that an unchanged airframe is called changed.
     window : int
         W, the periods averaged into each test (1: every period alone).
+    surface : bool
+        Isolate with the surface's measured deflection (``update(h, surface)``) instead of
+        the gain-and-offset rule.
     """
 
     def __init__(
@@ -127,7 +191,11 @@ class ChangeDetector:
         windows: int = 6,
         shape_alpha: float = 0.01,
         window: int = 1,
+        surface: bool = False,
+        isolation_periods: int = 3,
     ) -> None:
+        if isolation_periods < 1:
+            raise ValueError(f"isolation_periods must be >= 1, got {isolation_periods}")
         if window < 1:
             raise ValueError(f"window must be >= 1, got {window}")
         if windows < 3:
@@ -140,63 +208,148 @@ class ChangeDetector:
             if not 0.0 < p < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {p}")
         self.w = window_matrix(m, windows)
-        self.k, self.b = windows, baseline_periods
-        b, k = baseline_periods, windows
-        self.threshold = (b - 1) * k / (b - k) * float(fdtri(k, b - k, 1.0 - alpha))
-        self.shape_threshold = (
-            (b - 1) * (k - 2) / (b - k + 2) * float(fdtri(k - 2, b - k + 2, 1.0 - shape_alpha))
+        self.m, self.k, self.b = m, windows, baseline_periods
+        self.alpha, self.shape_alpha, self.surface = alpha, shape_alpha, surface
+        self.threshold = -math.log10(alpha)
+        self._baseline: list[tuple[np.ndarray, np.ndarray | None]] = []
+        self._recent: collections.deque[tuple[np.ndarray, np.ndarray | None]] = collections.deque(
+            maxlen=window
         )
-        self._baseline: list[np.ndarray] = []
-        self._recent: collections.deque[np.ndarray] = collections.deque(maxlen=window)
-        self.v0: np.ndarray | None = None
-        self._s_inv: np.ndarray | None = None
-        self._x: np.ndarray | None = None
-        self._fit: np.ndarray | None = None
-        self._residual: np.ndarray | None = None
+        self._v: _Hotelling | None = None  # the channel's reduced estimates
+        self._r: _Hotelling | None = None  # the airframe residuals (with the surface)
+        self._p0: np.ndarray | None = None  # the baseline's airframe P0(k)
+        self._s: _Hotelling | None = None  # the surface's reduced estimates
+        #: the periods from the first alarm on, up to ``isolation_periods``: what isolates
+        self._since_alarm: list[tuple[np.ndarray, np.ndarray | None]] = []
+        self._alarmed = False
+        self.isolation_periods = isolation_periods
 
     @property
     def learning(self) -> bool:
         """True while the baseline is being learned."""
-        return self.v0 is None
+        return self._v is None
 
-    def update(self, h: np.ndarray) -> Decision:
-        """Add one period's estimate ``h`` (M taps) and test it.
+    @property
+    def shape_threshold(self) -> float:
+        """The airframe test's T^2 threshold (NaN while learning)."""
+        if self._v is None:
+            return math.nan
+        if self.surface:
+            return self._r.threshold(self.shape_alpha)
+        return self._v.threshold(self.shape_alpha, self.k - 2)
 
-        Periods whose h is not finite (no estimate) are neither learned nor tested.
+    def update(self, h: np.ndarray, surface: np.ndarray | None = None) -> Decision:
+        """Add one period's estimate ``h`` (M taps), and with ``surface`` the surface's own
+        (M taps, per deg of probe), and test it.
+
+        Periods whose estimates are not finite (no estimate) are neither learned nor tested.
         """
         h = np.asarray(h, dtype=float)
-        if not np.all(np.isfinite(h)):
-            return Decision(math.nan, self.threshold, False, math.nan, math.nan, "none")
-        v = self.w @ h
-        if self.v0 is None:
-            self._baseline.append(v)
+        if self.surface:
+            if surface is None:
+                raise ValueError("this detector isolates with the surface: give its estimate")
+            surface = np.asarray(surface, dtype=float)
+        none = Decision(math.nan, self.threshold, False, math.nan, math.nan, "none")
+        if not np.all(np.isfinite(h)) or (surface is not None and not np.all(np.isfinite(surface))):
+            return none
+        item = (h, surface if self.surface else None)
+        if self._v is None:
+            self._baseline.append(item)
             if len(self._baseline) == self.b:
-                self._learn(np.array(self._baseline))
-                self._baseline = []
-            return Decision(math.nan, self.threshold, False, math.nan, math.nan, "none")
-        self._recent.append(v)
-        n = len(self._recent)
-        d = np.mean(self._recent, axis=0) - self.v0
-        scale = 1.0 / (1.0 / n + 1.0 / self.b)
-        t2 = scale * float(d @ self._s_inv @ d)
-        beta = self._fit @ d  # (g - 1, offset)
-        shape = scale * float(d @ self._residual @ d) / self.shape_threshold
-        alarm = t2 > self.threshold
-        verdict = ("airframe" if shape > 1.0 else "actuator") if alarm else "none"
-        return Decision(t2, self.threshold, alarm, 1.0 + float(beta[0]), shape, verdict)
+                self._learn()
+            return none
+        self._recent.append(item)
+        return self._test()
 
-    def _learn(self, v: np.ndarray) -> None:
-        self.v0 = v.mean(axis=0)
-        s = np.cov(v, rowvar=False, ddof=1)
-        # a floor far below any noise keeps S invertible when the baseline repeats exactly
-        s += (1e-12 * np.trace(s) / self.k + 1e-300) * np.eye(self.k)
-        s_inv = np.linalg.inv(s)
-        x = np.column_stack((self.v0, self.w @ np.ones(self.w.shape[1])))
-        xtsx = x.T @ s_inv @ x
-        fit = np.linalg.solve(xtsx, x.T @ s_inv)  # GLS: beta = fit @ d
-        self._s_inv = s_inv
-        self._fit = fit
-        self._residual = s_inv - s_inv @ x @ fit  # d' R d = the GLS residual's quadratic form
+    def _test(self) -> Decision:
+        n = len(self._recent)
+        h = np.mean([x[0] for x in self._recent], axis=0)
+        v, base = self.w @ h, self._v
+        d = v - base.mean
+        v0 = base.mean
+        t2 = base.t2(d, n)
+        p_t2 = base.p_value(t2)
+        g = float(v0 @ v / (v0 @ v0))
+        scale = math.sqrt(float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2 * (1.0 / n + 1.0 / self.b))
+        p_gain = 2.0 * float(stdtr(self.b - 1, -abs(g - 1.0) / scale)) if scale > 0 else 1.0
+        p = min(1.0, 2.0 * min(p_t2, p_gain))
+        statistic = -math.log10(max(p, _P_FLOOR))
+        gain = 1.0 + float((self._fit @ d)[0])
+        alarm = statistic > self.threshold
+        if self._alarmed and len(self._since_alarm) < self.isolation_periods:
+            self._since_alarm.append(self._recent[-1])
+        self._alarmed = self._alarmed or alarm
+        shape = self._airframe_change(self._since_alarm or [self._recent[-1]])
+        verdict = ("airframe" if shape > 1.0 else "actuator") if alarm else "none"
+        return Decision(statistic, self.threshold, alarm, gain, shape, verdict)
+
+    @property
+    def isolated(self) -> bool:
+        """True once ``isolation_periods`` periods after the first alarmed one are in: the
+        verdict from then on rests on all of them."""
+        return len(self._since_alarm) >= self.isolation_periods
+
+    def _airframe_change(self, periods: list[tuple[np.ndarray, np.ndarray | None]]) -> float:
+        """The airframe test over its threshold, on the mean of ``periods``: the n periods
+        after the first alarmed one (up to ``isolation_periods``; the alarmed period itself
+        may hold the onset, or the response's transient to it, and is left out), or, until
+        there are any, the period just tested.
+
+        With the surface, the residual is W (h - P0 * s) less the baseline's mean, tested with
+        the baseline's residual covariance (K dimensions); without it, the deviation from the
+        baseline less its GLS fit of a gain and an offset (K - 2).  Both are Hotelling's T^2
+        of a new mean of n periods, as the detection's.  A surface that no longer answers the
+        probe means a failed actuator (0).
+        """
+        n = len(periods)
+        h = np.mean([x[0] for x in periods], axis=0)
+        if self.surface:
+            s = np.mean([x[1] for x in periods], axis=0)
+            if self._surface_lost(s, n):
+                return 0.0  # the probe no longer reaches the airframe
+            r = self.w @ self._residual_of(h, s) - self._r.mean
+            return self._r.t2(r, n) / self._r.threshold(self.shape_alpha)
+        base = self._v
+        d = self.w @ h - base.mean
+        e = d - self._xfit @ d  # less the GLS fit of gain and offset
+        return base.t2(e, n) / base.threshold(self.shape_alpha, self.k - 2)
+
+    def _surface_lost(self, s: np.ndarray, n: int) -> bool:
+        """True if the surface's response to the probe is indistinguishable from none (its
+        gain against the baseline's within the shape test's two-sided t interval of 0): a
+        stuck surface, through which nothing can be learned about the airframe."""
+        s0, cov = self._s.mean, self._s.s
+        gain = float(s0 @ (self.w @ s)) / float(s0 @ s0)
+        se = math.sqrt(float(s0 @ cov @ s0) / float(s0 @ s0) ** 2 / n)
+        return abs(gain) < float(stdtrit(self.b - 1, 1.0 - self.shape_alpha / 2)) * se
+
+    def _residual_of(self, h: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """h minus what the baseline's airframe makes of the surface's motion s."""
+        return h - np.fft.irfft(self._p0 * np.fft.rfft(s), n=self.m)
+
+    def _learn(self) -> None:
+        hs = np.array([x[0] for x in self._baseline])
+        self._v = base = _Hotelling(hs @ self.w.T)
+        x = np.column_stack((base.mean, self.w @ np.ones(self.m)))
+        self._fit = np.linalg.solve(x.T @ base.s_inv @ x, x.T @ base.s_inv)  # GLS: beta = fit d
+        self._xfit = x @ self._fit  # the S^-1-orthogonal projector on (v0, u)
+        if self.surface:
+            ss = np.array([x[1] for x in self._baseline])
+            hy, hs_ = np.fft.rfft(hs, axis=1), np.fft.rfft(ss, axis=1)
+            # The ratio of the baseline's means: each period's estimate is already the
+            # output's correlation with the probe, the instrument, so the surface's noise
+            # enters the mean H_s only (no errors-in-variables bias, as a mean of
+            # H_y conj(H_s) / |H_s|^2 would have); a Wiener term, the noise of that mean,
+            # keeps the frequencies where the surface hardly moves from blowing up.
+            my, ms = hy.mean(axis=0), hs_.mean(axis=0)
+            noise = np.var(hs_, axis=0, ddof=1) / self.b
+            power = np.abs(ms) ** 2 + noise
+            p0 = my * np.conj(ms) / np.where(power > 0, power, 1.0)
+            self._p0 = p0
+            residuals = np.array([self._residual_of(h, s) for h, s in self._baseline])
+            self._r = _Hotelling(residuals @ self.w.T)
+            self._s = _Hotelling(ss @ self.w.T)
+        self._baseline = []
 
 
 @dataclass(frozen=True)
@@ -215,10 +368,14 @@ class MonitorSettings:
     shape_false_alarm : float
         Probability that an unchanged shape is called changed (the isolation test's level).
     verdict_periods : int
-        Alarmed periods, from the first alarm on, whose majority gives the flight's verdict.
+        Periods, from a channel's first alarm on, that its isolation test rests on (the
+        channel's verdict once they are in).
     window_periods : int
         Periods averaged into each test (``probing design``'s settled periods for its
         target).
+    surface : bool
+        Isolate with the measured elevator deflection (channel ``elevator_deg``, an
+        instrument, not monitored itself) instead of the gain-and-offset rule.
     """
 
     baseline_periods: int = 50
@@ -227,6 +384,7 @@ class MonitorSettings:
     shape_false_alarm: float = 0.01
     verdict_periods: int = 3
     window_periods: int = 1
+    surface: bool = False
 
     def alpha(self, period_s: float, channels: int) -> float:
         """False-alarm probability per period and channel (the rate shared out equally)."""
@@ -237,21 +395,21 @@ class MonitorSettings:
         return dataclasses.asdict(self)
 
 
-def flight_verdict(rows: list[tuple[int, str]], periods: int) -> str:
-    """The flight's verdict: the majority of the verdicts of the alarmed rows
-    ``(period, verdict)`` in the ``periods`` periods from the first alarm on ("airframe" on a
-    tie: the shape was seen to change); ``"none"`` without an alarm.
+def flight_verdict(verdicts: Sequence[str]) -> str:
+    """The flight's verdict from its channels' (each decided on the ``isolation_periods``
+    from its first alarm on): the majority of those that alarmed, ``"airframe"`` on a tie
+    (a changed airframe was seen), ``"none"`` if none alarmed.
 
     Examples
     --------
-    >>> flight_verdict([(7, "actuator"), (8, "airframe"), (8, "actuator"), (12, "airframe")], 3)
+    >>> flight_verdict(["actuator", "none", "actuator", "airframe"])
     'actuator'
-    >>> flight_verdict([], 3)
+    >>> flight_verdict(["actuator", "airframe"])
+    'airframe'
+    >>> flight_verdict(["none"])
     'none'
     """
-    alarmed = [(p, v) for p, v in rows if v != "none"]
-    if not alarmed:
+    votes = [v for v in verdicts if v != "none"]
+    if not votes:
         return "none"
-    first = min(p for p, _ in alarmed)
-    votes = [v for p, v in alarmed if p < first + periods]
     return "actuator" if votes.count("actuator") > votes.count("airframe") else "airframe"

@@ -80,7 +80,7 @@ def _twins_to_store(scenarios: Sequence[Scenario]) -> list[Scenario]:
     """One scenario per distinct reference twin of the group that the cache lacks."""
     seen, todo = set(), []
     for scn in scenarios:
-        if scn.drift != "reference":
+        if not scn.uses_twin:
             continue
         spec = (scn.flight, tuple(scn.channels), scn.total_steps)
         if spec in seen or twin_stored(*spec):
@@ -151,6 +151,8 @@ def _run_grouped(
         if aircraft is not None:
             if any(s.control and s.control.active for s in members):
                 control_power(members[0].flight)  # once, inherited by every child
+            if any(s.follows for s in members):
+                aircraft.add_second()  # the twins that fly the runs' own commands
             if prepare is not None:
                 prepare(members, aircraft)
             twins = _twins_to_store(members)

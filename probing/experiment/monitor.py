@@ -21,16 +21,17 @@ import numpy as np
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.experiment.run import RunResult, run_scenario
-from probing.experiment.scenario import Scenario
+from probing.experiment.scenario import SURFACE_CHANNEL, Scenario
 from probing.experiment.storage import MONITOR_SCHEMA, AtomicParquetWriter, OutputFolder, metadata
 from probing.sim.fork import TrimmedAircraft
 
 __all__ = ["MONITOR_TEXT", "MonitorResult", "monitor_scenario"]
 
 MONITOR_TEXT = (
-    "change detection after every probe period, one row per period and channel: Hotelling "
-    "T^2 of the period's pulse-response estimate against the flight's own baseline, its "
-    "threshold for the false-alarm rate, the gain against the baseline and the shape test"
+    "change detection after every probe period, one row per period and monitored channel: "
+    "-log10 p of no change of the period's pulse-response estimate against the flight's own "
+    "baseline (Hotelling T^2 and the gain), its threshold for the false-alarm rate, the gain "
+    "against the baseline and the airframe test"
 )
 
 
@@ -50,6 +51,8 @@ class MonitorResult:
         ``"none"``, ``"actuator"`` or ``"airframe"``.
     alpha : float
         False-alarm probability per period and channel the thresholds are set for.
+    ended : str or None
+        Why the flight ended before its last period (a divergence), or None.
     """
 
     run: RunResult
@@ -57,6 +60,7 @@ class MonitorResult:
     first_alarm_period: int | None
     verdict: str
     alpha: float
+    ended: str | None = None
 
     def facts(self) -> dict[str, float | int | str | None]:
         """The result as plain JSON values (a sweep point's record)."""
@@ -65,12 +69,14 @@ class MonitorResult:
             "first_alarm_period": self.first_alarm_period,
             "verdict": self.verdict,
             "alpha_per_period": self.alpha,
+            "ended": self.ended,
         }
 
     def line(self) -> str:
         """The two facts on one line, as the command prints them."""
         when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"
-        return f"first alarm: {when} (period {self.first_alarm_period}); verdict: {self.verdict}"
+        line = f"first alarm: {when} (period {self.first_alarm_period}); verdict: {self.verdict}"
+        return line if self.ended is None else f"{line}; the flight ended: {self.ended}"
 
 
 class _Monitor:
@@ -79,7 +85,10 @@ class _Monitor:
     def __init__(self, scn: Scenario, settings: MonitorSettings) -> None:
         self.scn, self.settings = scn, settings
         self.period_s = scn.bits_per_period * scn.bit_duration_s
-        self.alpha = settings.alpha(self.period_s, len(scn.channels))
+        channels = list(scn.channels)
+        self.surface = channels.index(SURFACE_CHANNEL) if settings.surface else None
+        self.monitored = [(j, c) for j, c in enumerate(channels) if j != self.surface]
+        self.alpha = settings.alpha(self.period_s, len(self.monitored))
         m = scn.bits_per_period
         self.detectors = [
             ChangeDetector(
@@ -89,16 +98,22 @@ class _Monitor:
                 settings.windows,
                 settings.shape_false_alarm,
                 settings.window_periods,
+                settings.surface,
+                settings.verdict_periods,
             )
-            for _ in scn.channels
+            for _ in self.monitored
         ]
         self.first = max(scn.settle_periods, scn.first_estimated_period)
         self.rows: list[tuple[int, str]] = []  # (period, verdict) of alarmed rows
+        #: each monitored channel's verdict: decided once its isolation periods are in, the
+        #: latest alarmed row's until then ("none": no alarm yet)
+        self.verdicts = ["none"] * len(self.monitored)
+        self.decided = [False] * len(self.monitored)
         self.writer: AtomicParquetWriter | None = None
 
     def open(self, outputs: OutputFolder) -> None:
         self.writer = outputs.writer(
-            "monitor.parquet", MONITOR_SCHEMA, MONITOR_TEXT, list(self.scn.channels)
+            "monitor.parquet", MONITOR_SCHEMA, MONITOR_TEXT, [c for _, c in self.monitored]
         )
 
     def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
@@ -106,8 +121,16 @@ class _Monitor:
         for i, p in enumerate(periods.tolist()):
             if p < self.first:
                 continue
-            for j, (channel, det) in enumerate(zip(self.scn.channels, self.detectors, strict=True)):
-                d = det.update(h[i, j])
+            surface = None if self.surface is None else h[i, self.surface]
+            for c, ((j, channel), det) in enumerate(
+                zip(self.monitored, self.detectors, strict=True)
+            ):
+                d = det.update(h[i, j], surface)
+                if not self.decided[c] and d.verdict != "none":
+                    self.verdicts[c] = d.verdict
+                if not self.decided[c] and det.isolated:
+                    self.verdicts[c] = "airframe" if d.shape_change > 1.0 else "actuator"
+                    self.decided[c] = True
                 for name, value in (
                     ("period", p),
                     ("time_s", (p + 1) * self.period_s),
@@ -146,12 +169,12 @@ class _Monitor:
 
     def _found(self) -> tuple[int | None, str]:
         first = min((p for p, _ in self.rows), default=None)
-        return first, flight_verdict(self.rows, self.settings.verdict_periods)
+        return first, flight_verdict(self.verdicts)
 
     def result(self, run: RunResult) -> MonitorResult:
         first, verdict = self._found()
         time_s = None if first is None else (first + 1) * self.period_s
-        return MonitorResult(run, time_s, first, verdict, self.alpha)
+        return MonitorResult(run, time_s, first, verdict, self.alpha, run.ended)
 
 
 def monitor_scenario(
@@ -179,7 +202,8 @@ def monitor_scenario(
     Returns
     -------
     MonitorResult
-        First alarm and verdict.
+        First alarm and verdict.  A flight that diverges ends there, its periods before kept
+        (``MonitorResult.ended``): a departure is a record too.
 
     Raises
     ------
@@ -198,5 +222,6 @@ def monitor_scenario(
         observer=monitor,
         timeseries=timeseries,
         nominal_twin=True,
+        stop_on_divergence=True,
     )
     return monitor.result(run)

@@ -245,7 +245,7 @@ def scatter_models(
 ) -> dict[str, NoiseModel]:
     """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
     noise plus ``extra_acov`` through the scenario's estimator and drift mode."""
-    detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    detrend_order = scn.detrend_order if scn.detrends else None
     estimator = _estimator_model(
         scn.order, scn.amplitude_deg, scn.estimator, scn.settled_periods, detrend_order
     )

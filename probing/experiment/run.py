@@ -37,12 +37,14 @@ from probing.experiment.storage import (
     PROBING_SCHEMA,
     OutputFolder,
     Settled,
+    metadata,
     output_folder,
     probing_block,
     provenance,
     timeseries_schema,
 )
 from probing.sim.control import ClosedLoop, control_power
+from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
@@ -87,6 +89,9 @@ class RunResult:
     settled : Settled or None
         With ``keep_settled``: the settled periods of the first channel, exactly as
         :func:`probing.experiment.storage.read_settled` reads them back from the file.
+    ended : str or None
+        With ``stop_on_divergence``: why the flight ended before its last period (the
+        divergence), None if it flew them all.
     """
 
     out_dir: Path
@@ -97,6 +102,7 @@ class RunResult:
     twin_cached: bool = False
     twin_key: str | None = None
     settled: Settled | None = None
+    ended: str | None = None
 
 
 class RunObserver(Protocol):
@@ -128,6 +134,11 @@ class _Rig:
     loop: ClosedLoop | None = None  # stepping one step at a time: autopilot, actuator fault
     fault_nl: Nonlinearity | None = None  # a nonlinearity that appears on the probe path
     nominal_twin: bool = False
+    stop_on_divergence: bool = False
+    ended: str | None = None  # why the flight ended early (stop_on_divergence)
+    follower: ClosedLoop | None = None  # drift "follow": the nominal twin flying our commands
+    follower_nodes: list | None = None
+    periods_flown: int = 0
 
     @classmethod
     def build(
@@ -147,9 +158,15 @@ class _Rig:
         nodes = plant.channel_nodes(list(scn.channels))
         y_trim = np.array([n.get_double_value() for n in nodes])
         twin = None
-        if scn.drift == "reference":
+        if scn.uses_twin:
             twin_flight = flight.nominal if nominal_twin else flight
             twin = open_twin(twin_flight, scn.channels, scn.total_steps, use_cache=twin_cache)
+        follower = follower_nodes = None
+        if scn.follows:
+            second = aircraft.second_for(flight) if aircraft else None
+            second = second or make_plant(flight.nominal)
+            follower = ClosedLoop(second, Control())  # healthy, its loops open: it replays
+            follower_nodes = second.channel_nodes(list(scn.channels))
         return cls(
             scn,
             probe,
@@ -161,6 +178,8 @@ class _Rig:
             loop,
             scn.build_fault_nonlinearity(),
             nominal_twin,
+            follower=follower,
+            follower_nodes=follower_nodes,
         )
 
     @property
@@ -221,6 +240,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     elevator = np.empty(chunk * n_steps)
     nl_out = np.empty(chunk * n_steps)
     control = np.empty(chunk * n_steps) if rig.loop else None
+    commands = np.empty((chunk * n_steps, 3)) if rig.follower else None
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
     trim_deg = rig.plant.trim_result.elevator_deg
@@ -236,13 +256,32 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             q = probe_path.apply(q, first + i)
             nl_out[span] = q
             if rig.loop:
-                rig.loop.step(q, rig.nodes, out[span], elevator[span], control[span])
+                flown = commands[span] if commands is not None else None
+                rig.loop.step(q, rig.nodes, out[span], elevator[span], control[span], flown)
             else:
                 cmd = rig.plant.elevator_command(trim_deg + q)
                 rig.plant.step(cmd, rig.nodes, out[span], elevator[span])
-            rig.plant.check_state()
+            try:
+                rig.plant.check_state()
+                if rig.follower:
+                    rig.follower.replay(commands[span], rig.follower_nodes, ref[span])
+                    try:
+                        rig.follower.plant.check_state()
+                    except DivergenceError as exc:
+                        raise DivergenceError(
+                            f"the nominal twin flying our commands: {exc}"
+                        ) from None
+            except DivergenceError as exc:
+                if not rig.stop_on_divergence:
+                    raise
+                rig.ended = str(exc)  # the periods before this one are kept
+                k, rows = i, i * n_steps
+                break
             if rig.twin:
                 ref[span] = rig.twin.next(n_steps)
+        if k == 0:
+            return
+        rig.periods_flown = first + k
         measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
         yield _Chunk(
             first,
@@ -251,8 +290,10 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             elevator[:rows],
             None if control is None else control[:rows],
             measured,
-            ref[:rows] if rig.twin else None,
+            ref[:rows] if rig.twin or rig.follower else None,
         )
+        if rig.ended:
+            return
 
 
 class _FaultOnset:
@@ -369,7 +410,7 @@ class _Cyclic:
 
 def _drift_correction(scn: Scenario, probe: Probe, push_bits: int) -> object:
     """The object that turns a chunk's deviations into estimates, by estimator and drift."""
-    detrend_order = scn.detrend_order if scn.drift == "detrend" else None
+    detrend_order = scn.detrend_order if scn.detrends else None
     if scn.estimator != "streaming":
         return _Cyclic(probe, scn.estimator == "cyclic", detrend_order)
     if detrend_order is not None:
@@ -455,6 +496,7 @@ def run_scenario(
     observer: RunObserver | None = None,
     timeseries: bool = True,
     nominal_twin: bool = False,
+    stop_on_divergence: bool = False,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -489,6 +531,10 @@ def run_scenario(
     nominal_twin : bool
         With ``drift = "reference"``: the twin flies the nominal aircraft, without the
         scenario's damage (what a monitor may know), instead of the same flight.
+    stop_on_divergence : bool
+        End the flight at a divergence of the probed aircraft and keep the periods flown
+        before it (``RunResult.ended`` and the files' ``probing.ended`` say why), instead of
+        raising and writing nothing: a monitored flight that departs is still a record.
 
     Returns
     -------
@@ -502,6 +548,7 @@ def run_scenario(
     """
     t_start = time.perf_counter()
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
+    rig.stop_on_divergence = stop_on_divergence
     probe, channels = rig.probe, list(scn.channels)
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
     drift = _drift_correction(scn, probe, rig.chunk_periods * m)
@@ -509,7 +556,8 @@ def run_scenario(
     lag_s = np.arange(m) * probe.bit_duration_s
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     x_period = probe.samples(scn.dt_s, 1)
-    ts_schema = timeseries_schema(channels, rig.twin is not None, rig.loop is not None)
+    with_reference = rig.twin is not None or rig.follower is not None
+    ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None)
     with rig.twin or nullcontext(), output_folder(folder, rig.metadata()) as outputs:
         w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels)
         w_ts = (
@@ -533,17 +581,22 @@ def run_scenario(
                 if w_ts is not None:
                     w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
                 bar.advance(c.count)
+        if rig.ended:
+            for writer in outputs.writers:
+                writer.add_metadata(metadata(ended=rig.ended))
         if observer is not None:
             observer.finish()
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,
         h_est=settled.mean(),
-        steps_simulated=scn.total_steps + (rig.twin.steps_simulated if rig.twin else 0),
+        steps_simulated=rig.periods_flown * rig.period_steps * (2 if rig.follower else 1)
+        + (rig.twin.steps_simulated if rig.twin else 0),
         wall_s=time.perf_counter() - t_start,
         twin_cached=bool(rig.twin and rig.twin.cached),
         twin_key=rig.twin.key if rig.twin else None,
         settled=settled.first_channel(lag_s),
+        ended=rig.ended,
     )
 
 

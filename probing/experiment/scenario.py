@@ -49,7 +49,7 @@ __all__ = [
     "read_toml",
 ]
 
-DRIFT_MODES = ("reference", "detrend", "none")
+DRIFT_MODES = ("reference", "follow", "detrend", "none")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
 #: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
@@ -80,6 +80,8 @@ _FAULT_FIELDS = {
     "effectiveness": ("scale",),
     "stuck": (),
 }
+#: The channel a monitor isolates with (``[monitor] surface``): the elevator's position sensor.
+SURFACE_CHANNEL = "elevator_deg"
 #: Largest effectiveness scale (2: a surface twice as effective).
 _MAX_SCALE = 2.0
 _REQUIRED = {
@@ -154,6 +156,22 @@ class Scenario:
     def total_steps(self) -> int:
         """Simulation steps of the whole run (one aircraft)."""
         return self.periods * self.bits_per_period * self.steps_per_bit
+
+    @property
+    def uses_twin(self) -> bool:
+        """True if the drift correction subtracts an unprobed reference twin."""
+        return self.drift == "reference"
+
+    @property
+    def follows(self) -> bool:
+        """True if the drift correction subtracts a nominal twin flying the run's own
+        autopilot commands (``drift = "follow"``, closed loop only)."""
+        return self.drift == "follow"
+
+    @property
+    def detrends(self) -> bool:
+        """True if the drift correction detrends each period."""
+        return self.drift == "detrend"
 
     @property
     def first_estimated_period(self) -> int:
@@ -239,7 +257,7 @@ class Scenario:
         if self.sensor_noise:
             disturbance["sensor_noise"] = dict(self.sensor_noise)
         out: dict[str, Any] = {"channels": list(self.channels), "drift": self.drift}
-        if self.drift == "detrend" or self.detrend_order != 1:
+        if self.detrends or self.detrend_order != 1:
             out["detrend_order"] = self.detrend_order
         if self.estimator != "streaming":  # the default is left out: digests stay as they were
             out["estimator"] = self.estimator
@@ -539,9 +557,15 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     changes = {
         **_fault(data.get("fault"), scn),
         **_control(data.get("control")),
-        **_monitor(data.get("monitor"), scn),
     }
-    return dataclasses.replace(scn, **changes) if changes else scn
+    if drift == "follow" and not (changes.get("control") and changes["control"].active):
+        raise ScenarioError(
+            "output.drift", "follow needs an autopilot ([control] with a loop switched on)"
+        )
+    if changes:
+        scn = dataclasses.replace(scn, **changes)
+    monitor = _monitor(data.get("monitor"), scn)
+    return dataclasses.replace(scn, **monitor) if monitor else scn
 
 
 def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool) -> None:
@@ -584,6 +608,17 @@ def _monitor(monitor: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
     for key in ("verdict_periods", "window_periods"):
         if key in monitor:
             values[key] = _integer(monitor, "monitor", key, lo=1, hi=1000)
+    if "surface" in monitor:
+        if not isinstance(monitor["surface"], bool):
+            raise ScenarioError(
+                "monitor.surface", f"must be true or false, got {monitor['surface']!r}"
+            )
+        if monitor["surface"] and (SURFACE_CHANNEL not in scn.channels or len(scn.channels) < 2):
+            raise ScenarioError(
+                "monitor.surface",
+                f"needs {SURFACE_CHANNEL} and at least one other channel in output.channels",
+            )
+        values["surface"] = monitor["surface"]
     return {"monitor": MonitorSettings(**values)}
 
 

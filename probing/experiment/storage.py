@@ -319,11 +319,11 @@ MONITOR_SCHEMA = pa.schema(
         field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
         field("time_s", pa.float64(), "s", "time after trim at the end of the period"),
         field("channel", pa.string(), "", "output channel (its name carries its unit)"),
-        field("statistic", pa.float64(), "1", "Hotelling T^2 of the change (NaN: baseline)"),
-        field("threshold", pa.float64(), "1", "T^2 threshold for the false-alarm rate"),
+        field("statistic", pa.float64(), "1", "-log10 p of no change (NaN: baseline)"),
+        field("threshold", pa.float64(), "1", "-log10 of the false-alarm probability"),
         field("alarm", pa.bool_(), "", "statistic > threshold"),
         field("gain_change", pa.float64(), "1", "estimated scale of h against the baseline"),
-        field("shape_change", pa.float64(), "1", "shape residual T^2 over its threshold"),
+        field("shape_change", pa.float64(), "1", "airframe test over its threshold"),
         field("verdict", pa.string(), "", "none, actuator (gain and offset) or airframe"),
     ]
 )

@@ -50,6 +50,7 @@ CHANNELS: dict[str, Channel] = {
         Channel("gamma_rad", "flight-path/gamma-rad", "rad", "flight-path angle"),
         Channel("u_fps", "velocities/u-fps", "ft/s", "body x velocity"),
         Channel("w_fps", "velocities/w-fps", "ft/s", "body z velocity"),
+        Channel("elevator_deg", "fcs/elevator-pos-deg", "deg", "elevator deflection (its sensor)"),
     )
 }
 

@@ -145,6 +145,7 @@ class ClosedLoop:
         self._gains = _gains(control, power) if control.active else None
         self._integral = [0.0, 0.0, 0.0]  # pitch, bank, speed
         self._stuck_deg: float | None = None
+        self._aileron_now, self._throttle_now = self._aileron0, self._throttle0
         self.dt_s = plant.dt_s
 
     def _command(self, surface_deg: float) -> float:
@@ -165,6 +166,7 @@ class ClosedLoop:
         out: np.ndarray,
         elevator_deg: np.ndarray | None = None,
         control_deg: np.ndarray | None = None,
+        commands: np.ndarray | None = None,
     ) -> None:
         """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
 
@@ -181,6 +183,10 @@ class ClosedLoop:
             ``(n,)``, receives the realised elevator deflection after each step (deg).
         control_deg : numpy.ndarray, optional
             ``(n,)``, receives the pitch loop's elevator command at each step (deg from trim).
+        commands : numpy.ndarray, optional
+            ``(n, 3)``, receives the autopilot's commands at each step: elevator (deg from
+            trim, before the probe and the actuator), aileron and throttle (normalised), for
+            a twin that flies them (:meth:`replay`).
         """
         plant, fdm = self.plant, self.plant.fdm
         n = out.shape[0]
@@ -204,6 +210,8 @@ class ClosedLoop:
         append = values.append
         realised: list[float] = []
         commanded: list[float] = []
+        flown: list[tuple[float, float, float]] = []
+        ail, thr = self._aileron_now, self._throttle_now
         run = fdm.run
         for k in range(n):
             step = first + k
@@ -216,7 +224,8 @@ class ClosedLoop:
                 if c.bank_hold:
                     e = get_phi() - phi0
                     integral[1] += e * dt
-                    set_ail(min(max(aileron0 + gains.bank(e, get_p(), integral[1]), -1.0), 1.0))
+                    ail = min(max(aileron0 + gains.bank(e, get_p(), integral[1]), -1.0), 1.0)
+                    set_ail(ail)
                 if c.speed_hold:
                     e = get_v() - v0
                     integral[2] += e * dt
@@ -242,12 +251,53 @@ class ClosedLoop:
                 realised.append(get_pos())
             if control_deg is not None:
                 commanded.append(u_el)
+            if commands is not None:
+                flown.append((u_el, ail, thr))
+        self._aileron_now, self._throttle_now = ail, thr
         plant._steps = first + n
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
         if elevator_deg is not None:
             elevator_deg[:] = realised
         if control_deg is not None:
             control_deg[:] = commanded
+        if commands is not None:
+            commands[:] = flown
+
+    def replay(self, commands: np.ndarray, nodes: list, out: np.ndarray) -> None:
+        """Fly another aircraft's autopilot commands (:meth:`step`'s ``commands``) through
+        this plant's healthy actuator, one step at a time: the nominal twin of
+        ``drift = "follow"``, which then differs from the probed aircraft only by what the
+        probe and a fault did.
+
+        Parameters
+        ----------
+        commands : numpy.ndarray
+            ``(n, 3)``: elevator (deg from trim), aileron and throttle (normalised).
+        nodes : list
+            Property nodes of the channels.
+        out : numpy.ndarray
+            ``(n, len(nodes))``, filled in place.
+        """
+        plant = self.plant
+        n = out.shape[0]
+        set_el = plant._cmd_node.set_double_value
+        set_ail = self._aileron.set_double_value
+        set_thr = [t.set_double_value for t in self._throttles]
+        getters = [node.get_double_value for node in nodes]
+        trim_deg, command = self._trim_deg, self._command
+        values: list[float] = []
+        append = values.append
+        run = plant.fdm.run
+        for u_el, ail, thr in commands.tolist():
+            set_el(command(trim_deg + u_el))
+            set_ail(ail)
+            for s in set_thr:
+                s(thr)
+            run()
+            for get in getters:
+                append(get())
+        plant._steps += n
+        out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
 
 
 @dataclass(frozen=True)

@@ -98,8 +98,28 @@ class TrimmedAircraft:
     def __init__(self, flight: Flight) -> None:
         self.key = trim_key(flight)
         self._condition = _condition(flight)
+        self._flight = flight
         self.plant = Plant(flight.model, flight.dt_s)
         trim_flight(self.plant, flight)
+        self.second: Plant | None = None
+
+    def add_second(self) -> None:
+        """Load and trim a second copy (once, in the owner, before forking): the nominal twin
+        that flies a run's own commands (``drift = "follow"``) steps it in the child."""
+        if self.second is None:
+            self.second = Plant(self._flight.model, self._flight.dt_s)
+            trim_flight(self.second, self._flight)
+
+    def second_for(self, flight: Flight) -> Plant | None:
+        """The second copy, disturbed as ``flight`` asks and undamaged (None without one):
+        call it in a child only."""
+        if self.second is None:
+            return None
+        if _condition(flight) != self._condition:
+            raise ValueError(f"{flight.condition} is not the trimmed aircraft's flight")
+        self.second.disturb(flight.turbulence, flight.seed)
+        self.second.schedule(flight.nominal)
+        return self.second
 
     def plant_for(self, flight: Flight) -> Plant:
         """The trimmed plant, disturbed as ``flight`` asks: call it in a child only.

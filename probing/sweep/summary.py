@@ -72,7 +72,8 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
     "verdict": ("", "the monitor's verdict: none, actuator or airframe"),
     "alpha_per_period": ("1", "false-alarm probability per period and channel"),
     "period_s": ("s", "probe period T = M t0"),
-    "flight_s": ("s", "length of the flight"),
+    "flight_s": ("s", "length of the flight as asked"),
+    "ended": ("", "why a monitored flight ended early (a divergence), empty if it did not"),
 }
 
 
@@ -244,6 +245,7 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
             alpha_per_period=math.nan,
             period_s=scn.bits_per_period * scn.bit_duration_s,
             flight_s=scn.total_steps * scn.dt_s,
+            ended="",
             wall_s=math.nan,
             steps_simulated=0,
         )
@@ -262,6 +264,7 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
                 else found["first_alarm_period"],
                 verdict=found["verdict"],
                 alpha_per_period=found["alpha_per_period"],
+                ended=found.get("ended") or "",
             )
         elif failed_file.exists():
             info = json.loads(failed_file.read_text())

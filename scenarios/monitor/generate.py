@@ -8,10 +8,10 @@ The files are committed; this script is how they were made, and running it again
 same bytes.  It asks ``probing design`` for the probe, then writes:
 
 * ``base.toml``: NASA's GTM at the paper's condition (800 ft, 75 KCAS), closed loop (pitch,
-  bank and speed held), light turbulence, NASA's pitch-attitude noise (0.02 deg,
-  ``NoiseParams_T2.m``), the design's probe and estimator, and the monitor: baseline 50
-  periods, 0.1 false alarms per flight hour, each test on the mean of the design's settled
-  periods;
+  bank and speed held), light turbulence, NASA's pitch-attitude and surface-position noise
+  (0.02 and 0.01 deg, ``NoiseParams_T2.m``), the design's probe and estimator, and the
+  monitor: baseline 50 periods, 0.1 false alarms per flight hour, each test on the mean of
+  the design's settled periods, isolation with the elevator's measured deflection;
 * one sweep per fault (``kind = "monitor"``): 50 seeds, each with a random onset, uniform
   over periods 55 to 75 (after the baseline), under both drift corrections (the nominal twin,
   and detrending with no model at all); the flight ends 25 periods after the latest onset;
@@ -30,6 +30,8 @@ from probing.experiment.design import DesignRequest, recommend
 HERE = Path(__file__).resolve().parent
 #: NASA's pitch-attitude noise, MIDG theta (NoiseParams_T2.m): 0.02 deg.
 THETA_NOISE_RAD = math.radians(0.02)
+#: NASA's control-surface position noise, pots (NoiseParams_T2.m): 0.01 deg.
+SURFACE_NOISE_DEG = 0.01
 FALSE_ALARMS_PER_HOUR = 0.1
 AMPLITUDE_DEG = 0.2  # the design's amplitude (its default, 0.005 deg, needs 2132 periods)
 SEEDS = 50
@@ -81,13 +83,21 @@ def toml_value(value) -> str:
 
 def base_toml(d, request) -> str:
     periods = ONSET_PERIODS[1] + AFTER_PERIODS
-    return f"""# The health-monitoring study's flight (scenarios/monitor/generate.py; docs/monitoring.md).
-# Probe and estimator from: probing design --aircraft gtm_t2 --altitude-ft 800 --speed-kcas 75
-#   --noise-sigma {THETA_NOISE_RAD:.6g} --turbulence light --detect-gain-change 0.1
-#   --false-alarm {request.false_alarm:.3g} --amplitude-deg {AMPLITUDE_DEG}
-# which predicts a gain se of {d.predicted_gain_stderr:.3g} over {d.periods - d.settle_periods} settled periods (open loop):
-# each test averages that many periods (monitor.window_periods).
-name = "monitor"
+    settled = d.periods - d.settle_periods
+    header = (
+        "# The health-monitoring study's flight (scenarios/monitor/generate.py; "
+        "docs/monitoring.md).\n"
+        f"# Probe and estimator from: probing design --aircraft gtm_t2 --altitude-ft 800 "
+        f"--speed-kcas 75\n"
+        f"#   --noise-sigma {THETA_NOISE_RAD:.6g} --turbulence light --detect-gain-change 0.1\n"
+        f"#   --false-alarm {request.false_alarm:.3g} --amplitude-deg {AMPLITUDE_DEG}\n"
+        f"# which predicts a gain se of {d.predicted_gain_stderr:.3g} over {settled} settled "
+        "periods (open loop):\n"
+        "# each test averages that many periods (monitor.window_periods).\n"
+    )
+    return (
+        header
+        + f"""name = "gtm-monitored"
 
 [aircraft]
 model = "gtm_t2"
@@ -110,14 +120,14 @@ settle_periods = {d.settle_periods}
 type = "none"
 
 [output]
-channels = ["theta_rad"]
+channels = ["theta_rad", "elevator_deg"]
 drift = "reference"
 estimator = "{d.estimator}"
 
 [disturbance]
 turbulence = "light"
 seed = 0
-sensor_noise = {{ theta_rad = {THETA_NOISE_RAD!r} }}
+sensor_noise = {{ theta_rad = {THETA_NOISE_RAD!r}, elevator_deg = {SURFACE_NOISE_DEG!r} }}
 
 [control]
 pitch_hold = true
@@ -128,7 +138,9 @@ speed_hold = true
 baseline_periods = {BASELINE}
 false_alarms_per_hour = {FALSE_ALARMS_PER_HOUR}
 window_periods = {d.periods - d.settle_periods}
+surface = true
 """
+    )
 
 
 def sweep_toml(name: str, description: str, fixed: dict, grid: dict, zipped: dict) -> str:
@@ -179,7 +191,8 @@ def main() -> None:
     healthy_periods = round(HEALTHY_FLIGHT_S / period_s)
     zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}
     fixed = {"probe.periods": healthy_periods}
-    text = f"no fault: {HEALTHY_FLIGHTS} flights of {HEALTHY_FLIGHT_S / 3600:g} h x 2 drift corrections"
+    hours = HEALTHY_FLIGHT_S / 3600
+    text = f"no fault: {HEALTHY_FLIGHTS} flights of {hours:g} h x 2 drift corrections"
     (HERE / "none.toml").write_text(sweep_toml("none", text, fixed, drifts, zipped))
 
 

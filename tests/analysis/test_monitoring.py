@@ -19,10 +19,17 @@ T = 2.0  # period, s
 
 
 def _flight(
-    root: Path, sweep: str, pid: str, onset: float, alarms: dict[int, str], n: int = 40
+    root: Path,
+    sweep: str,
+    pid: str,
+    onset: float,
+    alarms: dict[int, str],
+    verdict: str = "none",
+    n: int = 40,
 ) -> dict:
-    """A flight's folder: periods 2..n-1, tested from 12 on; ``alarms``: period -> verdict.
-    The statistic is 2x the threshold where alarmed, 0.5x elsewhere."""
+    """A flight's folder: periods 2..n-1, tested from 12 on; ``alarms``: period -> verdict;
+    ``verdict``: the monitor's own for the flight.  The statistic is 2x the threshold where
+    alarmed, 0.5x elsewhere."""
     folder = root / sweep / "points" / f"point_id={pid}"
     folder.mkdir(parents=True)
     periods = np.arange(2, n)
@@ -42,7 +49,12 @@ def _flight(
             "verdict": [alarms.get(p, "none") for p in periods],
         }
     )
-    meta = {b"probing.detector": json.dumps({"verdict_periods": 3}).encode()}
+    first = (min(alarms) + 1) * T if alarms else None
+    meta = {
+        b"probing.detector": json.dumps({"verdict_periods": 3}).encode(),
+        b"probing.first_alarm_s": json.dumps(first).encode(),
+        b"probing.verdict": verdict.encode(),
+    }
     pq.write_table(table.replace_schema_metadata(meta), folder / "monitor.parquet")
     return {
         "point_id": pid,
@@ -76,15 +88,20 @@ def study(tmp_path: Path) -> pd.DataFrame:
                 "d1",
                 41.0,
                 {22: "actuator", 23: "actuator", 24: "airframe"},
+                "actuator",
             ),
-            # a false alarm before the onset (15), then detected at period 28 (58 s)
+            # a false alarm before the onset (15), then detected at period 28 (58 s): its
+            # verdict was the false alarm's, so none for the fault
             _flight(
                 tmp_path,
                 "monitor-deadband",
                 "d2",
                 41.0,
                 {15: "airframe", 28: "airframe", 29: "actuator"},
+                "airframe",
             ),
+            # detected at 23 (48 s) and called airframe
+            _flight(tmp_path, "monitor-deadband", "d4", 41.0, {23: "airframe"}, "airframe"),
             _flight(tmp_path, "monitor-deadband", "d3", 41.0, {}),  # never detected
         ],
     }
@@ -105,19 +122,20 @@ def test_delay_and_verdict_after_the_onset(study):
     s = study.set_index("point_id")
     assert s.loc["d1"].delay_s == pytest.approx(46.0 - 41.0)
     assert s.loc["d1"].delay_periods == pytest.approx(2.5)
-    assert s.loc["d1"].verdict_after == "actuator"  # 2 of the first 3
+    assert s.loc["d1"].verdict_after == "actuator"  # the monitor's, its first alarm after
     assert s.loc["d2"].delay_s == pytest.approx(58.0 - 41.0)
-    assert s.loc["d2"].verdict_after == "airframe"  # tie of 1 and 1: airframe
+    assert s.loc["d2"].verdict_after == "none"  # the first alarm was a false one
+    assert s.loc["d4"].verdict_after == "airframe"
     assert math.isnan(s.loc["d3"].delay_s) and s.loc["d3"].verdict_after == "none"
 
 
 def test_fault_table_counts_and_goal(study):
     table = fault_table(study).set_index("fault").loc["dead band, a~/a = 0.8"]
-    assert table.flights == 3
-    assert table.p_detect == pytest.approx(2 / 3)
-    assert table.p_detect_goal == pytest.approx(1 / 3)  # 5 T = 10 s: only d1 (5 s)
-    assert (table.actuator, table.airframe, table.none) == (1, 1, 1)
-    assert table.verdict_right == pytest.approx(0.5)  # of the detected ones
+    assert table.flights == 4
+    assert table.p_detect == pytest.approx(3 / 4)
+    assert table.p_detect_goal == pytest.approx(2 / 4)  # 5 T = 10 s: d1 (5 s), d4 (7 s)
+    assert (table.actuator, table.airframe, table.none) == (1, 1, 2)
+    assert table.verdict_right == pytest.approx(1 / 3)  # of the detected ones
 
 
 def test_false_alarm_rate_has_poissons_exact_interval(study):
@@ -134,7 +152,7 @@ def test_false_alarm_rate_has_poissons_exact_interval(study):
 def test_roc_at_factor_one_is_the_monitors_own_operating_point(study):
     fa, p = roc(study, "deadband", "reference", [1.0, 3.0])
     hours = study.healthy_h.sum()
-    assert fa[0] == pytest.approx(3 / hours) and p[0] == pytest.approx(1 / 3)
+    assert fa[0] == pytest.approx(3 / hours) and p[0] == pytest.approx(2 / 4)
     assert fa[1] == 0 and p[1] == 0  # nothing exceeds 3x the threshold
 
 
@@ -143,9 +161,42 @@ def test_figures_show_the_scored_flights(study):
     line = fig.axes[0].get_lines()[0]  # dead band, reference
     x, y = line.get_xdata(), line.get_ydata()
     assert y[np.searchsorted(x, 2.4)] == pytest.approx(0.0)
-    assert y[np.searchsorted(x, 2.5)] == pytest.approx(1 / 3)  # d1 at 2.5 T
-    assert y[np.searchsorted(x, 8.5)] == pytest.approx(2 / 3)  # d2 at 8.5 T
-    assert y[-1] == pytest.approx(2 / 3)  # d3 never
+    assert y[np.searchsorted(x, 2.5)] == pytest.approx(1 / 4)  # d1 at 2.5 T
+    assert y[np.searchsorted(x, 3.5)] == pytest.approx(2 / 4)  # d4 at 3.5 T
+    assert y[np.searchsorted(x, 8.5)] == pytest.approx(3 / 4)  # d2 at 8.5 T
+    assert y[-1] == pytest.approx(3 / 4)  # d3 never
     fig = verdict_figure(study)
     texts = [t.get_text() for t in fig.axes[0].texts]
-    assert texts == ["1", "1", "1"]
+    assert texts == ["1", "1", "2"]
+
+
+def test_the_fault_figure_draws_the_monitored_channel_only(tmp_path):
+    """probing.parquet holds the monitored output and the surface (an instrument): the
+    before/after curves are the output's mean h_est over the four periods each side."""
+    from analysis.monitoring_plots import fault_figure
+
+    flight = _flight(tmp_path, "monitor-deadband", "f1", 41.0, {22: "actuator"}, "actuator")
+    folder = tmp_path / "monitor-deadband" / "points" / "point_id=f1"
+    taps = np.arange(5)
+    rows = []
+    for period in range(2, 40):
+        for channel, scale in (("theta_rad", 1.0), ("elevator_deg", 100.0)):
+            h = scale * (taps + 1) * (0.5 if period > 20 else 1.0)
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "channel": channel,
+                        "period": period,
+                        "tap": taps,
+                        "lag_s": taps * 0.01,
+                        "h_est": h,
+                    }
+                )
+            )
+    pd.concat(rows).to_parquet(folder / "probing.parquet")
+    pd.DataFrame([flight]).to_parquet(tmp_path / "monitor-deadband" / "summary.parquet")
+    flights = evaluate(load_study(tmp_path))
+    fig = fault_figure(flights, "deadband")
+    before, after = fig.axes[0].get_lines()[:2]
+    np.testing.assert_allclose(before.get_ydata(), taps + 1)  # periods 16-19
+    np.testing.assert_allclose(after.get_ydata(), 0.5 * (taps + 1))  # periods 21-24

@@ -107,6 +107,39 @@ def test_closed_loop_probing_matches_its_single_pulse_truth(tmp_path):
     assert rel_l2(z["closed"], z["open"]) > 0.3
 
 
+def test_a_twin_flying_our_own_commands_recovers_the_open_loop_response(tmp_path):
+    """drift = "follow": the nominal twin replays the probed aircraft's autopilot commands, so
+    the difference is the probe's own response through the airframe, P A q: in closed loop
+    the estimate is the open loop's (q within 1 %; theta within 2 %, where the slow modes'
+    transients of the two flights differ), not the closed loop's (over 50 % away)."""
+    common = {
+        "probe.order": 9,
+        "probe.amplitude_deg": 0.005,
+        "probe.periods": 5,
+        "output.channels": ["theta_rad", "q_rad_s"],
+        "output.estimator": None,
+        "disturbance": {"seed": 0},
+        "monitor": None,
+    }
+    z = {}
+    for name, changes in (
+        ("follow", {"output.drift": "follow"}),
+        ("open", {"control": None}),
+        ("closed", {}),
+    ):
+        scn = parse_scenario(closed_loop(name=name, **common, **changes))
+        run_scenario(scn, tmp_path, progress=False)
+        pr = pd.read_parquet(tmp_path / name / "probing.parquet")
+        z[name] = {
+            c: pr[(pr.channel == c) & (pr.period == 4)].z.to_numpy()
+            for c in common["output.channels"]
+        }
+    assert rel_l2(z["follow"]["q_rad_s"], z["open"]["q_rad_s"]) < 0.01
+    assert rel_l2(z["follow"]["theta_rad"], z["open"]["theta_rad"]) < 0.02
+    for channel in ("theta_rad", "q_rad_s"):
+        assert rel_l2(z["closed"][channel], z["open"][channel]) > 0.5
+
+
 # ------------------------------------------------------------------ faults on the probe path
 def test_a_nonlinearity_fault_acts_on_the_probe_path_from_its_onset(tmp_path):
     """nl_out_deg is the probe through [nonlinearity] and, from the onset step on, through the
@@ -198,6 +231,63 @@ def test_a_lost_elevator_panel_is_found_and_called_an_airframe_change(flights):
     assert result.verdict == "airframe"
     meta = pq.read_schema(folder / "probing.parquet").metadata
     assert json.loads(meta[b"probing.twin"])["nominal"] is True
+
+
+def with_surface(name: str, fault: dict) -> dict:
+    """The flight with the elevator's position sensor (a quarter of NASA's 0.01 deg) as the
+    monitor's instrument for isolation."""
+    return closed_loop(
+        name=name,
+        **{
+            "output.channels": ["theta_rad", "elevator_deg"],
+            "disturbance": {
+                "seed": 4,
+                "sensor_noise": {"theta_rad": THETA_NOISE_RAD, "elevator_deg": 0.0025},
+            },
+            "monitor": {"baseline_periods": 30, "windows": 4, "surface": True},
+            "fault": fault,
+        },
+    )
+
+
+@pytest.mark.parametrize(
+    ("fault", "surface", "verdict"),
+    [
+        ({"type": "effectiveness", "scale": 0.5, "onset_s": 25.0}, True, "actuator"),
+        ({"type": "stuck", "onset_s": 25.0}, True, "actuator"),
+        ({"type": "gtm_damage", "case": 5, "onset_s": 25.0}, True, "airframe"),
+    ],
+)
+def test_in_closed_loop_the_surface_tells_the_actuator_from_the_airframe(
+    tmp_path, fault, surface, verdict
+):
+    """A weaker or stuck elevator inside the loop changes the closed loop's shape (the
+    gain-and-offset rule then calls it airframe, docs/monitoring.md); isolating with the
+    surface's own response (H_y = P H_s: the airframe P unchanged; a stuck surface does not
+    answer the probe at all) calls it actuator, and NASA's lost elevator panel (P changed,
+    the surface still moves as asked) airframe."""
+    data = with_surface("s", fault) if surface else closed_loop(name="s", fault=fault)
+    result = monitor_scenario(parse_scenario(data), tmp_path, progress=False)
+    assert result.first_alarm_s is not None and result.first_alarm_s > 25.0
+    assert result.verdict == verdict
+    mon = pd.read_parquet(tmp_path / "s" / "monitor.parquet")
+    assert set(mon.channel) == {"theta_rad"}  # the surface is an instrument, not monitored
+
+
+def test_a_departure_ends_the_monitored_flight_and_keeps_what_came_before(tmp_path):
+    """Open loop, NASA's vertical tail lost at 22 s: the GTM departs; the monitor's record
+    ends at the divergence, with the alarm before it and the reason in the files."""
+    data = closed_loop(
+        name="dep",
+        **{"control": None, "fault": {"type": "gtm_damage", "case": 2, "onset_s": 22.0}},
+    )
+    result = monitor_scenario(parse_scenario(data), tmp_path, progress=False)
+    assert result.ended is not None and "t = " in result.ended
+    mon = pd.read_parquet(tmp_path / "dep" / "monitor.parquet")
+    assert mon.period.max() < 59  # ended before the last period
+    assert result.first_alarm_s is not None and 22.0 < result.first_alarm_s
+    meta = pq.read_metadata(tmp_path / "dep" / "probing.parquet").metadata
+    assert meta[b"probing.ended"].decode() == result.ended
 
 
 def test_monitor_file_has_a_row_per_period_and_its_verdict_in_the_metadata(flights):

@@ -23,7 +23,8 @@ def write(tmp_path: Path, body: str) -> Path:
 @pytest.mark.jsbsim
 def test_a_monitor_sweep_records_each_flights_findings_and_resumes(tmp_path):
     """Two flights with a dead band onset (a~/a = 0.6) at different times and seeds: both
-    found within 4 periods of their onset and called actuator faults; no reference runs; a rerun skips."""
+    found within 4 periods of their onset and called actuator faults; no reference runs; a
+    rerun skips."""
     path = write(
         tmp_path,
         'kind = "monitor"\n[fixed]\n"fault.type" = "nonlinearity"\n'
