@@ -35,7 +35,13 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from bench.common import BEFORE_GROUPING, bare_seconds_per_step, project_at, twin_cache_dir
+from bench.common import (
+    BEFORE_GROUPING,
+    bare_seconds_per_step,
+    child_json,
+    project_at,
+    twin_cache_dir,
+)
 from probing.core.correlator import StreamingCorrelator
 from probing.core.prbs import mls
 from probing.experiment.run import run_scenario
@@ -421,14 +427,7 @@ print(json.dumps({"import_s": imported, "first_s": walls[0], "second_s": walls[1
 
 def _flight_in_child(minutes: float) -> dict:
     with twin_cache_dir():
-        done = subprocess.run(
-            [sys.executable, "-m", "bench", "--child-flight", str(minutes)],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-    return json.loads(done.stdout.strip().splitlines()[-1])
+        return child_json("--child-flight", minutes)
 
 
 def bench_memory(args: argparse.Namespace) -> dict:

@@ -14,7 +14,13 @@ from pathlib import Path
 from probing.experiment.scenario import Scenario
 from probing.sim.plant import make_plant
 
-__all__ = ["BEFORE_GROUPING", "bare_seconds_per_step", "project_at", "twin_cache_dir"]
+__all__ = [
+    "BEFORE_GROUPING",
+    "bare_seconds_per_step",
+    "child_json",
+    "project_at",
+    "twin_cache_dir",
+]
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The main branch before issue [3/6] (every run loaded and trimmed its own aircraft): the
@@ -35,6 +41,22 @@ def twin_cache_dir() -> Iterator[Path]:
                 os.environ.pop("PROBING_TWIN_CACHE", None)
             else:
                 os.environ["PROBING_TWIN_CACHE"] = old
+
+
+def child_json(flag: str, value: float) -> dict:
+    """``python -m bench FLAG VALUE`` in a fresh process: its last line of stdout, as JSON
+    (a measurement that must not see this process's memory)."""
+    import json
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-m", "bench", flag, str(value)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:

@@ -11,14 +11,12 @@ memory of a long monitored flight.
 
 from __future__ import annotations
 
-import json
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
+from bench.common import child_json
 from probing.experiment import monitor as monitor_module
 from probing.experiment.monitor import monitor_scenario
 from probing.experiment.run import run_scenario
@@ -81,17 +79,6 @@ def child_monitor(hours: float) -> dict:
     }
 
 
-def _in_child(hours: float) -> dict:
-    done = subprocess.run(
-        [sys.executable, "-m", "bench", "--child-monitor", str(hours)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def bench_monitor(quick: bool = False, repeats: int = 3) -> dict:
     """Detector cost (interleaved repeats) and the memory of short and long flights."""
     scn = flight(0.05 if quick else 0.25)
@@ -108,7 +95,10 @@ def bench_monitor(quick: bool = False, repeats: int = 3) -> dict:
         "monitored_wall_s": walls,
         "detector_s": spent,
         "plain_wall_s": plain,
-        "memory": {"short": _in_child(short), "long": _in_child(long)},
+        "memory": {
+            "short": child_json("--child-monitor", short),
+            "long": child_json("--child-monitor", long),
+        },
     }
 
 

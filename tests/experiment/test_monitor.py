@@ -68,21 +68,25 @@ def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
+#: The paper's probe on theta and q, noise-free, no monitor: for comparing responses.
+PAPER_PROBE = {
+    "probe.order": 9,
+    "probe.amplitude_deg": 0.005,
+    "probe.periods": 5,
+    "output.channels": ["theta_rad", "q_rad_s"],
+    "output.estimator": None,
+    "disturbance": {"seed": 0},
+    "monitor": None,
+}
+
+
 # ------------------------------------------------------------------ closed-loop truth
 def test_closed_loop_probing_matches_its_single_pulse_truth(tmp_path):
     """Closed loop, the paper's probe (M = 511, a = 0.005 deg), no noise: every settled
     period's z agrees with the single-pulse response of the twin flown with the same
     autopilot, superposed over the probe history, within the open-loop test's 1 %; and the
     closed loop's response is not the open loop's (the autopilot acts within the memory)."""
-    common = {
-        "probe.order": 9,
-        "probe.amplitude_deg": 0.005,
-        "probe.periods": 5,
-        "output.channels": ["theta_rad", "q_rad_s"],
-        "output.estimator": None,
-        "disturbance": {"seed": 0},
-        "monitor": None,
-    }
+    common = PAPER_PROBE
     z = {}
     for name, control in (("closed", "keep"), ("open", None)):
         changes = {**common, "name": name}
@@ -112,15 +116,7 @@ def test_a_twin_flying_our_own_commands_recovers_the_open_loop_response(tmp_path
     the difference is the probe's own response through the airframe, P A q: in closed loop
     the estimate is the open loop's (q within 1 %; theta within 2 %, where the slow modes'
     transients of the two flights differ), not the closed loop's (over 50 % away)."""
-    common = {
-        "probe.order": 9,
-        "probe.amplitude_deg": 0.005,
-        "probe.periods": 5,
-        "output.channels": ["theta_rad", "q_rad_s"],
-        "output.estimator": None,
-        "disturbance": {"seed": 0},
-        "monitor": None,
-    }
+    common = PAPER_PROBE
     z = {}
     for name, changes in (
         ("follow", {"output.drift": "follow"}),
