@@ -33,7 +33,7 @@ THETA_NOISE_RAD = math.radians(0.02)
 #: NASA's control-surface position noise, pots (NoiseParams_T2.m): 0.01 deg.
 SURFACE_NOISE_DEG = 0.01
 FALSE_ALARMS_PER_HOUR = 0.1
-AMPLITUDE_DEG = 0.2  # the design's amplitude (its default, 0.005 deg, needs 2132 periods)
+AMPLITUDE_DEG = 0.2  # the design's amplitude (the paper's 0.005 deg needs > 2000 periods)
 SEEDS = 50
 BASELINE = 50
 ONSET_PERIODS = (55, 75)
