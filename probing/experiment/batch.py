@@ -149,7 +149,7 @@ def _run_grouped(
         except Exception:  # each run loads and trims itself, and reports the failure as usual
             aircraft = None
         if aircraft is not None:
-            if any(s.control and s.control.active for s in members):
+            if any(s.flight.closed_loop for s in members):
                 control_power(members[0].flight)  # once, inherited by every child
             if any(s.follows for s in members):
                 aircraft.add_second()  # the twins that fly the runs' own commands

@@ -150,7 +150,7 @@ class _Rig:
     ) -> _Rig:
         probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
         flight = scn.flight
-        power = control_power(flight) if scn.control and scn.control.active else None
+        power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
         loop = None
         if scn.stepped_one_by_one:

@@ -27,6 +27,7 @@ from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
 from probing.sim.flight import (
+    ACTUATOR_FAULTS,
     DAMAGE_CASES,
     DAMAGE_MODEL,
     SPEED_KINDS,
@@ -72,7 +73,7 @@ SECTIONS: dict[str, set[str] | None] = {
 }
 #: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
 #: that appears on the probe path, and faults of the elevator's actuator.
-FAULT_TYPES = ("gtm_damage", "nonlinearity", "effectiveness", "stuck")
+FAULT_TYPES = ("gtm_damage", "nonlinearity", *ACTUATOR_FAULTS)
 #: Fields of each fault type besides ``type`` and ``onset_s``.
 _FAULT_FIELDS = {
     "gtm_damage": ("case",),
@@ -205,7 +206,7 @@ class Scenario:
     @property
     def actuator_fault(self) -> ActuatorFault | None:
         """The elevator actuator's fault (``effectiveness``, ``stuck``), or None."""
-        if self.fault_type not in ("effectiveness", "stuck"):
+        if self.fault_type not in ACTUATOR_FAULTS:
             return None
         return ActuatorFault(self.fault_type, self.fault_onset_s, self.fault_scale)
 
@@ -235,7 +236,7 @@ class Scenario:
     def stepped_one_by_one(self) -> bool:
         """True if the run steps one step at a time (:class:`probing.sim.control.ClosedLoop`):
         an autopilot or an actuator fault acts between the probe and the surface."""
-        return bool(self.control and self.control.active) or self.actuator_fault is not None
+        return self.flight.closed_loop or self.actuator_fault is not None
 
     def build_nonlinearity(self) -> Nonlinearity | None:
         """The scenario's nonlinearity (parameters in deg, deg/s), or None for ``none``."""

@@ -234,6 +234,11 @@ class Flight:
         )
 
     @property
+    def closed_loop(self) -> bool:
+        """True if the autopilot closes a loop after the trim."""
+        return self.control is not None and self.control.active
+
+    @property
     def nominal(self) -> Flight:
         """The same flight without the damage that comes in flight: what a monitor's
         reference model flies."""

@@ -59,13 +59,12 @@ def single_pulse_response(
         Channel -> h, shape (n_bits,), in the channel's unit per deg.
     """
     n_steps = n_bits * steps_per_bit
-    closed = flight.control is not None and flight.control.active
-    power = control_power(flight) if closed else None
+    power = control_power(flight) if flight.closed_loop else None
     pulsed, reference = make_plant(flight), make_plant(flight)
     trim = pulsed.trim_result
     out_p = np.empty((n_steps, len(channels)))
     out_r = np.empty((n_steps, len(channels)))
-    if closed:  # both fly with the autopilot; the pulse enters between it and the surface
+    if power is not None:  # both fly the autopilot; the pulse enters between it and the surface
         pulse = np.zeros(n_steps)
         pulse[:steps_per_bit] = amplitude_deg
         ClosedLoop(pulsed, flight.control, power).step(
@@ -108,7 +107,7 @@ def linear_pulse_response(
         Channel -> h, shape (n_bits,), in the channel's unit per deg; empty for a
         closed-loop flight (the linearisation is the open-loop aircraft's).
     """
-    if flight.control is not None and flight.control.active:
+    if flight.closed_loop:
         return {}
     plant = make_plant(flight)
     lin = plant.linearise()

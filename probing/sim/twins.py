@@ -112,14 +112,10 @@ def twin_spec(flight: Flight, channels: Sequence[str], steps: int) -> dict[str, 
             else {}
         ),
         # the autopilot the twin flies with (absent in open loop)
-        **({"control": flight.control.to_dict()} if _closed(flight) else {}),
+        **({"control": flight.control.to_dict()} if flight.closed_loop else {}),
         "channels": list(channels),
         "source_sha256": _source_digest(),
     }
-
-
-def _closed(flight: Flight) -> bool:
-    return flight.control is not None and flight.control.active
 
 
 def twin_key(flight: Flight, channels: Sequence[str], steps: int) -> str:
@@ -205,7 +201,7 @@ class ReferenceTwin:
                 self._open_temporary()
         if not self.cached:
             try:
-                power = control_power(flight) if _closed(flight) else None
+                power = control_power(flight) if flight.closed_loop else None
                 self._plant = plant if plant is not None else make_plant(flight)
                 self._nodes = self._plant.channel_nodes(list(channels))
                 if power is not None:
