@@ -27,7 +27,6 @@ With every loop open and no actuator fault, :meth:`ClosedLoop.step` steps exactl
 
 from __future__ import annotations
 
-import bisect
 import functools
 from dataclasses import dataclass
 
@@ -139,25 +138,11 @@ class ClosedLoop:
             i += 1
         self._throttle0 = trim.throttle_norm
         self._trim_deg = trim.elevator_deg
-        self._lo, self._hi = plant.elevator_range_deg
-        self._map_deg = plant._map_deg.tolist()  # sorted by surface (the calibrated map)
-        self._map_cmd = plant._map_cmd.tolist()
         self._gains = _gains(control, power) if control.active else None
         self._integral = [0.0, 0.0, 0.0]  # pitch, bank, speed
         self._stuck_deg: float | None = None
         self._aileron_now, self._throttle_now = self._aileron0, self._throttle0
         self.dt_s = plant.dt_s
-
-    def _command(self, surface_deg: float) -> float:
-        """The normalised command that puts the elevator at ``surface_deg`` (clipped to its
-        range): the plant's calibrated map, one scalar at a time."""
-        s = min(max(surface_deg, self._lo), self._hi)
-        xs, ys = self._map_deg, self._map_cmd
-        if s == xs[-1]:
-            return ys[-1]
-        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
-        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
-        return slope * (s - xs[j]) + ys[j]  # numpy.interp's own formula: the same bits
 
     def step(
         self,
@@ -200,6 +185,7 @@ class ClosedLoop:
         gains, integral, dt = self._gains, self._integral, self.dt_s
         c = self.control
         set_el = plant._cmd_node.set_double_value
+        command = plant.elevator_command_clipped
         get_pos = plant._pos_node.get_double_value
         set_ail = self._aileron.set_double_value
         set_thr = [t.set_double_value for t in self._throttles]
@@ -240,7 +226,7 @@ class ClosedLoop:
                     surface = self._stuck_deg
                 else:
                     surface = trim_deg + fault.scale * (surface - trim_deg)
-            set_el(self._command(surface))
+            set_el(command(surface))
             if damage is not None and step == damage[1]:
                 plant.damage(damage[0])
                 plant._fault = damage = None
@@ -284,7 +270,7 @@ class ClosedLoop:
         set_ail = self._aileron.set_double_value
         set_thr = [t.set_double_value for t in self._throttles]
         getters = [node.get_double_value for node in nodes]
-        trim_deg, command = self._trim_deg, self._command
+        trim_deg, command = self._trim_deg, plant.elevator_command_clipped
         values: list[float] = []
         append = values.append
         run = plant.fdm.run

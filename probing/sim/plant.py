@@ -13,6 +13,7 @@ failed trim raises.
 
 from __future__ import annotations
 
+import bisect
 import collections
 import math
 import os
@@ -341,12 +342,25 @@ class Plant:
             grid, surface = grid[::-1], surface[::-1]
         keep = np.concatenate(([True], np.diff(surface) > 0))
         self._map_cmd, self._map_deg = grid[keep], surface[keep]
+        self._map_cmd_list, self._map_deg_list = self._map_cmd.tolist(), self._map_deg.tolist()
 
     @property
     def elevator_range_deg(self) -> tuple[float, float]:
         """Surface deflections reachable through the command (deg)."""
         assert self._map_deg is not None, "trim first"
         return float(self._map_deg[0]), float(self._map_deg[-1])
+
+    def elevator_command_clipped(self, surface_deg: float) -> float:
+        """The normalised command for one deflection ``surface_deg`` (deg), clipped to the
+        range: the same map and the same bits as :meth:`elevator_command` (``numpy.interp``'s
+        own formula), for a loop that computes its command one step at a time."""
+        xs, ys = self._map_deg_list, self._map_cmd_list  # sorted by surface: its range at the ends
+        s = min(max(surface_deg, xs[0]), xs[-1])
+        if s == xs[-1]:
+            return ys[-1]
+        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
+        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
+        return slope * (s - xs[j]) + ys[j]
 
     def elevator_command(self, surface_deg: np.ndarray) -> np.ndarray:
         """Normalised commands that put the elevator exactly at ``surface_deg`` (deg)."""
