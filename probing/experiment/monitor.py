@@ -104,7 +104,7 @@ class _Monitor:
             for _ in self.monitored
         ]
         self.first = max(scn.settle_periods, scn.first_estimated_period)
-        self.rows: list[tuple[int, str]] = []  # (period, verdict) of alarmed rows
+        self.first_alarm: int | None = None  # the first alarmed period, any channel
         #: each monitored channel's verdict: decided once its isolation periods are in, the
         #: latest alarmed row's until then ("none": no alarm yet)
         self.verdicts = ["none"] * len(self.monitored)
@@ -143,20 +143,19 @@ class _Monitor:
                     ("verdict", d.verdict),
                 ):
                     cols[name].append(value)
-                if d.alarm:
-                    self.rows.append((p, d.verdict))
+                if d.alarm and self.first_alarm is None:
+                    self.first_alarm = p
         if cols["period"] and self.writer is not None:
             self.writer.write(cols)
 
     def finish(self) -> None:
         """The first alarm and the verdict into the file's footer."""
-        first, verdict = self._found()
         assert self.writer is not None
         self.writer.add_metadata(
             metadata(
-                first_alarm_s=None if first is None else (first + 1) * self.period_s,
-                first_alarm_period=first,
-                verdict=verdict,
+                first_alarm_s=self._first_alarm_s(),
+                first_alarm_period=self.first_alarm,
+                verdict=flight_verdict(self.verdicts),
                 detector={
                     **self.settings.to_dict(),
                     "alpha_per_period": self.alpha,
@@ -167,14 +166,19 @@ class _Monitor:
             )
         )
 
-    def _found(self) -> tuple[int | None, str]:
-        first = min((p for p, _ in self.rows), default=None)
-        return first, flight_verdict(self.verdicts)
+    def _first_alarm_s(self) -> float | None:
+        """The end of the first alarmed period after the trim, s."""
+        return None if self.first_alarm is None else (self.first_alarm + 1) * self.period_s
 
     def result(self, run: RunResult) -> MonitorResult:
-        first, verdict = self._found()
-        time_s = None if first is None else (first + 1) * self.period_s
-        return MonitorResult(run, time_s, first, verdict, self.alpha, run.ended)
+        return MonitorResult(
+            run,
+            self._first_alarm_s(),
+            self.first_alarm,
+            flight_verdict(self.verdicts),
+            self.alpha,
+            run.ended,
+        )
 
 
 def monitor_scenario(
