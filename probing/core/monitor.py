@@ -264,14 +264,9 @@ class ChangeDetector:
     def _test(self) -> Decision:
         n = len(self._recent)
         h = np.mean([x[0] for x in self._recent], axis=0)
-        v, base = self.w @ h, self._v
-        d = v - base.mean
-        v0 = base.mean
-        t2 = base.t2(d, n)
-        p_t2 = base.p_value(t2)
-        g = float(v0 @ v / (v0 @ v0))
-        scale = math.sqrt(float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2 * (1.0 / n + 1.0 / self.b))
-        p_gain = 2.0 * float(stdtr(self.b - 1, -abs(g - 1.0) / scale)) if scale > 0 else 1.0
+        v = self.w @ h
+        d = v - self._v.mean
+        p_t2, p_gain = self._p_values(v, n)
         p = min(1.0, 2.0 * min(p_t2, p_gain))
         statistic = -math.log10(max(p, _P_FLOOR))
         gain = 1.0 + float((self._fit @ d)[0])
@@ -282,6 +277,17 @@ class ChangeDetector:
         shape = self._airframe_change(self._since_alarm or [self._recent[-1]])
         verdict = ("airframe" if shape > 1.0 else "actuator") if alarm else "none"
         return Decision(statistic, self.threshold, alarm, gain, shape, verdict)
+
+    def _p_values(self, v: np.ndarray, n: int) -> tuple[float, float]:
+        """The two tests' p-values of no change for a mean ``v`` (reduced) of ``n`` periods:
+        Hotelling's T^2 and the two-sided gain test."""
+        base = self._v
+        v0 = base.mean
+        p_t2 = base.p_value(base.t2(v - v0, n))
+        g = float(v0 @ v / (v0 @ v0))
+        scale = math.sqrt(float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2 * (1.0 / n + 1.0 / self.b))
+        p_gain = 2.0 * float(stdtr(self.b - 1, -abs(g - 1.0) / scale)) if scale > 0 else 1.0
+        return p_t2, p_gain
 
     @property
     def isolated(self) -> bool:

@@ -39,6 +39,22 @@ def test_false_alarms_per_period_are_alpha(window):
     assert abs(alarms / tests - alpha) < band, (alarms / tests, alpha)
 
 
+@pytest.mark.parametrize("window", [1, 2])
+def test_each_test_alone_is_exact_even_on_a_short_baseline(window):
+    """A baseline of 8 periods, K = 3: each test's p-value falls below 0.05 in 5 % of the
+    periods under no change (one test per detector: they are independent), where reading
+    the baseline's mean and covariance as exact (no 1/B, no t and F tails) would not."""
+    rng = np.random.default_rng(7)
+    below = np.zeros(2)
+    tests = 6000
+    for _ in range(tests):
+        det = _learned(rng, baseline=8, alpha=0.01, windows=3, window=window)
+        mean = np.mean([H0 + SIGMA * rng.standard_normal(M) for _ in range(window)], axis=0)
+        below += np.array(det._p_values(det.w @ mean, window)) < 0.05
+    band = 3 * np.sqrt(0.05 * 0.95 / tests)
+    np.testing.assert_allclose(below / tests, 0.05, atol=band)
+
+
 def test_a_gain_and_offset_keep_the_shape_test_at_its_level_and_the_gain_is_estimated():
     """An actuator-like change (gain 0.8 and an offset on every tap) is called a shape change
     at the shape test's level only, one decision per detector (on the three periods after its
