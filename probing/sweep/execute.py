@@ -149,8 +149,9 @@ def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
     without a record (killed) gives an ``error`` record and no ``failed/`` file, so the run
     is tried again by the next invocation.
     """
-    import probing.experiment.run  # noqa: F401  (once here, not in every child: Dask workers)
     from probing.experiment.batch import run_grouped
+
+    _import_task_code()
 
     records: list[dict[str, Any]] = []
     todo = []
@@ -171,6 +172,16 @@ def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
                 | {"status": "error", "wall_s": math.nan}
             )
     return records
+
+
+def _import_task_code() -> None:
+    """Import what :func:`execute_task` imports when it runs, here, before the runs fork: a
+    module imported in a forked child is imported (and, without bytecode files, compiled)
+    again in every child, ~8 ms a run for the monitor alone."""
+    import probing.experiment.monitor
+    import probing.experiment.noise
+    import probing.experiment.run
+    import probing.sim.errors  # noqa: F401
 
 
 def _scenario_of(task: _Task) -> Scenario:
@@ -210,8 +221,7 @@ class _Local:
         import pandas  # noqa: F401
         import pyarrow.parquet  # noqa: F401
 
-        import probing.experiment.run  # noqa: F401
-
+        _import_task_code()
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         workers = min(self.jobs, len(chunks))
         with ProcessPoolExecutor(

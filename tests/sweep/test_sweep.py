@@ -529,3 +529,27 @@ def test_sweep_prints_a_rounded_table_of_what_is_stored_as_computed(
     row = next(line.split() for line in out.splitlines() if line.startswith("1 "))
     assert row[:5] == ["1", "backlash", "0.0025", "done", "0.875"]
     assert "0.8750000000000001" not in out
+
+
+@pytest.mark.jsbsim
+def test_forked_runs_import_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chunk imports what its runs need before it forks them: a module imported in a child
+    is imported (and compiled, without bytecode files) again in every child."""
+    import probing.sweep.execute as execute
+
+    def recording(task, aircraft=None):  # runs in the forked child
+        before = set(sys.modules)
+        record = run_task(task, aircraft)
+        return {**record, "imported": sorted(set(sys.modules) - before)}
+
+    run_task = execute.execute_task
+    monkeypatch.setattr(execute, "execute_task", recording)
+    sweep = load_sweep(SMALL)
+    points_dir, _, failed_dir = execute.sweep_folders(tmp_path / sweep.name)
+    tasks = [
+        execute._task("point", p.point_id, p.scenario, points_dir, failed_dir)
+        for p in sweep.points[:2]
+    ]
+    records = execute.execute_chunk(tasks)
+    assert [r["status"] for r in records] == ["done"] * 2
+    assert [r["imported"] for r in records] == [[]] * 2
