@@ -23,6 +23,7 @@ import platform
 import pstats
 import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -42,6 +43,7 @@ from bench.common import (
     project_at,
     twin_cache_dir,
 )
+from bench.per_point import _same_data
 from probing.core.correlator import StreamingCorrelator
 from probing.core.prbs import mls
 from probing.experiment.run import run_scenario
@@ -666,11 +668,26 @@ def bench_fig4(args: argparse.Namespace) -> dict:
         )
         replots.append(time.perf_counter() - t0)
 
-    with project_at(BEFORE_GROUPING) as old_tree:
+    kept: dict[str, Path] = {}
+
+    def keep(name: str) -> Callable[[Path, str], None]:
+        def then(tmp: Path, stdout: str) -> None:  # the first repeat's runs, compared below
+            if name not in kept:
+                kept[name] = Path(shutil.copytree(tmp / "results", cmp_dir / name))
+
+        return then
+
+    def ours(tmp: Path, stdout: str) -> None:
+        measure(tmp, stdout)
+        keep("after")(tmp, stdout)
+
+    with project_at(BEFORE_GROUPING) as old_tree, tempfile.TemporaryDirectory() as cmp:
+        cmp_dir = Path(cmp)
         for _ in range(args.fig4_repeats):  # interleaved with the main before [3/6]
             if old_tree is not None:
-                main_walls.append(_fig4_once(old_tree))
-            walls.append(_fig4_once(ROOT, measure))
+                main_walls.append(_fig4_once(old_tree, keep("main")))
+            walls.append(_fig4_once(ROOT, ours))
+        same = _same_data(kept["main"], kept["after"], "**/*.parquet") if "main" in kept else None
     steps, runs, twins = found["steps"], found["runs"], found["twins"]
     bare = 0.0
     per_group = []
@@ -691,6 +708,7 @@ def bench_fig4(args: argparse.Namespace) -> dict:
         "walls": walls,
         "main_revision": BEFORE_GROUPING,
         "main_walls": main_walls,
+        "same_data_as_main": same,
         "simulation_wall_s": statistics.median(sim_walls),
         "replot_wall_s": statistics.median(replots),
         "steps": sum(n for n, _ in steps.values()),
@@ -701,6 +719,10 @@ def bench_fig4(args: argparse.Namespace) -> dict:
         "ratio": wall / bare,
         "profile": {**prof, "jsbsim_run_s_estimate": bare},
     }
+
+
+def _gtm_xml_mb() -> float:
+    return (ROOT / "aircraft" / "gtm_t2" / "gtm_t2.xml").stat().st_size / 1e6
 
 
 def render_fig4(r: dict) -> Rendered:
@@ -718,7 +740,7 @@ def render_fig4(r: dict) -> Rendered:
             Row(
                 "`make fig4` end to end",
                 f"{r['wall_s']:.1f} s",
-                f"{main:.1f} s (main before [3/6], {r['main_revision']})",
+                f"{main:.1f} s (main before [3/6], {r['main_revision']}, same aircraft files)",
                 f"{r['wall_s'] / main:.2f}",
                 "< 0.5",
                 r["wall_s"] / main < 0.5,
@@ -734,8 +756,14 @@ def render_fig4(r: dict) -> Rendered:
         "`python -m probing fig4 --out TMP --figures TMP --force` in a fresh process with an "
         f"empty twin cache: {r['runs']} runs (panels, offset twin, rate-limit sweep) that "
         f"simulate only {r['twins_simulated']} twins between them; the aircraft is loaded "
-        f"and trimmed once per flight condition, where the main before [3/6] loaded it "
-        f"{loads} times. Steps counted from the Parquet metadata of every run "
+        f"and trimmed once per flight condition, where the main before [3/6] (its code, "
+        f"flying the same aircraft files) loaded it {loads} times; "
+        + {
+            True: "the Parquet data of every run is the same in both (checked). ",
+            False: "**the Parquet data of the runs differs from that main's.** ",
+            None: "",
+        }[r.get("same_data_as_main")]
+        + "Steps counted from the Parquet metadata of every run "
         f"(twin steps only where simulated): {groups} (bare per-step time measured here).",
         "",
         "| part | s |",
@@ -753,7 +781,8 @@ def render_fig4(r: dict) -> Rendered:
         'two at a time (see "Per-point cost"). For comparison, the profile of the same '
         "runs in one process, each loading its aircraft as before grouping (`PROBING_FORK=0`, "
         f"{r['profile']['wall_s']:.1f} s under cProfile): there the model load dominates, "
-        "the GTM's 3.3 MB XML parsed by JSBSim for every aircraft (`Plant.__init__`):",
+        f"the GTM's {_gtm_xml_mb():.1f} MB XML parsed by JSBSim for every aircraft "
+        "(`Plant.__init__`):",
         "",
         *render_profile(r["profile"], r["steps"], r["profile"]["jsbsim_run_s_estimate"]),
     ]

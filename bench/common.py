@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import statistics
 import subprocess
 import tempfile
@@ -73,10 +74,15 @@ def bare_seconds_per_step(scn: Scenario, steps: int, repeats: int) -> float:
 
 @contextmanager
 def project_at(revision: str) -> Iterator[Path | None]:
-    """The project's files at ``revision`` in a temporary folder (``git archive``), or None
-    where the revision is not in this clone's history.  Run ``python -m probing`` with that
-    folder as working directory to run that version's code (the venv's editable install is
-    shadowed by the working directory); nothing of this checkout changes."""
+    """The project's code at ``revision`` in a temporary folder (``git archive``), flying this
+    checkout's aircraft files, or None where the revision is not in this clone's history.
+
+    Run ``python -m probing`` with that folder as working directory to run that version's
+    code (the venv's editable install is shadowed by the working directory); nothing of
+    this checkout changes.  The aircraft folder is this checkout's, so both versions fly the
+    same model and their results can be compared number for number: what is measured is
+    the code (a model that changed since, larger or slower, would otherwise be counted as
+    the code's)."""
     with tempfile.TemporaryDirectory(prefix=f"bench-{revision}-") as tmp:
         archive = subprocess.run(
             ["git", "-C", str(ROOT), "archive", "--format=tar", revision],
@@ -86,4 +92,6 @@ def project_at(revision: str) -> Iterator[Path | None]:
             yield None
             return
         subprocess.run(["tar", "-x", "-C", tmp], input=archive.stdout, check=True)
+        shutil.rmtree(Path(tmp) / "aircraft", ignore_errors=True)
+        shutil.copytree(ROOT / "aircraft", Path(tmp) / "aircraft")
         yield Path(tmp)
