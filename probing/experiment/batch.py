@@ -149,6 +149,8 @@ def _run_grouped(
         except Exception:  # each run loads and trims itself, and reports the failure as usual
             aircraft = None
         if aircraft is not None:
+            for surface in sorted({s.surface for s in members}):
+                aircraft.plant.drive(surface)  # calibrated once, undisturbed, before forking
             if any(s.flight.closed_loop for s in members):
                 control_power(members[0].flight)  # once, inherited by every child
             if any(s.follows for s in members):

@@ -470,8 +470,9 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     """
     base = request.validate()
     plant = make_plant(base.flight)
-    lo, hi = plant.elevator_range_deg
-    trim = plant.trim_result.elevator_deg
+    drive = plant.drive()
+    lo, hi = drive.range
+    trim = drive.trim_position
     modes = longitudinal_modes(plant)
     shape = probe_shape(
         request,

@@ -21,7 +21,7 @@ import numpy as np
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.experiment.run import RunResult, run_scenario
-from probing.experiment.scenario import SURFACE_CHANNEL, Scenario
+from probing.experiment.scenario import Scenario
 from probing.experiment.storage import MONITOR_SCHEMA, AtomicParquetWriter, OutputFolder, metadata
 from probing.sim.fork import TrimmedAircraft
 
@@ -86,7 +86,7 @@ class _Monitor:
         self.scn, self.settings = scn, settings
         self.period_s = scn.bits_per_period * scn.bit_duration_s
         channels = list(scn.channels)
-        self.surface = channels.index(SURFACE_CHANNEL) if settings.surface else None
+        self.surface = channels.index(scn.surface_channel) if settings.surface else None
         self.monitored = [(j, c) for j, c in enumerate(channels) if j != self.surface]
         self.alpha = settings.alpha(self.period_s, len(self.monitored))
         m = scn.bits_per_period

@@ -114,7 +114,7 @@ def linear_model(
             (outcome,) = forked_map(copy, [key[0]])
             _LINEAR[key] = outcome.get()
         else:
-            _LINEAR[key] = linear_response(make_plant(key[0]), key[1])
+            _LINEAR[key] = linear_response(make_plant(key[0]), key[1], key[0].surface)
     return _LINEAR[key]
 
 
@@ -124,7 +124,7 @@ _LINEAR: dict[tuple[Flight, tuple[str, ...]], LinearResponse] = {}
 def _linearise_copy(
     flight: Flight, aircraft: TrimmedAircraft, channels: tuple[str, ...]
 ) -> LinearResponse:
-    return linear_response(aircraft.plant_for(flight), channels)
+    return linear_response(aircraft.plant_for(flight), channels, flight.surface)
 
 
 def _step_response(flight: Flight, channels: tuple[str, ...], steps: int) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 Timing conventions (documented in ``docs/method.md``):
 
-* Step k applies probe sample k (the elevator command is written, then
+* Step k applies probe sample k (the probed surface's command is written, then
   ``run()``); output sample k is read right after that step.
 * A bit spanning several steps becomes one correlator sample: the output read
   after the *last* step of the bit (end-of-bit sampling).  This is exactly the
@@ -47,7 +47,7 @@ from probing.sim.control import ClosedLoop, control_power
 from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
-from probing.sim.plant import Plant, TrimResult, make_plant
+from probing.sim.plant import Plant, SurfaceDrive, TrimResult, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
@@ -57,7 +57,7 @@ PROBING_TEXT = (
     "estimate h_est, one row per channel, period and tap"
 )
 TIMESERIES_TEXT = (
-    "the run step by step: probe, nonlinearity output, realised elevator, measured outputs "
+    "the run step by step: probe, nonlinearity output, realised surface, measured outputs "
     "(sensor noise added) and the unprobed twin's outputs"
 )
 #: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
@@ -131,6 +131,7 @@ class _Rig:
     nodes: list
     y_trim: np.ndarray
     twin: ReferenceTwin | None
+    drive: SurfaceDrive | None = None  # the probed surface, driven by its position
     loop: ClosedLoop | None = None  # stepping one step at a time: autopilot, actuator fault
     fault_nl: Nonlinearity | None = None  # a nonlinearity that appears on the probe path
     nominal_twin: bool = False
@@ -154,7 +155,9 @@ class _Rig:
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
         loop = None
         if scn.stepped_one_by_one:
-            loop = ClosedLoop(plant, scn.control or Control(), power, scn.actuator_fault)
+            loop = ClosedLoop(
+                plant, scn.control or Control(), power, scn.actuator_fault, scn.surface
+            )
         nodes = plant.channel_nodes(list(scn.channels))
         y_trim = np.array([n.get_double_value() for n in nodes])
         twin = None
@@ -175,6 +178,7 @@ class _Rig:
             nodes,
             y_trim,
             twin,
+            plant.drive(scn.surface),
             loop,
             scn.build_fault_nonlinearity(),
             nominal_twin,
@@ -219,9 +223,9 @@ class _Chunk:
 
     first: int
     count: int
-    nl_out: np.ndarray  # (rows,) probe after the nonlinearity, deg
-    elevator: np.ndarray  # (rows,) realised elevator, deg
-    control: np.ndarray | None  # (rows,) the autopilot's elevator command, deg (closed loop)
+    nl_out: np.ndarray  # (rows,) probe after the nonlinearity, the surface's unit
+    surface: np.ndarray  # (rows,) realised position of the probed surface, its unit
+    control: np.ndarray | None  # (rows,) the autopilot's command of the surface (closed loop)
     measured: np.ndarray  # (rows, C) outputs with sensor noise
     reference: np.ndarray | None  # (rows, C) the twin's outputs
 
@@ -237,13 +241,14 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     chunk = rig.chunk_periods
     out = np.empty((chunk * n_steps, n_ch))
     ref = np.empty((chunk * n_steps, n_ch))
-    elevator = np.empty(chunk * n_steps)
+    surface = np.empty(chunk * n_steps)
     nl_out = np.empty(chunk * n_steps)
     control = np.empty(chunk * n_steps) if rig.loop else None
     commands = np.empty((chunk * n_steps, 3)) if rig.follower else None
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
-    trim_deg = rig.plant.trim_result.elevator_deg
+    drive = rig.drive
+    trim = drive.trim_position
     for first in range(0, scn.periods, chunk):
         k = min(chunk, scn.periods - first)
         rows = k * n_steps
@@ -257,10 +262,10 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             nl_out[span] = q
             if rig.loop:
                 flown = commands[span] if commands is not None else None
-                rig.loop.step(q, rig.nodes, out[span], elevator[span], control[span], flown)
+                rig.loop.step(q, rig.nodes, out[span], surface[span], control[span], flown)
             else:
-                cmd = rig.plant.elevator_command(trim_deg + q)
-                rig.plant.step(cmd, rig.nodes, out[span], elevator[span])
+                cmd = drive.command(trim + q)
+                rig.plant.step(cmd, rig.nodes, out[span], surface[span], drive)
             try:
                 rig.plant.check_state()
                 if rig.follower:
@@ -287,7 +292,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             first,
             k,
             nl_out[:rows],
-            elevator[:rows],
+            surface[:rows],
             None if control is None else control[:rows],
             measured,
             ref[:rows] if rig.twin or rig.follower else None,
@@ -557,11 +562,12 @@ def run_scenario(
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     x_period = probe.samples(scn.dt_s, 1)
     with_reference = rig.twin is not None or rig.follower is not None
-    ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None)
+    ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
     with rig.twin or nullcontext(), output_folder(folder, rig.metadata()) as outputs:
-        w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels)
+        per = scn.surface_unit
+        w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels, per)
         w_ts = (
-            outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels)
+            outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels, per)
             if timeseries
             else None
         )
@@ -604,14 +610,15 @@ def _timeseries_rows(
     c: _Chunk, x_period: np.ndarray, n_steps: int, scn: Scenario, channels: list[str]
 ) -> dict[str, np.ndarray]:
     rows = c.count * n_steps
+    u = scn.surface_unit
     cols = {
         "time_s": (c.first * n_steps + np.arange(1, rows + 1)) * scn.dt_s,
-        "probe_deg": np.tile(x_period, c.count),
-        "nl_out_deg": c.nl_out,
-        "elevator_deg": c.elevator,
+        f"probe_{u}": np.tile(x_period, c.count),
+        f"nl_out_{u}": c.nl_out,
+        scn.surface_channel: c.surface,
     }
     if c.control is not None:
-        cols["control_deg"] = c.control
+        cols[f"control_{u}"] = c.control
     for j, name in enumerate(channels):
         cols[name] = c.measured[:, j]
         if c.reference is not None:

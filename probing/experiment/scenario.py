@@ -36,6 +36,7 @@ from probing.sim.flight import (
     Control,
     Flight,
 )
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACE_NAMES, SURFACES
 
 __all__ = [
     "DRIFT_MODES",
@@ -62,7 +63,15 @@ SECTIONS: dict[str, set[str] | None] = {
     "aircraft": {"model"},
     "condition": {"altitude_ft", *SPEED_KINDS, "gamma_deg", "bank_deg"},
     "simulation": {"dt_s"},
-    "probe": {"order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"},
+    "probe": {
+        "surface",
+        "order",
+        "bit_duration_s",
+        "amplitude_deg",
+        "amplitude_norm",
+        "periods",
+        "settle_periods",
+    },
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
     "output": {"channels", "drift", "detrend_order", "estimator"},
     "disturbance": {"turbulence", "sensor_noise", "seed"},
@@ -72,7 +81,7 @@ SECTIONS: dict[str, set[str] | None] = {
     "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
 }
 #: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
-#: that appears on the probe path, and faults of the elevator's actuator.
+#: that appears on the probe path, and faults of the probed surface's actuator.
 FAULT_TYPES = ("gtm_damage", "nonlinearity", *ACTUATOR_FAULTS)
 #: Fields of each fault type besides ``type`` and ``onset_s``.
 _FAULT_FIELDS = {
@@ -81,15 +90,13 @@ _FAULT_FIELDS = {
     "effectiveness": ("scale",),
     "stuck": (),
 }
-#: The channel a monitor isolates with (``[monitor] surface``): the elevator's position sensor.
-SURFACE_CHANNEL = "elevator_deg"
 #: Largest effectiveness scale (2: a surface twice as effective).
 _MAX_SCALE = 2.0
 _REQUIRED = {
     "aircraft": ("model",),
     "condition": ("altitude_ft",),
     "simulation": ("dt_s",),
-    "probe": ("order", "bit_duration_s", "amplitude_deg", "periods", "settle_periods"),
+    "probe": ("order", "bit_duration_s", "periods", "settle_periods"),  # and the amplitude
     "nonlinearity": ("type",),
     "output": ("channels",),
 }
@@ -118,7 +125,7 @@ class Scenario:
     dt_s: float
     order: int
     bit_duration_s: float
-    amplitude_deg: float
+    amplitude_deg: float  # in the probed surface's unit: deg, or normalised for the throttle
     periods: int
     settle_periods: int
     nonlinearity: str
@@ -140,9 +147,21 @@ class Scenario:
     fault_scale: float = 1.0  # effectiveness: scale of the surface's motion about trim
     control: Control | None = None  # [control]: the autopilot (None: open loop)
     monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
+    surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
+    @property
+    def surface_unit(self) -> str:
+        """The unit of the probed surface, of the probe amplitude and of the nonlinearity's
+        levels: ``"deg"``, or ``"norm"`` for the throttle."""
+        return SURFACES[self.surface].unit
+
+    @property
+    def surface_channel(self) -> str:
+        """The channel of the probed surface's position sensor (``elevator_deg``, ...)."""
+        return SURFACES[self.surface].channel
+
     @property
     def steps_per_bit(self) -> int:
         """Simulation steps per probe bit."""
@@ -201,11 +220,12 @@ class Scenario:
             damage_case=self.fault_case,
             damage_onset_s=self.fault_onset_s if self.fault_type == "gtm_damage" else None,
             control=self.control,
+            surface=self.surface,
         )
 
     @property
     def actuator_fault(self) -> ActuatorFault | None:
-        """The elevator actuator's fault (``effectiveness``, ``stuck``), or None."""
+        """The probed surface's actuator fault (``effectiveness``, ``stuck``), or None."""
         if self.fault_type not in ACTUATOR_FAULTS:
             return None
         return ActuatorFault(self.fault_type, self.fault_onset_s, self.fault_scale)
@@ -268,9 +288,11 @@ class Scenario:
             "condition": self._condition(),
             "simulation": {"dt_s": self.dt_s},
             "probe": {
+                # the elevator is left out: digests stay as they were before surfaces existed
+                **({"surface": self.surface} if self.surface != DEFAULT_SURFACE else {}),
                 "order": self.order,
                 "bit_duration_s": self.bit_duration_s,
-                "amplitude_deg": self.amplitude_deg,
+                f"amplitude_{self.surface_unit}": self.amplitude_deg,
                 "periods": self.periods,
                 "settle_periods": self.settle_periods,
             },
@@ -475,6 +497,8 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
 
     probe = data["probe"]
+    surface = _choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else None
+    surface = surface or DEFAULT_SURFACE
     order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
     bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
     ratio = bit / dt
@@ -483,7 +507,7 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
             "probe.bit_duration_s",
             f"must be an integer multiple of simulation.dt_s ({dt:g}), got {bit:g}",
         )
-    amplitude = _number(probe, "probe", "amplitude_deg", lo=0, hi=10, lo_open=True)
+    amplitude = _amplitude(probe, SURFACES[surface].unit, surface)
     periods = _integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
     settle = _integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)
 
@@ -553,6 +577,7 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         seed=seed,
         gamma_deg=gamma,
         bank_deg=bank,
+        surface=surface,
         text=text,
     )
     changes = {
@@ -567,6 +592,20 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
         scn = dataclasses.replace(scn, **changes)
     monitor = _monitor(data.get("monitor"), scn)
     return dataclasses.replace(scn, **monitor) if monitor else scn
+
+
+def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
+    """The probe amplitude, named with the probed surface's unit (``amplitude_deg``, or
+    ``amplitude_norm`` for the throttle): deg up to 10, a throttle lever up to 0.5."""
+    key = f"amplitude_{unit}"
+    other = "amplitude_norm" if unit == "deg" else "amplitude_deg"
+    if other in probe:
+        raise ScenarioError(
+            f"probe.{other}", f"the {surface} is probed in {unit}: give probe.{key} instead"
+        )
+    if key not in probe:
+        raise ScenarioError(f"probe.{key}", "missing")
+    return _number(probe, "probe", key, lo=0, hi=10 if unit == "deg" else 0.5, lo_open=True)
 
 
 def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool) -> None:
@@ -614,10 +653,11 @@ def _monitor(monitor: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
             raise ScenarioError(
                 "monitor.surface", f"must be true or false, got {monitor['surface']!r}"
             )
-        if monitor["surface"] and (SURFACE_CHANNEL not in scn.channels or len(scn.channels) < 2):
+        channel = scn.surface_channel
+        if monitor["surface"] and (channel not in scn.channels or len(scn.channels) < 2):
             raise ScenarioError(
                 "monitor.surface",
-                f"needs {SURFACE_CHANNEL} and at least one other channel in output.channels",
+                f"needs {channel} and at least one other channel in output.channels",
             )
         values["surface"] = monitor["surface"]
     return {"monitor": MonitorSettings(**values)}

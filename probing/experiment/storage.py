@@ -30,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from probing.sim.channels import unit_of
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
     "CHANNEL_UNIT",
@@ -255,14 +256,21 @@ class OutputFolder:
         self.writers: list[AtomicParquetWriter] = []
 
     def writer(
-        self, name: str, schema: pa.Schema, description: str, channels: Sequence[str]
+        self,
+        name: str,
+        schema: pa.Schema,
+        description: str,
+        channels: Sequence[str],
+        per: str = "deg",
     ) -> AtomicParquetWriter:
         """A new atomic writer for ``<folder>/<name>``.
 
         The file carries the folder's metadata, ``probing.description`` and the
-        ``probing.units`` of its columns for these channels (:func:`units`).
+        ``probing.units`` of its columns for these channels, per unit of ``per`` where a
+        column is per unit of probe (:func:`units`).
         """
-        meta = {**self.metadata, **metadata(description=description, units=units(schema, channels))}
+        found = units(schema, channels, per)
+        meta = {**self.metadata, **metadata(description=description, units=found)}
         w = AtomicParquetWriter(self.path / name, schema, meta)
         self.writers.append(w)
         return w
@@ -339,18 +347,25 @@ TRUTH_SCHEMA = pa.schema(
 )
 
 
-def timeseries_schema(channels: list[str], reference: bool, control: bool = False) -> pa.Schema:
-    """``timeseries.parquet``: one row per simulation step; channels in their own units;
-    with ``control``, the pitch loop's elevator command too."""
+def timeseries_schema(
+    channels: list[str], reference: bool, control: bool = False, surface: str = DEFAULT_SURFACE
+) -> pa.Schema:
+    """``timeseries.parquet``: one row per simulation step; channels in their own units; the
+    probe, its nonlinearity's output and the probed surface's realised position in the
+    surface's unit (``probe_deg``, ``nl_out_deg``, ``elevator_deg``; ``_norm`` and
+    ``throttle_norm`` for the throttle); with ``control``, the autopilot's command of the
+    probed surface too."""
+    s = SURFACES[surface]
+    u = s.unit
     fields = [
         field("time_s", pa.float64(), "s", "time after trim, at the end of the step"),
-        field("probe_deg", pa.float64(), "deg", "probe a sigma, relative to trim"),
-        field("nl_out_deg", pa.float64(), "deg", "probe after the nonlinearity"),
-        field("elevator_deg", pa.float64(), "deg", "realised elevator deflection"),
+        field(f"probe_{u}", pa.float64(), u, "probe a sigma, relative to trim"),
+        field(f"nl_out_{u}", pa.float64(), u, "probe after the nonlinearity"),
+        field(s.channel, pa.float64(), u, f"realised {s.name} position"),
     ]
     if control:
         fields.append(
-            field("control_deg", pa.float64(), "deg", "the autopilot's elevator command, from trim")
+            field(f"control_{u}", pa.float64(), u, f"the autopilot's {s.name} command, from trim")
         )
     fields += [
         field(c, pa.float64(), unit_of(c), "measured (sensor noise added)") for c in channels
@@ -362,14 +377,15 @@ def timeseries_schema(channels: list[str], reference: bool, control: bool = Fals
     return pa.schema(fields)
 
 
-def units(schema: pa.Schema, channels: Sequence[str]) -> dict[str, Any]:
+def units(schema: pa.Schema, channels: Sequence[str], per: str = "deg") -> dict[str, Any]:
     """The ``probing.units`` map of a file: column -> unit, or channel -> unit for the columns
-    in the unit of the row's channel."""
+    in the unit of the row's channel; ``per``: the probed surface's unit, which a column per
+    deg of probe (:data:`PER_DEG`) is per (``"norm"`` for the throttle)."""
     out: dict[str, Any] = {}
     for f in schema:
         unit = (f.metadata or {}).get(b"unit", b"").decode()
         if unit in (CHANNEL_UNIT, PER_DEG):
-            suffix = unit.removeprefix(CHANNEL_UNIT)
+            suffix = unit.removeprefix(CHANNEL_UNIT).replace("deg", per)
             out[f.name] = {c: unit_of(c) + suffix for c in channels}
         elif unit:
             out[f.name] = unit

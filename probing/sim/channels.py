@@ -51,6 +51,21 @@ CHANNELS: dict[str, Channel] = {
         Channel("u_fps", "velocities/u-fps", "ft/s", "body x velocity"),
         Channel("w_fps", "velocities/w-fps", "ft/s", "body z velocity"),
         Channel("elevator_deg", "fcs/elevator-pos-deg", "deg", "elevator deflection (its sensor)"),
+        Channel("p_rad_s", "velocities/p-rad_sec", "rad/s", "body roll rate", "P"),
+        Channel("r_rad_s", "velocities/r-rad_sec", "rad/s", "body yaw rate", "R"),
+        Channel("phi_rad", "attitude/phi-rad", "rad", "bank angle", "Phi"),
+        Channel("beta_rad", "aero/beta-rad", "rad", "sideslip angle", "Beta"),
+        Channel("ny_g", "accelerations/Ny", "g", "lateral load factor"),
+        Channel(
+            "aileron_deg",
+            "fcs/right-aileron-pos-deg",
+            "deg",
+            "right aileron deflection (its sensor)",
+        ),
+        Channel("rudder_deg", "fcs/rudder-pos-deg", "deg", "rudder deflection (its sensor)"),
+        Channel(
+            "throttle_norm", "fcs/throttle-pos-norm[0]", "1", "first engine's throttle (sensor)"
+        ),
     )
 }
 

@@ -1,15 +1,17 @@
-"""A simple autopilot for closed-loop flights, with the probe between it and the elevator.
+"""A simple autopilot for closed-loop flights, with the probe between it and the surface.
 
 The paper's Fig. 1 injects the probe between the command and the surface.  A
 :class:`ClosedLoop` steps a trimmed :class:`~probing.sim.plant.Plant` one step at a time:
 before each step it reads the aircraft's state, computes the loops that
 :class:`~probing.sim.flight.Control` closes, and writes
 
-* elevator: trim + pitch-hold command + the probe path's deflection (the probe after its
-  nonlinearity), through the actuator fault if one has begun, as the exact surface
-  deflection (the plant's calibrated map);
+* elevator: trim + pitch-hold command (deg of surface);
 * aileron: trim + bank-hold command (normalised);
-* throttle: trim + speed-hold command, on every engine (normalised, clipped to 0..1).
+* throttle: trim + speed-hold command, on every engine (normalised, clipped to 0..1);
+* and on the *probed* surface (:mod:`probing.sim.surfaces`, the elevator by default) the
+  position its loop asks (trim where no loop drives it) + the probe path's deflection (the
+  probe after its nonlinearity), through the actuator fault if one has begun, as the exact
+  position (the plant's calibrated map, :class:`~probing.sim.plant.SurfaceDrive`).
 
 Each loop is a PID that places the poles of its axis modelled as a double integrator (pitch,
 bank: ``x'' = K u``) or an integrator (speed: ``V' = K u``), with K the aircraft's control
@@ -34,7 +36,8 @@ import numpy as np
 
 from probing.sim.flight import ActuatorFault, Control, Flight
 from probing.sim.fork import trim_key
-from probing.sim.plant import Plant, trim_flight
+from probing.sim.plant import Plant, SurfaceDrive, trim_flight
+from probing.sim.surfaces import DEFAULT_SURFACE
 
 __all__ = ["ClosedLoop", "ControlPower", "control_power"]
 
@@ -71,7 +74,7 @@ def _control_power(key: str, flight: Flight) -> ControlPower:
     b, x, u = lin["B"], lin["x_names"], lin["u_names"]
     return ControlPower(
         pitch_rad_s2_per_deg=float(b[x.index("Q"), u.index("DeCmd")])
-        / plant.elevator_gain_deg_per_norm(),
+        / plant.drive().gain_per_norm(),
         roll_rad_s2_per_norm=float(b[x.index("P"), u.index("DaCmd")]),
         speed_fps2_per_norm=float(b[x.index("Vt"), u.index("ThtlCmd")]),
     )
@@ -99,7 +102,7 @@ def control_power(flight: Flight) -> ControlPower:
 
 
 class ClosedLoop:
-    """A trimmed plant flown by the autopilot, with the probe path on the elevator.
+    """A trimmed plant flown by the autopilot, with the probe path on one surface.
 
     Parameters
     ----------
@@ -111,7 +114,9 @@ class ClosedLoop:
     power : ControlPower or None
         The aircraft's control power (:func:`control_power`); needed when a loop is closed.
     fault : ActuatorFault or None
-        A fault of the elevator's actuator from its onset on.
+        A fault of the probed surface's actuator from its onset on.
+    surface : str
+        The probed surface (:data:`probing.sim.surfaces.SURFACES`).
     """
 
     def __init__(
@@ -120,6 +125,7 @@ class ClosedLoop:
         control: Control,
         power: ControlPower | None = None,
         fault: ActuatorFault | None = None,
+        surface: str = DEFAULT_SURFACE,
     ) -> None:
         if control.active and power is None:
             raise ValueError("a closed loop needs the aircraft's control power")
@@ -140,34 +146,37 @@ class ClosedLoop:
         self._trim_deg = trim.elevator_deg
         self._gains = _gains(control, power) if control.active else None
         self._integral = [0.0, 0.0, 0.0]  # pitch, bank, speed
-        self._stuck_deg: float | None = None
+        self._stuck: float | None = None
         self._aileron_now, self._throttle_now = self._aileron0, self._throttle0
         self.dt_s = plant.dt_s
+        self.drive: SurfaceDrive = plant.drive(surface)
 
     def step(
         self,
-        probe_deg: np.ndarray | None,
+        probe: np.ndarray | None,
         nodes: list,
         out: np.ndarray,
-        elevator_deg: np.ndarray | None = None,
-        control_deg: np.ndarray | None = None,
+        position: np.ndarray | None = None,
+        control: np.ndarray | None = None,
         commands: np.ndarray | None = None,
     ) -> None:
         """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
 
         Parameters
         ----------
-        probe_deg : numpy.ndarray or None
+        probe : numpy.ndarray or None
             The probe path's deflection (the probe after its nonlinearity) added to the
-            elevator at each step, deg, shape ``(n,)``; None: no probe (a reference twin).
+            probed surface at each step, in its unit, shape ``(n,)``; None: no probe (a
+            reference twin).
         nodes : list
             Property nodes of the channels (:meth:`Plant.channel_nodes`).
         out : numpy.ndarray
             ``(n, len(nodes))``, filled in place.
-        elevator_deg : numpy.ndarray, optional
-            ``(n,)``, receives the realised elevator deflection after each step (deg).
-        control_deg : numpy.ndarray, optional
-            ``(n,)``, receives the pitch loop's elevator command at each step (deg from trim).
+        position : numpy.ndarray, optional
+            ``(n,)``, receives the probed surface's realised position after each step.
+        control : numpy.ndarray, optional
+            ``(n,)``, receives the autopilot's command of the probed surface at each step
+            (its unit, from trim; 0 where no loop drives it).
         commands : numpy.ndarray, optional
             ``(n, 3)``, receives the autopilot's commands at each step: elevator (deg from
             trim, before the probe and the actuator), aileron and throttle (normalised), for
@@ -184,13 +193,18 @@ class ClosedLoop:
         theta0, phi0, v0 = self._ref[_THETA], self._ref[_PHI], self._ref[_VT]
         gains, integral, dt = self._gains, self._integral, self.dt_s
         c = self.control
-        set_el = plant._cmd_node.set_double_value
-        command = plant.elevator_command_clipped
-        get_pos = plant._pos_node.get_double_value
-        set_ail = self._aileron.set_double_value
-        set_thr = [t.set_double_value for t in self._throttles]
+        elevator, drive = plant.drive(), self.drive
+        probed = drive.surface.name
+        set_el, command = elevator.set, elevator.command_clipped
+        set_probed, probed_command = drive.set, drive.command_clipped
+        get_pos = drive.pos_node.get_double_value
+        position_of, trim_pos = drive.position_of, drive.trim_position
+        # the loop whose command the probed surface carries writes it through the probe path
+        set_ail = self._aileron.set_double_value if probed != "aileron" else None
+        set_thr = [t.set_double_value for t in self._throttles] if probed != "throttle" else []
+        write_el = probed != "elevator" and c.pitch_hold and gains is not None
         getters = [node.get_double_value for node in nodes]
-        probe = probe_deg.tolist() if probe_deg is not None else None
+        probe_list = probe.tolist() if probe is not None else None
         trim_deg, aileron0, throttle0 = self._trim_deg, self._aileron0, self._throttle0
         values: list[float] = []
         append = values.append
@@ -211,41 +225,52 @@ class ClosedLoop:
                     e = get_phi() - phi0
                     integral[1] += e * dt
                     ail = min(max(aileron0 + gains.bank(e, get_p(), integral[1]), -1.0), 1.0)
-                    set_ail(ail)
+                    if set_ail is not None:
+                        set_ail(ail)
                 if c.speed_hold:
                     e = get_v() - v0
                     integral[2] += e * dt
                     thr = min(max(throttle0 + gains.speed(e, integral[2]), 0.0), 1.0)
                     for s in set_thr:
                         s(thr)
-            surface = trim_deg + u_el + (probe[k] if probe is not None else 0.0)
+            if probed == "elevator":
+                asked = trim_deg + u_el
+            elif probed == "aileron" and gains is not None and c.bank_hold:
+                asked = position_of(ail)
+            elif probed == "throttle" and gains is not None and c.speed_hold:
+                asked = position_of(thr)
+            else:
+                asked = trim_pos
+            surface = asked + (probe_list[k] if probe_list is not None else 0.0)
             if step >= onset >= 0:
                 if fault.kind == "stuck":
-                    if self._stuck_deg is None:
-                        self._stuck_deg = get_pos()
-                    surface = self._stuck_deg
+                    if self._stuck is None:
+                        self._stuck = get_pos()
+                    surface = self._stuck
                 else:
-                    surface = trim_deg + fault.scale * (surface - trim_deg)
-            set_el(command(surface))
+                    surface = trim_pos + fault.scale * (surface - trim_pos)
+            if write_el:
+                set_el(command(trim_deg + u_el))
+            set_probed(probed_command(surface))
             if damage is not None and step == damage[1]:
                 plant.damage(damage[0])
                 plant._fault = damage = None
             run()
             for get in getters:
                 append(get())
-            if elevator_deg is not None:
+            if position is not None:
                 realised.append(get_pos())
-            if control_deg is not None:
-                commanded.append(u_el)
+            if control is not None:
+                commanded.append(u_el if probed == "elevator" else asked - trim_pos)
             if commands is not None:
                 flown.append((u_el, ail, thr))
         self._aileron_now, self._throttle_now = ail, thr
         plant._steps = first + n
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
-        if elevator_deg is not None:
-            elevator_deg[:] = realised
-        if control_deg is not None:
-            control_deg[:] = commanded
+        if position is not None:
+            position[:] = realised
+        if control is not None:
+            control[:] = commanded
         if commands is not None:
             commands[:] = flown
 
@@ -266,11 +291,12 @@ class ClosedLoop:
         """
         plant = self.plant
         n = out.shape[0]
-        set_el = plant._cmd_node.set_double_value
+        elevator = plant.drive()
+        set_el = elevator.set
         set_ail = self._aileron.set_double_value
         set_thr = [t.set_double_value for t in self._throttles]
         getters = [node.get_double_value for node in nodes]
-        trim_deg, command = self._trim_deg, plant.elevator_command_clipped
+        trim_deg, command = self._trim_deg, elevator.command_clipped
         values: list[float] = []
         append = values.append
         run = plant.fdm.run

@@ -11,6 +11,8 @@ import dataclasses
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
+
 __all__ = [
     "ACTUATOR_FAULTS",
     "DAMAGE_CASES",
@@ -95,7 +97,7 @@ class Control:
         return asdict(self)
 
 
-#: Actuator faults that act on the elevator the probe drives, from an onset on.
+#: Actuator faults that act on the surface the probe drives, from an onset on.
 ACTUATOR_FAULTS = ("effectiveness", "stuck")
 
 
@@ -196,6 +198,10 @@ class Flight:
     control : Control or None
         The autopilot engaged after the trim (None: open loop, every control held at its
         trim value).  It does not change the trim, only what follows it.
+    surface : str
+        The surface a probe drives (:data:`probing.sim.surfaces.SURFACES`), the elevator by
+        default.  It does not change the trim either; in closed loop the autopilot's command
+        of that surface passes through the probe path.
     """
 
     model: str
@@ -210,8 +216,11 @@ class Flight:
     bank_deg: float = 0.0
     damage_onset_s: float | None = None
     control: Control | None = None
+    surface: str = DEFAULT_SURFACE
 
     def __post_init__(self) -> None:
+        if self.surface not in SURFACES:
+            raise ValueError(f"surface must be one of {', '.join(SURFACES)}")
         if self.speed_kind not in SPEED_KINDS:
             raise ValueError(f"speed_kind must be one of {', '.join(SPEED_KINDS)}")
         if self.turbulence not in TURBULENCE_SEVERITY:

@@ -1,5 +1,5 @@
 """JSBSim's linearisation of a trimmed aircraft: longitudinal modes, and the linear response
-to an elevator history (what the probing output should be without noise, and its transient).
+to a surface history (what the probing output should be without noise, and its transient).
 
 ``FGLinearization`` suspends JSBSim's time step while it linearises: the servos then sit at
 their command, so the linear model is the bare airframe (servo dynamics excluded).
@@ -16,8 +16,10 @@ import numpy as np
 from probing.core.convolution import causal_convolve
 from probing.sim.channels import CHANNELS
 from probing.sim.plant import Plant
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
+    "LAT_STATES",
     "LONG_STATES",
     "LinearResponse",
     "LongitudinalModes",
@@ -29,6 +31,8 @@ __all__ = [
 
 #: FGLinearization's names of the longitudinal states.
 LONG_STATES = ("Vt", "Alpha", "Theta", "Q")
+#: ... and of the lateral-directional ones that do not merely integrate others (heading does).
+LAT_STATES = ("Beta", "Phi", "P", "R")
 
 
 @dataclass(frozen=True)
@@ -108,7 +112,8 @@ def longitudinal_modes(plant: Plant) -> LongitudinalModes:
 
 @dataclass(frozen=True)
 class LinearResponse:
-    """The linearised aircraft at its trim, stepped as JSBSim steps it, per deg of elevator.
+    """The linearised aircraft at its trim, stepped as JSBSim steps it, per unit of the probed
+    surface's position (deg, or normalised throttle).
 
     Discretised with zero-order hold at the step ``dt_s``.  JSBSim moves the surface in the
     step its command is written but the airframe responds one step later, so the output read
@@ -121,7 +126,7 @@ class LinearResponse:
     a : numpy.ndarray
         (n, n) state transition over one step.
     b : numpy.ndarray
-        (n,) input column, per deg of elevator surface.
+        (n,) input column, per unit of the surface's position.
     c, d : numpy.ndarray
         (C, n) and (C,) outputs of the channels.
     channels : tuple of str
@@ -163,7 +168,7 @@ class LinearResponse:
         return out
 
     def respond(self, u: np.ndarray, pulse: np.ndarray | None = None) -> np.ndarray:
-        """Output after each step for the asked elevator deviation ``u`` (deg) from rest, (N, C).
+        """Output after each step for the asked surface deviation ``u`` from rest, (N, C).
 
         ``pulse``: :meth:`step_response` of at least N steps, when the caller has it already.
         """
@@ -211,28 +216,35 @@ def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarr
     return e[:n, :n], e[:n, n:]
 
 
-def linear_response(plant: Plant, channels: Sequence[str]) -> LinearResponse:
-    """:class:`LinearResponse` of a trimmed plant: the longitudinal states (Vt, alpha, theta,
-    q) and the channels among them (``theta_rad``, ``q_rad_s``, ``alpha_rad``, ``vt_fps``).
+def linear_response(
+    plant: Plant, channels: Sequence[str], surface: str = DEFAULT_SURFACE
+) -> LinearResponse:
+    """:class:`LinearResponse` of a trimmed plant to ``surface``: the longitudinal states (Vt,
+    alpha, theta, q) for the elevator and throttle, with the lateral-directional ones (beta,
+    phi, p, r) added for the aileron and rudder, and the channels among them.
 
     The realised surface follows the asked one through the model's actuator, measured on the
     plant itself (:meth:`~probing.sim.plant.Plant.actuator_pulse_response`); the plant is
     stepped for that, so use it for nothing else afterwards.  The altitude, heading and
     position states are left out: they integrate the others (the
-    full model has an eigenvalue at 1, so no periodic steady state) and feed back on pitch
-    only through the density gradient.  The elevator input ``DeCmd`` is converted to per deg
-    of surface with the model's own command-to-surface slope at the trim.
+    full model has an eigenvalue at 1, so no periodic steady state) and feed back only
+    through the density gradient.  In straight and level flight of a symmetric aircraft the
+    two axes decouple, which is why a longitudinal surface keeps the longitudinal states
+    alone (as it always did).  The surface's input (``DeCmd``, ...) is converted to per unit
+    of position with the model's own command-to-position slope at the trim.
     """
+    spec = SURFACES[surface]
+    states = LONG_STATES + LAT_STATES if spec.lateral else LONG_STATES
     lin = plant.linearise()
-    gain = plant.elevator_gain_deg_per_norm()
-    iu = lin["u_names"].index("DeCmd")
-    covered = tuple(c for c in channels if CHANNELS[c].linear_output in LONG_STATES)
-    x = [list(lin["x_names"]).index(n) for n in LONG_STATES]
+    gain = plant.drive(surface).gain_per_norm()
+    iu = lin["u_names"].index(spec.linear_input)
+    covered = tuple(c for c in channels if CHANNELS[c].linear_output in states)
+    x = [list(lin["x_names"]).index(n) for n in states]
     rows = [list(lin["y_names"]).index(CHANNELS[c].linear_output) for c in covered]
     a_mat = np.asarray(lin["A"])[np.ix_(x, x)]
     b_mat = np.asarray(lin["B"])[x][:, [iu]] / gain
     c = np.asarray(lin["C"])[np.ix_(rows, x)]
     d = np.asarray(lin["D"])[rows, iu] / gain
     ad, bd = zoh(a_mat, b_mat, plant.dt_s)
-    actuator = plant.actuator_pulse_response()  # last: it steps the plant
+    actuator = plant.actuator_pulse_response(surface=surface)  # last: it steps the plant
     return LinearResponse(ad, bd[:, 0], c, d, covered, actuator)

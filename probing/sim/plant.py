@@ -1,10 +1,12 @@
-"""The JSBSim plant: a trimmed aircraft stepped with an elevator deflection in degrees.
+"""The JSBSim plant: a trimmed aircraft stepped with a surface position (deg, or a normalised
+throttle).
 
 A :class:`Plant` loads an aircraft from its sanitised copy (:mod:`probing.sim.aircraft`),
-trims it straight and level, and steps it with an elevator surface deflection given in
-degrees.  The command-to-surface mapping of the model's flight-control system is measured
-on the model itself (integration suspended) and inverted, so the surface deflection is
-exactly the one asked for, whatever the model's scaling.
+trims it, and steps it with the position of one surface (:mod:`probing.sim.surfaces`: the
+elevator by default, the aileron, rudder or throttle) given in the surface's unit.  The
+command-to-position mapping of the model's flight-control system is measured on the model
+itself (integration suspended) and inverted (:class:`SurfaceDrive`), so the surface is
+exactly where it is asked to be, whatever the model's scaling.
 
 JSBSim's messages go to a logger of this module (:class:`JSBSimLog`), never to stdout; the
 warnings and errors among them are added to the :class:`~probing.sim.errors.TrimError` a
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import bisect
 import collections
+import functools
 import math
 import os
 from dataclasses import asdict, dataclass
@@ -23,29 +26,33 @@ os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
 import numpy as np
 
+from probing.core.forked import can_fork, forked_map
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
 from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
 from probing.sim.flight import (
+    DAMAGE_MODEL,
     SPEED_KINDS,
     SYMMETRIC_DAMAGE,
     TURBULENCE_SEVERITY,
     Flight,
     check_damage_case,
 )
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES, Surface
 
 __all__ = [
     "ELEVATOR_CMD",
     "ELEVATOR_POS_DEG",
     "JSBSimLog",
     "Plant",
+    "SurfaceDrive",
     "TrimResult",
     "make_plant",
     "trim_flight",
 ]
 
-ELEVATOR_CMD = "fcs/elevator-cmd-norm"
-ELEVATOR_POS_DEG = "fcs/elevator-pos-deg"
+ELEVATOR_CMD = SURFACES["elevator"].command
+ELEVATOR_POS_DEG = SURFACES["elevator"].position
 
 
 class JSBSimLog(jsbsim.FGLogger):
@@ -115,8 +122,114 @@ class TrimResult:
         return asdict(self)
 
 
+class SurfaceDrive:
+    """One surface of a trimmed plant, driven by its position: the model's command-to-position
+    map, measured on the model's own flight-control system and inverted.
+
+    The stock models map the (normalised) command to the surface through piecewise-linear
+    components (clip, zero-centred aerosurface_scale, possibly asymmetric, a trim added);
+    sampled at their breakpoints the map is exact between samples, so its inverse by linear
+    interpolation is exact too.  Only the strictly monotonic part is kept (clipped ends are
+    flat and cannot be inverted).
+
+    Attributes
+    ----------
+    surface : Surface
+        What is driven (:data:`probing.sim.surfaces.SURFACES`).
+    trim_position : float
+        The position at the trim, in the surface's unit.
+    trim_command : float
+        The normalised command at the trim.
+    """
+
+    def __init__(
+        self,
+        surface: Surface,
+        nodes: list,
+        pos_node: object,
+        trim_position: float,
+        trim_command: float,
+        map_cmd: np.ndarray,
+        map_pos: np.ndarray,
+    ) -> None:
+        self.surface = surface
+        self.nodes = nodes
+        self.pos_node = pos_node
+        self.trim_position = trim_position
+        self.trim_command = trim_command
+        self.map_cmd, self.map_pos = map_cmd, map_pos  # sorted by position
+        self._cmd_list, self._pos_list = map_cmd.tolist(), map_pos.tolist()
+        order = np.argsort(map_cmd)
+        self._by_cmd = (map_cmd[order].tolist(), map_pos[order].tolist())
+        if len(nodes) == 1:
+            self.set = nodes[0].set_double_value  # the one write of a step
+        else:
+            setters = [n.set_double_value for n in nodes]
+
+            def set_all(value: float) -> None:
+                for write in setters:
+                    write(value)
+
+            self.set = set_all
+
+    @property
+    def range(self) -> tuple[float, float]:
+        """Positions reachable through the command (the surface's unit)."""
+        return float(self.map_pos[0]), float(self.map_pos[-1])
+
+    def command(self, position: np.ndarray) -> np.ndarray:
+        """Normalised commands that put the surface exactly at ``position`` (its unit).
+
+        Raises
+        ------
+        ValueError
+            If a position is outside :attr:`range`.
+        """
+        position = np.asarray(position, dtype=np.float64)
+        lo, hi = self.range
+        if position.size and (position.min() < lo or position.max() > hi):
+            what = "deflection" if self.surface.unit == "deg" else "position"
+            raise ValueError(
+                f"{self.surface.name} {what} {position.min():.6g}..{position.max():.6g} "
+                f"{self.surface.unit} is outside the model's range {lo:.6g}..{hi:.6g} "
+                f"{self.surface.unit}"
+            )
+        return np.interp(position, self.map_pos, self.map_cmd)
+
+    def command_clipped(self, position: float) -> float:
+        """The normalised command for one ``position``, clipped to the range: the same map
+        and the same bits as :meth:`command` (``numpy.interp``'s own formula), for a loop
+        that computes its command one step at a time."""
+        xs, ys = self._pos_list, self._cmd_list  # sorted by position: its range at the ends
+        s = min(max(position, xs[0]), xs[-1])
+        if s == xs[-1]:
+            return ys[-1]
+        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
+        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
+        return slope * (s - xs[j]) + ys[j]
+
+    def position_of(self, command: float) -> float:
+        """The position the model gives a normalised ``command`` (the forward map; beyond the
+        invertible part, the position at its end), for a loop that commands the surface
+        one step at a time in normalised units."""
+        xs, ys = self._by_cmd
+        c = min(max(command, xs[0]), xs[-1])
+        if c == xs[-1]:
+            return ys[-1]
+        j = bisect.bisect_right(xs, c) - 1
+        return (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j]) * (c - xs[j]) + ys[j]
+
+    def gain_per_norm(self) -> float:
+        """Local slope d(position)/d(command) at the trimmed command (unit per unit command)."""
+        cmd0 = self.trim_command
+        order = np.argsort(self.map_cmd)  # the map is kept sorted by position, not command
+        cmd, pos = self.map_cmd[order], self.map_pos[order]
+        i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
+        return float((pos[i] - pos[i - 1]) / (cmd[i] - cmd[i - 1]))
+
+
 class Plant:
-    """A trimmed JSBSim aircraft stepped with an elevator deflection in degrees.
+    """A trimmed JSBSim aircraft stepped with a surface position (:meth:`drive`).
 
     Parameters
     ----------
@@ -158,11 +271,8 @@ class Plant:
         self.fdm = fdm
         self._alpha_range = alpha_range_rad(root / "aircraft" / model / f"{model}.xml")
         self._pm = fdm.get_property_manager()
-        self._cmd_node = self._pm.get_node(ELEVATOR_CMD)
-        self._pos_node = self._pm.get_node(ELEVATOR_POS_DEG)
         self.trim_result: TrimResult | None = None
-        self._map_cmd: np.ndarray | None = None
-        self._map_deg: np.ndarray | None = None
+        self._drives: dict[str, SurfaceDrive] = {}
 
     # ----------------------------------------------------------------- trim
     def trim(
@@ -176,6 +286,7 @@ class Plant:
         gamma_deg: float = 0.0,
         bank_deg: float = 0.0,
         longitudinal: bool = False,
+        surface: str = DEFAULT_SURFACE,
     ) -> TrimResult:
         """Trim, gear up, engines running: straight and level by default (JSBSim's full
         trim), climbing or descending at ``gamma_deg``, or in a steady turn at ``bank_deg``
@@ -198,6 +309,9 @@ class Plant:
             JSBSim's longitudinal trim (throttle, pitch trim, alpha) with the lateral state
             left wings level at zero sideslip: for an aircraft whose lateral trim controls
             are gone but that has nothing to trim laterally (a symmetric damage case).
+        surface : str
+            A surface to calibrate besides the elevator (:meth:`drive`), before turbulence
+            is switched on: the one a probe will drive.
 
         Returns
         -------
@@ -209,6 +323,16 @@ class Plant:
         TrimError
             Naming the condition, with JSBSim's own warnings, when JSBSim fails.
         """
+        self._trim_args = {
+            "altitude_ft": altitude_ft,
+            "speed_kcas": speed_kcas,
+            "speed_ktas": speed_ktas,
+            "speed_keas": speed_keas,
+            "mach": mach,
+            "gamma_deg": gamma_deg,
+            "bank_deg": bank_deg,
+            "longitudinal": longitudinal,
+        }
         speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
         speeds["mach"] = mach
         given = {k: v for k, v in speeds.items() if v is not None}
@@ -252,7 +376,9 @@ class Plant:
             throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
             mode="turn" if bank_deg else ("longitudinal" if longitudinal else "full"),
         )
-        self._calibrate_elevator()
+        self._drives = {}
+        self.drive(DEFAULT_SURFACE)  # calibrated right after the trim, as it always was
+        self.drive(surface)  # before the gusts: its calibration steps the FCS
         self.disturb(self.turbulence, self.seed)
         return self.trim_result
 
@@ -308,71 +434,104 @@ class Plant:
         log = self.log.take()
         return f"{message} (JSBSim: {log})" if log else message
 
-    def _surface_deg_at(self, cmd: float) -> float:
-        self._cmd_node.set_double_value(cmd)
-        self.fdm.run()  # integration suspended: evaluates the FCS only
-        return self._pos_node.get_double_value()
+    def drive(self, surface: str = DEFAULT_SURFACE) -> SurfaceDrive:
+        """The surface ``surface`` (:data:`~probing.sim.surfaces.SURFACES`) driven by its
+        position: calibrated on first use after the trim (the elevator's, and the one
+        :meth:`trim` is given, right after it, before turbulence is switched on).
 
-    def _calibrate_elevator(self) -> None:
-        """Measure elevator-cmd-norm -> elevator-pos-deg on the model's own FCS and keep it.
+        The calibration evaluates the flight-control system with integration suspended and
+        puts the command back, so the surface ends where the trim left it (checked).  Call
+        it for a new surface before the plant is disturbed or forked, so that every copy
+        steps from the same state.
 
-        The stock models map the (normalised) command to the surface through
-        piecewise-linear components (clip, zero-centred aerosurface_scale,
-        possibly asymmetric); sampled at their breakpoints the map is exact
-        between samples, so its inverse by linear interpolation is exact too.
+        Raises
+        ------
+        ValueError
+            If the model has no such surface (a property missing) or no command moves it.
         """
-        fdm = self.fdm
-        cmd0 = float(fdm[ELEVATOR_CMD])
-        trim = float(fdm["fcs/pitch-trim-cmd-norm"])
-        grid = np.linspace(-1.0, 1.0, 401)
-        kinks = np.array([-trim, 1.0 - trim, -1.0 - trim, cmd0])
-        grid = np.unique(np.concatenate((grid, kinks[np.abs(kinks) <= 1.0])))
+        assert self.trim_result is not None, "trim first"
+        if surface not in self._drives:
+            if surface not in SURFACES:
+                raise ValueError(f"surface must be one of {', '.join(SURFACES)}, got {surface!r}")
+            if surface == DEFAULT_SURFACE:
+                self._drives[surface] = self._calibrate(SURFACES[surface])
+            else:
+                self._drives[surface] = self._calibrated_on_a_copy(SURFACES[surface])
+        return self._drives[surface]
+
+    def _calibrated_on_a_copy(self, surface: Surface) -> SurfaceDrive:
+        """:meth:`_calibrate` run on an identical copy of this plant, the map handed back:
+        evaluating the FCS at other commands moves component states (filters, dampers) by
+        rounding, and this plant must step exactly as if no other surface had been
+        calibrated (the elevator's calibration, done in place right after every trim since
+        the first run, is part of the trimmed state).  The copy is a forked child, or, where
+        the system cannot fork, the same aircraft loaded and trimmed afresh."""
+        if can_fork():
+            calibrate = functools.partial(_calibration, plant=self)
+            (outcome,) = forked_map(calibrate, [surface.name])
+            found = outcome.get()
+        else:
+            copy = Plant(self.model, self.dt_s)
+            if self.model == DAMAGE_MODEL:
+                copy.fdm[DAMAGE_PROPERTY] = self.fdm[DAMAGE_PROPERTY]
+            copy.trim(**self._trim_args)
+            found = _calibration(surface.name, copy)
+        pos0, cmd0, map_cmd, map_pos = found
+        nodes = [self._pm.get_node(p) for p in surface.command_properties(self._engines())]
+        pos_node = self._pm.get_node(surface.position)
+        return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, map_cmd, map_pos)
+
+    def _engines(self) -> int:
+        n = 0
+        while self._pm.hasNode(f"fcs/throttle-cmd-norm[{n}]"):
+            n += 1
+        return n
+
+    def _calibrate(self, surface: Surface) -> SurfaceDrive:
+        """Measure ``surface``'s command -> position on the model's own FCS (see
+        :class:`SurfaceDrive`)."""
+        fdm, pm = self.fdm, self._pm
+        props = surface.command_properties(self._engines())
+        missing = [p for p in (*props, surface.position) if not pm.hasNode(p)]
+        if missing or not props:
+            raise ValueError(f"{self.model} has no {surface.name} ({', '.join(missing)})")
+        nodes = [pm.get_node(p) for p in props]
+        pos_node = pm.get_node(surface.position)
+        cmd0 = nodes[0].get_double_value()
+        pos0 = pos_node.get_double_value()
+        lo, hi = surface.command_range
+        grid = np.linspace(lo, hi, 401)
+        kinks = [cmd0]
+        if surface.trim_command is not None and pm.hasNode(surface.trim_command):
+            trim = float(fdm[surface.trim_command])
+            kinks = [-trim, 1.0 - trim, -1.0 - trim, cmd0]
+        kinks = np.array(kinks)
+        grid = np.unique(np.concatenate((grid, kinks[(kinks >= lo) & (kinks <= hi)])))
+        setters = [n.set_double_value for n in nodes]
+        get_pos, run = pos_node.get_double_value, fdm.run
+
+        def position_at(cmd: float) -> float:
+            for write in setters:
+                write(cmd)
+            run()  # integration suspended: evaluates the FCS only
+            return get_pos()
+
         time0 = fdm.get_sim_time()
         fdm.suspend_integration()
         try:
-            surface = np.array([self._surface_deg_at(c) for c in grid])
-            back = self._surface_deg_at(cmd0)
+            position = np.array([position_at(c) for c in grid])
+            back = position_at(cmd0)
         finally:
             fdm.resume_integration()
             fdm.set_sim_time(time0)
-        if not math.isclose(back, self.trim_result.elevator_deg, rel_tol=0, abs_tol=1e-12):
-            raise RuntimeError("elevator calibration changed the trimmed surface position")
-        # Keep the strictly monotonic part (clipped ends are flat and cannot be inverted).
-        if surface[-1] < surface[0]:
-            grid, surface = grid[::-1], surface[::-1]
-        keep = np.concatenate(([True], np.diff(surface) > 0))
-        self._map_cmd, self._map_deg = grid[keep], surface[keep]
-        self._map_cmd_list, self._map_deg_list = self._map_cmd.tolist(), self._map_deg.tolist()
-
-    @property
-    def elevator_range_deg(self) -> tuple[float, float]:
-        """Surface deflections reachable through the command (deg)."""
-        assert self._map_deg is not None, "trim first"
-        return float(self._map_deg[0]), float(self._map_deg[-1])
-
-    def elevator_command_clipped(self, surface_deg: float) -> float:
-        """The normalised command for one deflection ``surface_deg`` (deg), clipped to the
-        range: the same map and the same bits as :meth:`elevator_command` (``numpy.interp``'s
-        own formula), for a loop that computes its command one step at a time."""
-        xs, ys = self._map_deg_list, self._map_cmd_list  # sorted by surface: its range at the ends
-        s = min(max(surface_deg, xs[0]), xs[-1])
-        if s == xs[-1]:
-            return ys[-1]
-        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
-        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
-        return slope * (s - xs[j]) + ys[j]
-
-    def elevator_command(self, surface_deg: np.ndarray) -> np.ndarray:
-        """Normalised commands that put the elevator exactly at ``surface_deg`` (deg)."""
-        assert self._map_deg is not None, "trim first"
-        surface_deg = np.asarray(surface_deg, dtype=np.float64)
-        lo, hi = self.elevator_range_deg
-        if surface_deg.size and (surface_deg.min() < lo or surface_deg.max() > hi):
-            raise ValueError(
-                f"elevator deflection {surface_deg.min():.6g}..{surface_deg.max():.6g} deg is "
-                f"outside the model's range {lo:.6g}..{hi:.6g} deg"
-            )
-        return np.interp(surface_deg, self._map_deg, self._map_cmd)
+        if not math.isclose(back, pos0, rel_tol=0, abs_tol=1e-12):
+            raise RuntimeError(f"{surface.name} calibration changed the trimmed position")
+        if position[-1] < position[0]:
+            grid, position = grid[::-1], position[::-1]
+        keep = np.concatenate(([True], np.diff(position) > 0))
+        if keep.sum() < 2:
+            raise ValueError(f"no command moves the {surface.name} of {self.model}")
+        return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, grid[keep], position[keep])
 
     # ----------------------------------------------------------------- step
     def channel_nodes(self, channels: list[str]) -> list:
@@ -387,22 +546,26 @@ class Plant:
         cmd_norm: np.ndarray | None,
         nodes: list,
         out: np.ndarray,
-        elevator_deg: np.ndarray | None = None,
+        position: np.ndarray | None = None,
+        drive: SurfaceDrive | None = None,
     ) -> None:
         """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
 
         Parameters
         ----------
         cmd_norm : numpy.ndarray or None
-            Normalised elevator command for each step (written before the step), shape
-            ``(n,)``.  None holds the command the plant has (after :meth:`trim`, the
-            trimmed one) and writes nothing: the unprobed twin.
+            Normalised command of the driven surface for each step (written before the
+            step), shape ``(n,)``.  None holds the commands the plant has (after
+            :meth:`trim`, the trimmed ones) and writes nothing: the unprobed twin.
         nodes : list
             Property nodes of the channels, from :meth:`channel_nodes`.
         out : numpy.ndarray
             ``(n, len(nodes))`` float64, filled in place (channel units, see :data:`CHANNELS`).
-        elevator_deg : numpy.ndarray, optional
-            ``(n,)``, receives the realised elevator deflection after each step (deg).
+        position : numpy.ndarray, optional
+            ``(n,)``, receives the driven surface's realised position after each step (its
+            unit).
+        drive : SurfaceDrive, optional
+            The surface the commands drive (:meth:`drive`); default the elevator.
 
         Notes
         -----
@@ -411,21 +574,22 @@ class Plant:
         built per step.
         """
         n = out.shape[0]
+        drive = drive or self.drive()
         fault = self._fault
         if fault is not None and fault[1] < self._steps + n:  # the onset falls in these steps
             j = max(0, fault[1] - self._steps)
             cmds = (None, None) if cmd_norm is None else (cmd_norm[:j], cmd_norm[j:])
-            els = (None, None) if elevator_deg is None else (elevator_deg[:j], elevator_deg[j:])
+            els = (None, None) if position is None else (position[:j], position[j:])
             self._fault = None
             if j:
-                self.step(cmds[0], nodes, out[:j], els[0])
+                self.step(cmds[0], nodes, out[:j], els[0], drive)
             self.damage(fault[0])
-            self.step(cmds[1], nodes, out[j:], els[1])
+            self.step(cmds[1], nodes, out[j:], els[1], drive)
             return
         self._steps += n
         getters = [node.get_double_value for node in nodes]
-        if elevator_deg is not None:
-            getters.append(self._pos_node.get_double_value)
+        if position is not None:
+            getters.append(drive.pos_node.get_double_value)
         run = self.fdm.run
         values: list[float] = []
         append = values.append
@@ -437,7 +601,7 @@ class Plant:
         else:
             if len(cmd_norm) != n:
                 raise ValueError(f"{len(cmd_norm)} commands for {n} output rows")
-            set_cmd = self._cmd_node.set_double_value
+            set_cmd = drive.set
             for c in cmd_norm.tolist():
                 set_cmd(c)
                 run()
@@ -445,8 +609,8 @@ class Plant:
                     append(get())
         block = np.array(values, dtype=np.float64).reshape(n, len(getters))
         out[:] = block[:, : len(nodes)]
-        if elevator_deg is not None:
-            elevator_deg[:] = block[:, -1]
+        if position is not None:
+            position[:] = block[:, -1]
 
     def check_state(self) -> None:
         """Raise :class:`DivergenceError` if the aircraft left the meaningful region."""
@@ -488,30 +652,30 @@ class Plant:
         self.fdm.set_dt(self.dt_s)
         return result
 
-    def actuator_pulse_response(self, n_steps: int = 200, height_deg: float = 1e-3) -> np.ndarray:
-        """The realised surface after each step for a one-step pulse of the asked deflection,
-        per deg asked (1 at step 0 and 0 after for a surface without actuator dynamics; the
-        GTM's 5 Hz servo spreads it over about 0.2 s).
+    def actuator_pulse_response(
+        self, n_steps: int = 200, height: float = 1e-3, surface: str = DEFAULT_SURFACE
+    ) -> np.ndarray:
+        """The realised surface after each step for a one-step pulse of the asked position,
+        per unit asked (1 at step 0 and 0 after for a surface without actuator dynamics; the
+        GTM's 5 Hz servos spread it over about 0.2 s).
 
-        The pulse is small (``height_deg``) so a rate limit does not act.  The plant is
-        stepped: use it for nothing else afterwards.
+        The pulse is small (``height``, in the surface's unit) so a rate limit does not act.
+        The plant is stepped: use it for nothing else afterwards.
         """
-        assert self.trim_result is not None, "trim first"
-        surface = np.full(n_steps, self.trim_result.elevator_deg)
-        surface[0] += height_deg
+        drive = self.drive(surface)
+        position = np.full(n_steps, drive.trim_position)
+        position[0] += height
         out = np.empty((n_steps, 0))
         realised = np.empty(n_steps)
-        self.step(self.elevator_command(surface), [], out, realised)
-        return (realised - self.trim_result.elevator_deg) / height_deg
+        self.step(drive.command(position), [], out, realised, drive)
+        return (realised - drive.trim_position) / height
 
-    def elevator_gain_deg_per_norm(self) -> float:
-        """Local slope d(surface deg)/d(command norm) at the trimmed command."""
-        assert self._map_deg is not None, "trim first"
-        cmd0 = self.trim_result.elevator_cmd_norm
-        order = np.argsort(self._map_cmd)  # the map is kept sorted by surface, not command
-        cmd, deg = self._map_cmd[order], self._map_deg[order]
-        i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
-        return float((deg[i] - deg[i - 1]) / (cmd[i] - cmd[i - 1]))
+
+def _calibration(surface: str, plant: Plant) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """The trimmed position and command and the map of ``surface`` on ``plant`` (calibrated
+    in place: call it on a copy)."""
+    drive = plant._calibrate(SURFACES[surface])
+    return drive.trim_position, drive.trim_command, drive.map_cmd, drive.map_pos
 
 
 def make_plant(flight: Flight) -> Plant:
@@ -531,7 +695,11 @@ def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
     if flight.trimmed_damage:
         plant.damage(flight.trimmed_damage)
     speed = {flight.speed_kind: flight.speed}
-    angles = {"gamma_deg": flight.gamma_deg, "bank_deg": flight.bank_deg}
+    angles = {
+        "gamma_deg": flight.gamma_deg,
+        "bank_deg": flight.bank_deg,
+        "surface": flight.surface,
+    }
     try:
         return plant.trim(flight.altitude_ft, **speed, **angles)
     except TrimError:

@@ -1,8 +1,9 @@
 """The small-signal pulse response of a trimmed aircraft, computed two independent ways.
 
-(a) Single pulse: a trimmed twin receives one bit of the probe amplitude on the elevator;
-    its output minus an unprobed twin's, divided by the amplitude, sampled at the end of
-    every bit, is the pulse response ``h_pulse`` (output units per deg of elevator).
+(a) Single pulse: a trimmed twin receives one bit of the probe amplitude on the probed
+    surface (``flight.surface``, the elevator by default); its output minus an unprobed
+    twin's, divided by the amplitude, sampled at the end of every bit, is the pulse response
+    ``h_pulse`` (output units per deg of surface, or per unit of a normalised throttle).
 (b) Linearisation: JSBSim's FGLinearization at the trim gives (A, B, C, D); discretised
     with zero-order hold at the bit duration, ``h_lin(0) = C B_d + D`` and
     ``h_lin(k) = C A_d^k B_d``: the response read at the end of each bit to a one-bit
@@ -23,6 +24,7 @@ from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.linear import zoh
 from probing.sim.plant import make_plant
+from probing.sim.surfaces import SURFACES
 
 __all__ = ["linear_pulse_response", "single_pulse_response"]
 
@@ -34,10 +36,11 @@ def single_pulse_response(
     steps_per_bit: int,
     n_bits: int,
 ) -> dict[str, np.ndarray]:
-    """Response to one bit of ``amplitude_deg`` at t = 0, per deg, sampled at each bit's end.
+    """Response to one bit of ``amplitude_deg`` at t = 0 on ``flight.surface``, per unit of
+    the surface's position (deg, or normalised throttle), sampled at each bit's end.
 
     In a closed-loop flight (``flight.control``) both twins fly with the autopilot and the
-    pulse enters between it and the elevator, as the probe does: the closed-loop response.
+    pulse enters between it and the surface, as the probe does: the closed-loop response.
 
     Parameters
     ----------
@@ -47,7 +50,7 @@ def single_pulse_response(
     channels : sequence of str
         Output channels.
     amplitude_deg : float
-        Height of the pulse, deg of elevator.
+        Height of the pulse, in the surface's unit.
     steps_per_bit : int
         Simulation steps per bit (t0 / dt).
     n_bits : int
@@ -61,26 +64,29 @@ def single_pulse_response(
     n_steps = n_bits * steps_per_bit
     power = control_power(flight) if flight.closed_loop else None
     pulsed, reference = make_plant(flight), make_plant(flight)
-    trim = pulsed.trim_result
     out_p = np.empty((n_steps, len(channels)))
     out_r = np.empty((n_steps, len(channels)))
+    surface = flight.surface
     if power is not None:  # both fly the autopilot; the pulse enters between it and the surface
         pulse = np.zeros(n_steps)
         pulse[:steps_per_bit] = amplitude_deg
-        ClosedLoop(pulsed, flight.control, power).step(
+        ClosedLoop(pulsed, flight.control, power, surface=surface).step(
             pulse, pulsed.channel_nodes(list(channels)), out_p
         )
         pulsed.check_state()
-        ClosedLoop(reference, flight.control, power).step(
+        ClosedLoop(reference, flight.control, power, surface=surface).step(
             None, reference.channel_nodes(list(channels)), out_r
         )
     else:
-        surface = np.full(n_steps, trim.elevator_deg)
-        surface[:steps_per_bit] += amplitude_deg
-        pulsed.step(pulsed.elevator_command(surface), pulsed.channel_nodes(list(channels)), out_p)
+        drive = pulsed.drive(surface)
+        position = np.full(n_steps, drive.trim_position)
+        position[:steps_per_bit] += amplitude_deg
+        nodes = pulsed.channel_nodes(list(channels))
+        pulsed.step(drive.command(position), nodes, out_p, drive=drive)
         pulsed.check_state()
-        cmd_trim = np.full(n_steps, trim.elevator_cmd_norm)
-        reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r)
+        held = reference.drive(surface)
+        cmd_trim = np.full(n_steps, held.trim_command)
+        reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r, drive=held)
     h = (out_p - out_r)[steps_per_bit - 1 :: steps_per_bit] / amplitude_deg
     return {c: h[:, j] for j, c in enumerate(channels)}
 
@@ -88,7 +94,9 @@ def single_pulse_response(
 def linear_pulse_response(
     flight: Flight, channels: Sequence[str], bit_duration_s: float, n_bits: int
 ) -> dict[str, np.ndarray]:
-    """Pulse response of JSBSim's linearisation, ZOH at the bit duration, per deg of elevator.
+    """Pulse response of JSBSim's linearisation, ZOH at the bit duration, per unit of the
+    probed surface's position (``flight.surface``: its input converted from normalised
+    command with the model's own command-to-position slope at the trim).
 
     Parameters
     ----------
@@ -111,8 +119,8 @@ def linear_pulse_response(
         return {}
     plant = make_plant(flight)
     lin = plant.linearise()
-    gain = plant.elevator_gain_deg_per_norm()
-    iu = lin["u_names"].index("DeCmd")
+    gain = plant.drive(flight.surface).gain_per_norm()
+    iu = lin["u_names"].index(SURFACES[flight.surface].linear_input)
     a_mat, b_mat = lin["A"], lin["B"][:, [iu]] / gain  # per deg of surface
     out: dict[str, np.ndarray] = {}
     ad, bd = zoh(np.asarray(a_mat), np.asarray(b_mat), bit_duration_s)

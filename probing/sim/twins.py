@@ -41,6 +41,7 @@ from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import trim_spec
 from probing.sim.plant import Plant, make_plant
+from probing.sim.surfaces import DEFAULT_SURFACE
 
 __all__ = [
     "TWIN_FORMAT",
@@ -111,8 +112,14 @@ def twin_spec(flight: Flight, channels: Sequence[str], steps: int) -> dict[str, 
             if flight.damage_onset_s is not None
             else {}
         ),
-        # the autopilot the twin flies with (absent in open loop)
+        # the autopilot the twin flies with (absent in open loop), and the surface whose
+        # command it passes through the probe path (absent for the elevator)
         **({"control": flight.control.to_dict()} if flight.closed_loop else {}),
+        **(
+            {"surface": flight.surface}
+            if flight.closed_loop and flight.surface != DEFAULT_SURFACE
+            else {}
+        ),
         "channels": list(channels),
         "source_sha256": _source_digest(),
     }
@@ -205,7 +212,9 @@ class ReferenceTwin:
                 self._plant = plant if plant is not None else make_plant(flight)
                 self._nodes = self._plant.channel_nodes(list(channels))
                 if power is not None:
-                    self._loop = ClosedLoop(self._plant, flight.control, power)
+                    self._loop = ClosedLoop(
+                        self._plant, flight.control, power, surface=flight.surface
+                    )
             except BaseException:
                 self.close(success=False)
                 raise

@@ -350,8 +350,8 @@ def _dead_sensor(monkeypatch: pytest.MonkeyPatch, period: int | None, channel: i
     step = plant_module.Plant.step
     calls = {"probed": 0}
 
-    def step_with_a_dead_sensor(self, cmd_norm, nodes, out, elevator_deg=None):
-        step(self, cmd_norm, nodes, out, elevator_deg)
+    def step_with_a_dead_sensor(self, cmd_norm, nodes, out, position=None, drive=None):
+        step(self, cmd_norm, nodes, out, position, drive)
         if cmd_norm is not None:  # the probed aircraft, one period per call
             if calls["probed"] == period:
                 out[5, channel] = np.nan

@@ -30,7 +30,7 @@ def test_open_loop_one_step_at_a_time_is_the_plants_own_stepping_bit_for_bit(fli
     out_a, out_b = np.empty((3000, 2)), np.empty((3000, 2))
     el_a, el_b = np.empty(3000), np.empty(3000)
     a.step(
-        a.elevator_command(a.trim_result.elevator_deg + q), a.channel_nodes(CHANNELS), out_a, el_a
+        a.drive().command(a.trim_result.elevator_deg + q), a.channel_nodes(CHANNELS), out_a, el_a
     )
     ClosedLoop(b, Control()).step(q, b.channel_nodes(CHANNELS), out_b, el_b)
     assert np.array_equal(out_a, out_b) and np.array_equal(el_a, el_b)

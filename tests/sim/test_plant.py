@@ -31,7 +31,7 @@ def test_elevator_deflection_is_exact(model: str, new_plant) -> None:
     """trim + NL(probe) reaches the surface exactly, also through the A320's asymmetric map."""
     plant = new_plant(model, 0.01)
     trim = plant.trim(15000, speed_kcas=280)
-    lo, hi = plant.elevator_range_deg
+    lo, hi = plant.drive().range
     # The stock maps are piecewise linear and (for the A320) asymmetric about zero.
     assert lo < trim.elevator_deg < hi
     rng = np.random.default_rng(1)
@@ -41,15 +41,15 @@ def test_elevator_deflection_is_exact(model: str, new_plant) -> None:
     surface = np.concatenate((surface, [lo + 0.5, hi - 0.5, trim.elevator_deg]))
     realised = np.empty(surface.size)
     out = np.empty((surface.size, 1))
-    plant.step(plant.elevator_command(surface), plant.channel_nodes(["theta_rad"]), out, realised)
+    plant.step(plant.drive().command(surface), plant.channel_nodes(["theta_rad"]), out, realised)
     np.testing.assert_allclose(realised, surface, rtol=0, atol=1e-12)
 
 
 def test_a320_map_is_asymmetric(new_plant) -> None:
     plant = new_plant("A320", 0.01)
     plant.trim(15000, speed_kcas=280)
-    up = plant.elevator_command(np.array([10.0])) - plant.elevator_command(np.array([0.0]))
-    down = plant.elevator_command(np.array([0.0])) - plant.elevator_command(np.array([-10.0]))
+    up = plant.drive().command(np.array([10.0])) - plant.drive().command(np.array([0.0]))
+    down = plant.drive().command(np.array([0.0])) - plant.drive().command(np.array([-10.0]))
     assert abs(up[0] - down[0]) > 0.01 * abs(up[0])
 
 
@@ -57,7 +57,7 @@ def test_elevator_outside_range_is_refused(new_plant) -> None:
     plant = new_plant("737", 0.01)
     plant.trim(15000, speed_kcas=280)
     with pytest.raises(ValueError, match="outside the model's range"):
-        plant.elevator_command(np.array([plant.elevator_range_deg[1] + 1.0]))
+        plant.drive().command(np.array([plant.drive().range[1] + 1.0]))
 
 
 def test_trim_failure_names_the_condition(new_plant) -> None:
@@ -139,7 +139,7 @@ def test_elevator_gain_matches_a_finite_difference_of_the_realised_surface(new_p
         plant.fdm.run()
         plant.fdm.resume_integration()
     slope = (trim.elevator_deg - below) / 1e-4
-    assert plant.elevator_gain_deg_per_norm() == pytest.approx(slope, rel=1e-9)
+    assert plant.drive().gain_per_norm() == pytest.approx(slope, rel=1e-9)
 
 
 def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection(new_plant) -> None:
@@ -152,6 +152,6 @@ def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection(new_plant) ->
     realised = np.empty(asked.size)
     out = np.empty((asked.size, 1))
     for k in range(asked.size):  # one step each, from wherever the last left the surface
-        plant.step(plant.elevator_command(asked[k : k + 1]), plant.channel_nodes(["theta_rad"]),
+        plant.step(plant.drive().command(asked[k : k + 1]), plant.channel_nodes(["theta_rad"]),
                    out[k : k + 1], realised[k : k + 1])  # fmt: skip
     np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)
