@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor bench clean
+.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral bench clean
 
 setup: $(STAMP)
 
@@ -65,6 +65,17 @@ monitor: setup
 	  $(PY) -m probing sweep $$f --out $(MONITOR_OUT) $(if $(JOBS),-j $(JOBS)) \
 	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(MONITOR_OUT) --figures figures --summary docs/monitoring_summary.md
+
+# NASA's lateral damage cases 1-4 with an aileron or a rudder probe (docs/monitoring.md,
+# "Lateral damage"): every sweep in scenarios/monitor-lateral, then its table
+# (docs/monitoring_lateral_summary.md); its figures stay in the results folder.
+LATERAL_SWEEPS := $(sort $(wildcard scenarios/monitor-lateral/*-*.toml))
+LATERAL_OUT ?= results/monitor-lateral
+monitor-lateral: setup
+	@for f in $(filter-out scenarios/monitor-lateral/base-%,$(LATERAL_SWEEPS)); do \
+	  $(PY) -m probing sweep $$f --out $(LATERAL_OUT) $(if $(JOBS),-j $(JOBS)) \
+	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
+	$(PY) -m probing plot monitor $(LATERAL_OUT) --summary docs/monitoring_lateral_summary.md
 
 bench: setup
 	$(PY) -m bench

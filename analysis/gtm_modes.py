@@ -181,7 +181,9 @@ longitudinal trim where the full one fails because the lost rudder leaves a cont
 authority, though the symmetric aircraft has nothing to trim laterally: cases 1 and 2),
 linearises it (longitudinal block) and simulates the elevator-to-pitch pulse response, one
 bit of the Fig. 4 probe (t0 = 0.01 s, a = 0.005 deg, 511 bits), compared with the undamaged
-one: least-squares gain and the shape error left (`probing.core.metrics.gain_and_shape`).
+one: least-squares gain and the shape error left (`probing.core.metrics.gain_and_shape`);
+and the same for the lateral probes: one bit on the (right) aileron read on the bank angle,
+and on the rudder read on the sideslip.
 
 {damage_level_table}
 
@@ -192,6 +194,13 @@ one: least-squares gain and the shape error left (`probing.core.metrics.gain_and
   1.39 and shape errors of 0.04 to 0.30 for the others. Case 2 (vertical tail off) is
   directionally unstable: during the 5 s of the pulse response the sideslip grows, so its
   gain and shape error (1.6) describe a divergence more than a pulse response.
+* The lateral probes see what the elevator's cannot. The rudder's response is gone when the
+  rudder is (1: gain 0; its shape error, against a fitted gain of 0, means nothing) or the
+  vertical tail is (2); the wing tip's loss (4) takes the left aileron with it and a fifth of
+  the aileron's response (0.80), and changes the rudder's shape by 35 %; the lost rudder also
+  raises the aileron's response by 18 % (less yaw damping for the roll to fight). The flap's
+  loss (3) is the hardest: 7 % on the aileron, 14 % shape on the rudder. Case 2 diverges
+  within the pulse (an aileron "gain" of -313 is a departure).
 * The modes come from the longitudinal block of the linearisation; for the asymmetric cases
   (3, 4) the lateral coupling it leaves out is large, and their phugoid damping (0.7, and a
   real pair for case 4) is not to be read as the aircraft's.
@@ -276,19 +285,24 @@ def damage_level_table(points: list[DamagePoint]) -> str:
     lines = [
         "| case | trim | alpha (deg) | elevator (deg) | aileron (deg) | rudder (deg) "
         "| SP wn (rad/s) | SP zeta | phugoid wn (rad/s) | phugoid zeta | pulse gain "
-        "| shape error |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| shape error | aileron -> phi gain (shape) | rudder -> beta gain (shape) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for p in points:
         label = f"{p.case} {p.name}"
         if p.modes is None:
-            lines.append(f"| {label} | failed | | | | | | | | | | |")
+            lines.append(f"| {label} | failed | | | | | | | | | | | | |")
             continue
         m = p.modes
+        lateral = [
+            "departs" if math.isnan(g) else f"{g:.3f} ({e:.3f})"
+            for g, e in (p.lateral.get(s, (math.nan, math.nan)) for s in ("aileron", "rudder"))
+        ]
         lines.append(
             f"| {label} | {p.trim} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} "
             f"| {p.aileron_deg:.2f} | {p.rudder_deg:.2f} | {m.sp_wn:.2f} | {m.sp_zeta:.3f} "
-            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {p.gain:.3f} | {p.shape_error:.3f} |"
+            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {p.gain:.3f} | {p.shape_error:.3f} "
+            f"| {lateral[0]} | {lateral[1]} |"
         )
     return "\n".join(lines)
 

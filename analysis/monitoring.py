@@ -65,9 +65,14 @@ class Fault:
     goal_probability: float
 
 
-#: Sweep name (without ``monitor-``) -> the fault; effectiveness is split by its scale.
+#: Sweep name (without ``monitor-`` and a probed surface's prefix) -> the fault;
+#: effectiveness is split by its scale.
 FAULTS: dict[str, Fault] = {
     "none": Fault("no fault", "none", 0, 0.0),
+    "damage1": Fault("case 1: rudder off", "airframe", 3, 0.95),
+    "damage2": Fault("case 2: vertical tail off", "airframe", 3, 0.95),
+    "damage3": Fault("case 3: left outboard flap off", "airframe", 3, 0.95),
+    "damage4": Fault("case 4: left wing tip off", "airframe", 3, 0.95),
     "damage5": Fault("case 5: left elevator off", "airframe", 3, 0.95),
     "damage6": Fault("case 6: left stabilizer off", "airframe", 3, 0.95),
     "deadband": Fault("dead band, a~/a = 0.8", "actuator", 5, 0.9),
@@ -79,8 +84,21 @@ FAULTS: dict[str, Fault] = {
 }
 
 
-def _fault_key(sweep: str, row: pd.Series) -> str:
+#: The probed surfaces a sweep's name may start with (``monitor-aileron-damage1``); a name
+#: without one is the elevator's study.
+PROBES = ("elevator", "aileron", "rudder", "throttle")
+
+
+def _probe_and_fault(sweep: str) -> tuple[str, str]:
+    """``monitor-aileron-damage1`` -> (``aileron``, ``damage1``); ``monitor-damage5`` ->
+    (``elevator``, ``damage5``)."""
     key = sweep.removeprefix("monitor-")
+    probe, _, rest = key.partition("-")
+    return (probe, rest) if probe in PROBES and rest else ("elevator", key)
+
+
+def _fault_key(sweep: str, row: pd.Series) -> str:
+    key = _probe_and_fault(sweep)[1]
     if key == "effectiveness":
         key = f"effectiveness-{row['fault.scale']:g}"
     return key
@@ -102,6 +120,7 @@ def load_study(results: str | Path) -> pd.DataFrame:
         df = df[df.status == "done"].copy()
         sweep = summary.parent.name
         df["fault"] = [_fault_key(sweep, r) for _, r in df.iterrows()]
+        df["probe"] = _probe_and_fault(sweep)[0]
         df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
         frames.append(df)
@@ -168,11 +187,13 @@ def false_alarm_rate(flights: pd.DataFrame, level: float = 0.95) -> tuple[int, f
 
 
 def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
-    """Per fault and drift correction: flights, detection probability within the goal and at
-    all, delay (median and 95th percentile, s and periods), verdict counts and how often the
-    verdict is right."""
+    """Per probed surface, fault and drift correction: flights, detection probability within
+    the goal and at all, delay (median and 95th percentile, s and periods), verdict counts and
+    how often the verdict is right."""
     out = []
-    for (fault, drift), g in flights.groupby(["fault", "drift"], sort=False):
+    if "probe" not in flights:
+        flights = flights.assign(probe="elevator")
+    for (probe, fault, drift), g in flights.groupby(["probe", "fault", "drift"], sort=False):
         spec = FAULTS[fault]
         if spec.truth == "none":
             continue
@@ -183,6 +204,7 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
         counts = g.verdict_after.value_counts()
         out.append(
             {
+                "probe": probe,
                 "fault": spec.label,
                 "drift": drift,
                 "flights": len(g),
@@ -223,37 +245,51 @@ def roc(
 def summary_markdown(flights: pd.DataFrame) -> str:
     """The study's tables as Markdown: false alarms per hour, then detection and verdicts
     per fault."""
+    if "probe" not in flights:
+        flights = flights.assign(probe="elevator")
+    several = set(flights.probe) != {"elevator"}  # a column for the probed surface
+    keys = ["probe", "drift"] if several else ["drift"]
     lines = ["# Health-monitoring study: results", ""]
     lines.append(
-        "Written by `make monitor` (`analysis.monitoring`); the set-up and the reading are in "
+        "Written by `probing plot monitor` (`make monitor`, `make monitor-lateral`; "
+        "`analysis.monitoring`); the set-up and the reading are in "
         "[monitoring.md](monitoring.md)."
     )
     lines += ["", "## False alarms", ""]
-    lines.append("| drift | flights | monitored h | events | per hour | 95 % interval |")
-    lines.append("|---|---|---|---|---|---|")
-    for drift, g in flights.groupby("drift", sort=False):
+    probe_head = "| probe " if several else ""
+    lines.append(
+        probe_head + "| drift | flights | monitored h | events | per hour | 95 % interval |"
+    )
+    lines.append("|---|---|---|---|---|---|" + ("---|" if several else ""))
+    for key, g in flights.groupby(keys, sort=False):
+        *probe, drift = key if isinstance(key, tuple) else (key,)
         events, hours, low, high = false_alarm_rate(g)
         lines.append(
-            f"| {drift} | {len(g)} | {hours:.2f} | {events} | {events / hours:.3f} | "
+            "".join(f"| {p} " for p in probe)
+            + f"| {drift} | {len(g)} | {hours:.2f} | {events} | {events / hours:.3f} | "
             f"{low:.3f} - {high:.3f} |"
         )
     healthy = flights[flights.fault == "none"]
-    for drift, g in healthy.groupby("drift", sort=False):
+    for key, g in healthy.groupby(keys, sort=False):
+        *probe, drift = key if isinstance(key, tuple) else (key,)
         events, hours, low, high = false_alarm_rate(g)
+        what = f"{probe[0]} probe, {drift}" if probe else drift
         lines.append(
-            f"\nFlights without a fault alone, {drift}: {events} events in {hours:.2f} h "
+            f"\nFlights without a fault alone, {what}: {events} events in {hours:.2f} h "
             f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
         )
     table = fault_table(flights)
     lines += ["", "## Detection and verdicts", ""]
     head = (
-        "| fault | drift | flights | goal | detected in goal | detected | delay median s (T) "
+        ("| probe " if several else "")
+        + "| fault | drift | flights | goal | detected in goal | detected | delay median s (T) "
         "| delay 95 % s (T) | actuator | airframe | none | verdict right |"
     )
-    lines += [head, "|" + "---|" * 12]
+    lines += [head, "|" + "---|" * (13 if several else 12)]
     for r in table.to_dict("records"):
         lines.append(
-            f"| {r['fault']} | {r['drift']} | {r['flights']} | {r['goal']} | "
+            (f"| {r['probe']} " if several else "")
+            + f"| {r['fault']} | {r['drift']} | {r['flights']} | {r['goal']} | "
             f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | "
             f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
             f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "

@@ -9,12 +9,15 @@ short period and the phugoid.  ``probing modes`` writes the table and figure
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from probing.core.metrics import gain_and_shape
-from probing.sim.errors import TrimError
+from probing.sim.errors import DivergenceError, TrimError
 from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, Flight
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import Plant, make_plant
@@ -114,6 +117,10 @@ class DamagePoint:
         Elevator-to-pitch pulse response (one bit of ``PULSE_BIT_S``, simulated on the
         trimmed aircraft, :func:`probing.sim.truth.single_pulse_response`) against the
         undamaged one: least-squares gain and the shape error left.
+    lateral : dict
+        The same for the lateral probes, :data:`LATERAL_PULSES` (``"aileron"``:
+        aileron-to-bank, ``"rudder"``: rudder-to-sideslip) -> (gain, shape error); NaN
+        where the pulse made the damaged aircraft depart.
     """
 
     case: int
@@ -128,11 +135,14 @@ class DamagePoint:
     gain: float = float("nan")
     shape_error: float = float("nan")
     message: str = ""
+    lateral: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 #: The pulse of the damage table: one bit of the paper's Fig. 4 probe (t0 = 0.01 s,
 #: a = 0.005 deg), 511 bits long.
 PULSE_BIT_S, PULSE_AMPLITUDE_DEG, PULSE_BITS = 0.01, 0.005, 511
+#: The lateral probes of the damage table: surface -> the channel its pulse is read on.
+LATERAL_PULSES = {"aileron": "phi_rad", "rudder": "beta_rad"}
 
 
 def damage_table(
@@ -141,6 +151,7 @@ def damage_table(
     """Trim the GTM level with each damage case (and without), linearise it, and simulate its
     elevator-to-pitch pulse response: what a monitor would have to detect (``docs/gtm.md``)."""
     points, reference = [], None
+    lateral_reference: dict[str, np.ndarray] = {}
     for case in range(len(DAMAGE_CASES) + 1):
         name = "undamaged" if case == 0 else DAMAGE_CASES[case - 1]
         flight = Flight(DAMAGE_MODEL, altitude_ft, "speed_keas", speed_keas, dt_s, damage_case=case)
@@ -159,6 +170,19 @@ def damage_table(
         if case == 0:
             reference = h
         gain, shape = gain_and_shape(h, reference) if reference is not None else (math.nan,) * 2
+        lateral = {}
+        for surface, channel in LATERAL_PULSES.items():
+            lateral_flight = dataclasses.replace(flight, surface=surface)
+            try:
+                h_lat = single_pulse_response(
+                    lateral_flight, [channel], PULSE_AMPLITUDE_DEG, steps_per_bit, PULSE_BITS
+                )[channel]
+            except DivergenceError:
+                lateral[surface] = (math.nan, math.nan)
+                continue
+            if case == 0:
+                lateral_reference[surface] = h_lat
+            lateral[surface] = gain_and_shape(h_lat, lateral_reference[surface])
         points.append(
             DamagePoint(
                 case,
@@ -172,6 +196,7 @@ def damage_table(
                 modes=modes,
                 gain=gain,
                 shape_error=shape,
+                lateral=lateral,
             )
         )
     return points

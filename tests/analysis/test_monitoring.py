@@ -200,3 +200,29 @@ def test_the_fault_figure_draws_the_monitored_channel_only(tmp_path):
     before, after = fig.axes[0].get_lines()[:2]
     np.testing.assert_allclose(before.get_ydata(), taps + 1)  # periods 16-19
     np.testing.assert_allclose(after.get_ydata(), 0.5 * (taps + 1))  # periods 21-24
+
+
+def test_a_lateral_study_is_scored_per_probed_surface(tmp_path: Path):
+    """Sweeps named after their probed surface (monitor-rudder-damage1) are scored per
+    surface: the same flights under two probes give two rows, and the tables say which."""
+    from analysis.monitoring import summary_markdown
+
+    for probe, detected in (("rudder", {24: "airframe"}), ("aileron", {})):
+        sweep = f"monitor-{probe}-damage1"
+        flights = [_flight(tmp_path, sweep, f"{probe[0]}1", 41.0, detected, "airframe")]
+        flights.append(_flight(tmp_path, f"monitor-{probe}-none", f"{probe[0]}0", math.nan, {}))
+        for name, rows in ((sweep, flights[:1]), (f"monitor-{probe}-none", flights[1:])):
+            pd.DataFrame(rows).to_parquet(tmp_path / name / "summary.parquet")
+    flights = evaluate(load_study(tmp_path))
+    assert set(zip(flights.probe, flights.fault, strict=True)) == {
+        ("rudder", "damage1"),
+        ("rudder", "none"),
+        ("aileron", "damage1"),
+        ("aileron", "none"),
+    }
+    table = fault_table(flights).set_index("probe")
+    assert table.loc["rudder", "fault"] == "case 1: rudder off"
+    assert table.loc["rudder", "p_detect"] == 1.0 and table.loc["aileron", "p_detect"] == 0.0
+    text = summary_markdown(flights)
+    assert "| rudder | case 1: rudder off | reference | 1 |" in text
+    assert "| aileron | reference | 2 |" in text  # false alarms per probe

@@ -190,6 +190,10 @@ def test_damage_table_sees_half_the_elevator_gone() -> None:
     assert 0.45 < table[5].gain < 0.6
     assert table[5].elevator_deg < table[0].elevator_deg - 2.0  # more nose-up elevator
     assert [table[c].trim for c in (1, 2)] == ["longitudinal"] * 2
+    # the lateral probes: no rudder, no rudder response; no left aileron, less roll
+    assert table[0].lateral == {"aileron": (1.0, 0.0), "rudder": (1.0, 0.0)}
+    assert abs(table[1].lateral["rudder"][0]) < 0.05
+    assert 0.5 < table[4].lateral["aileron"][0] < 0.9
 
 
 def test_a_scenario_can_be_flown_in_a_climbing_turn(tmp_path: Path) -> None:

@@ -60,3 +60,32 @@ def test_a_bad_kind_and_a_baseline_that_does_not_fit_are_refused(tmp_path):
     with pytest.raises(ScenarioError) as exc:  # 20 settled periods, the baseline 30
         load_sweep(write(tmp_path, 'kind = "monitor"\n[grid]\n"probe.periods" = [22, 60]\n'))
     assert exc.value.field.endswith("monitor.baseline_periods") and "point 0" in str(exc.value)
+
+
+def test_the_studies_sweeps_are_valid_and_the_lateral_ones_are_what_generates_them(tmp_path):
+    """Every committed study sweep (make monitor, make monitor-lateral) is a valid monitor
+    sweep; a lateral sweep's base probes the surface its name says; and the lateral files are
+    the bytes their generator writes."""
+    import runpy
+
+    from probing.experiment.scenario import load_scenario
+
+    root = Path(__file__).resolve().parents[2] / "scenarios"
+    lateral = root / "monitor-lateral"
+    for folder in (root / "monitor", lateral):
+        for path in sorted(folder.glob("*.toml")):
+            if path.name.startswith("base"):
+                load_scenario(path)
+                continue
+            sweep = load_sweep(path)
+            assert sweep.kind == "monitor" and sweep.points, path.name
+            if folder == lateral:
+                surface = path.stem.split("-")[0]
+                assert {p.scenario.surface for p in sweep.points} == {surface}
+    main = runpy.run_path(str(lateral / "generate.py"))["main"]
+    main.__globals__["HERE"] = tmp_path
+    main()
+    written = sorted(p.name for p in tmp_path.glob("*.toml"))
+    assert written == sorted(p.name for p in lateral.glob("*.toml"))
+    for name in written:
+        assert (tmp_path / name).read_bytes() == (lateral / name).read_bytes(), name
