@@ -37,6 +37,7 @@ def test_validating_a_scenario_or_a_sweep_loads_no_simulator() -> None:
     code = (
         "from probing.experiment.scenario import load_scenario\n"
         "load_scenario('scenarios/baseline-737.toml')\n"
+        "load_scenario('scenarios/monitor-lateral/base-aileron.toml')\n"
         "from probing.sweep import load_sweep\n"
         "load_sweep('scenarios/sweeps/backlash-width.toml')"
     )
