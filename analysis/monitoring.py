@@ -191,8 +191,6 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
     the goal and at all, delay (median and 95th percentile, s and periods), verdict counts and
     how often the verdict is right."""
     out = []
-    if "probe" not in flights:
-        flights = flights.assign(probe="elevator")
     for (probe, fault, drift), g in flights.groupby(["probe", "fault", "drift"], sort=False):
         spec = FAULTS[fault]
         if spec.truth == "none":
@@ -245,8 +243,6 @@ def roc(
 def summary_markdown(flights: pd.DataFrame) -> str:
     """The study's tables as Markdown: false alarms per hour, then detection and verdicts
     per fault."""
-    if "probe" not in flights:
-        flights = flights.assign(probe="elevator")
     several = set(flights.probe) != {"elevator"}  # a column for the probed surface
     keys = ["probe", "drift"] if several else ["drift"]
     lines = ["# Health-monitoring study: results", ""]

@@ -41,9 +41,9 @@ from bench.common import (
     bare_seconds_per_step,
     child_json,
     project_at,
+    same_data,
     twin_cache_dir,
 )
-from bench.per_point import _same_data
 from probing.core.correlator import StreamingCorrelator
 from probing.core.prbs import mls
 from probing.experiment.run import run_scenario
@@ -687,7 +687,7 @@ def bench_fig4(args: argparse.Namespace) -> dict:
             if old_tree is not None:
                 main_walls.append(_fig4_once(old_tree, keep("main")))
             walls.append(_fig4_once(ROOT, ours))
-        same = _same_data(kept["main"], kept["after"], "**/*.parquet") if "main" in kept else None
+        same = same_data(kept["main"], kept["after"], "**/*.parquet") if "main" in kept else None
     steps, runs, twins = found["steps"], found["runs"], found["twins"]
     bare = 0.0
     per_group = []

@@ -20,6 +20,7 @@ __all__ = [
     "bare_seconds_per_step",
     "child_json",
     "project_at",
+    "same_data",
     "twin_cache_dir",
 ]
 
@@ -95,3 +96,25 @@ def project_at(revision: str) -> Iterator[Path | None]:
         shutil.rmtree(Path(tmp) / "aircraft", ignore_errors=True)
         shutil.copytree(ROOT / "aircraft", Path(tmp) / "aircraft")
         yield Path(tmp)
+
+
+def same_data(a: Path, b: Path, pattern: str = "*/points/*/*.parquet") -> bool:
+    """Whether two result folders hold the same files (``pattern``: by default a sweep's
+    point files) with the same column data in every file (NaN equal to NaN; the metadata,
+    which names the code's revision, aside)."""
+    import numpy as np
+    import pyarrow.parquet as pq
+
+    files = sorted(p.relative_to(a) for p in a.glob(pattern))
+    if not files or files != sorted(p.relative_to(b) for p in b.glob(pattern)):
+        return False
+    for name in files:
+        ta, tb = pq.read_table(a / name), pq.read_table(b / name)
+        if ta.schema.remove_metadata() != tb.schema.remove_metadata():
+            return False
+        for col in ta.column_names:
+            x, y = ta.column(col).to_numpy(), tb.column(col).to_numpy()
+            nan_ok = x.dtype.kind == "f"
+            if x.shape != y.shape or not np.array_equal(x, y, equal_nan=nan_ok):
+                return False
+    return True

@@ -18,7 +18,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from bench.common import BEFORE_GROUPING, bare_seconds_per_step, project_at, twin_cache_dir
+from bench.common import (
+    BEFORE_GROUPING,
+    bare_seconds_per_step,
+    project_at,
+    same_data,
+    twin_cache_dir,
+)
 from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
@@ -144,7 +150,7 @@ def bench_sweep64(repeats: int, points: int = 64, extra: int = 2) -> dict:
         differ = [
             mode
             for mode in ("main", "before")
-            if walls[mode] and not _same_data(Path(tmp) / f"{mode}-0", Path(tmp) / "after-0")
+            if walls[mode] and not same_data(Path(tmp) / f"{mode}-0", Path(tmp) / "after-0")
         ]
     pairs = [m / a for m, a in zip(walls["main"], walls["after"], strict=False)]
     return {
@@ -158,28 +164,6 @@ def bench_sweep64(repeats: int, points: int = 64, extra: int = 2) -> dict:
         "before_s": statistics.median(walls["before"]),
         "after_s": statistics.median(walls["after"]),
     }
-
-
-def _same_data(a: Path, b: Path, pattern: str = "*/points/*/*.parquet") -> bool:
-    """Whether two result folders hold the same files (``pattern``: by default a sweep's
-    point files) with the same column data in every file (NaN equal to NaN; the metadata,
-    which names the code's revision, aside)."""
-    import numpy as np
-    import pyarrow.parquet as pq
-
-    files = sorted(p.relative_to(a) for p in a.glob(pattern))
-    if not files or files != sorted(p.relative_to(b) for p in b.glob(pattern)):
-        return False
-    for name in files:
-        ta, tb = pq.read_table(a / name), pq.read_table(b / name)
-        if ta.schema.remove_metadata() != tb.schema.remove_metadata():
-            return False
-        for col in ta.column_names:
-            x, y = ta.column(col).to_numpy(), tb.column(col).to_numpy()
-            nan_ok = x.dtype.kind == "f"
-            if x.shape != y.shape or not np.array_equal(x, y, equal_nan=nan_ok):
-                return False
-    return True
 
 
 def _rss_kib() -> int:

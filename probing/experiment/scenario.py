@@ -497,8 +497,9 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
 
     probe = data["probe"]
-    surface = _choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else None
-    surface = surface or DEFAULT_SURFACE
+    surface = (
+        _choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else DEFAULT_SURFACE
+    )
     order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
     bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
     ratio = bit / dt

@@ -37,14 +37,14 @@ import numpy as np
 from probing.sim.flight import ActuatorFault, Control, Flight
 from probing.sim.fork import trim_key
 from probing.sim.plant import Plant, SurfaceDrive, trim_flight
-from probing.sim.surfaces import DEFAULT_SURFACE
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["ClosedLoop", "ControlPower", "control_power"]
 
 _THETA, _Q = "attitude/theta-rad", "velocities/q-rad_sec"
 _PHI, _P = "attitude/phi-rad", "velocities/p-rad_sec"
 _VT = "velocities/vt-fps"
-_AILERON = "fcs/aileron-cmd-norm"
+_AILERON = SURFACES["aileron"].command
 
 
 @dataclass(frozen=True)
@@ -137,11 +137,8 @@ class ClosedLoop:
         self._ref = {k: get() for k, get in self._get.items()}
         self._aileron = pm.get_node(_AILERON)
         self._aileron0 = self._aileron.get_double_value()
-        self._throttles = []
-        i = 0
-        while pm.hasNode(f"fcs/throttle-cmd-norm[{i}]"):
-            self._throttles.append(pm.get_node(f"fcs/throttle-cmd-norm[{i}]"))
-            i += 1
+        throttle = SURFACES["throttle"].command_properties(plant.engine_count())
+        self._throttles = [pm.get_node(p) for p in throttle]
         self._throttle0 = trim.throttle_norm
         self._trim_deg = trim.elevator_deg
         self._gains = _gains(control, power) if control.active else None

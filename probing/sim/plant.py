@@ -160,7 +160,8 @@ class SurfaceDrive:
         self.map_cmd, self.map_pos = map_cmd, map_pos  # sorted by position
         self._cmd_list, self._pos_list = map_cmd.tolist(), map_pos.tolist()
         order = np.argsort(map_cmd)
-        self._by_cmd = (map_cmd[order].tolist(), map_pos[order].tolist())
+        self._cmd_sorted, self._pos_by_cmd = map_cmd[order], map_pos[order]
+        self._by_cmd = (self._cmd_sorted.tolist(), self._pos_by_cmd.tolist())
         if len(nodes) == 1:
             self.set = nodes[0].set_double_value  # the one write of a step
         else:
@@ -200,32 +201,30 @@ class SurfaceDrive:
         """The normalised command for one ``position``, clipped to the range: the same map
         and the same bits as :meth:`command` (``numpy.interp``'s own formula), for a loop
         that computes its command one step at a time."""
-        xs, ys = self._pos_list, self._cmd_list  # sorted by position: its range at the ends
-        s = min(max(position, xs[0]), xs[-1])
-        if s == xs[-1]:
-            return ys[-1]
-        j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
-        slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
-        return slope * (s - xs[j]) + ys[j]
+        return _interp_clipped(position, self._pos_list, self._cmd_list)
 
     def position_of(self, command: float) -> float:
         """The position the model gives a normalised ``command`` (the forward map; beyond the
         invertible part, the position at its end), for a loop that commands the surface
         one step at a time in normalised units."""
-        xs, ys = self._by_cmd
-        c = min(max(command, xs[0]), xs[-1])
-        if c == xs[-1]:
-            return ys[-1]
-        j = bisect.bisect_right(xs, c) - 1
-        return (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j]) * (c - xs[j]) + ys[j]
+        return _interp_clipped(command, *self._by_cmd)
 
     def gain_per_norm(self) -> float:
         """Local slope d(position)/d(command) at the trimmed command (unit per unit command)."""
-        cmd0 = self.trim_command
-        order = np.argsort(self.map_cmd)  # the map is kept sorted by position, not command
-        cmd, pos = self.map_cmd[order], self.map_pos[order]
-        i = int(np.clip(np.searchsorted(cmd, cmd0), 1, cmd.size - 1))
+        cmd, pos = self._cmd_sorted, self._pos_by_cmd  # the map is kept sorted by position
+        i = int(np.clip(np.searchsorted(cmd, self.trim_command), 1, cmd.size - 1))
         return float((pos[i] - pos[i - 1]) / (cmd[i] - cmd[i - 1]))
+
+
+def _interp_clipped(x: float, xs: list[float], ys: list[float]) -> float:
+    """Piecewise-linear ``ys`` over increasing ``xs`` at one ``x``, clipped to the ends:
+    ``numpy.interp``'s own formula, for one value at a time without building an array."""
+    s = min(max(x, xs[0]), xs[-1])
+    if s == xs[-1]:
+        return ys[-1]
+    j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
+    slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
+    return slope * (s - xs[j]) + ys[j]
 
 
 class Plant:
@@ -476,27 +475,35 @@ class Plant:
                 copy.fdm[DAMAGE_PROPERTY] = self.fdm[DAMAGE_PROPERTY]
             copy.trim(**self._trim_args)
             found = _calibration(surface.name, copy)
-        pos0, cmd0, map_cmd, map_pos = found
-        nodes = [self._pm.get_node(p) for p in surface.command_properties(self._engines())]
-        pos_node = self._pm.get_node(surface.position)
-        return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, map_cmd, map_pos)
+        return SurfaceDrive(surface, *self._nodes_of(surface), *found)
 
-    def _engines(self) -> int:
+    def engine_count(self) -> int:
+        """Engines of the model (throttle commands ``fcs/throttle-cmd-norm[i]``)."""
         n = 0
         while self._pm.hasNode(f"fcs/throttle-cmd-norm[{n}]"):
             n += 1
         return n
 
+    def _nodes_of(self, surface: Surface) -> tuple[list, object]:
+        """The property nodes a surface is commanded through, and its position's.
+
+        Raises
+        ------
+        ValueError
+            If the model lacks one of them.
+        """
+        pm = self._pm
+        props = surface.command_properties(self.engine_count())
+        missing = [p for p in (*props, surface.position) if not pm.hasNode(p)]
+        if missing or not props:
+            raise ValueError(f"{self.model} has no {surface.name} ({', '.join(missing)})")
+        return [pm.get_node(p) for p in props], pm.get_node(surface.position)
+
     def _calibrate(self, surface: Surface) -> SurfaceDrive:
         """Measure ``surface``'s command -> position on the model's own FCS (see
         :class:`SurfaceDrive`)."""
         fdm, pm = self.fdm, self._pm
-        props = surface.command_properties(self._engines())
-        missing = [p for p in (*props, surface.position) if not pm.hasNode(p)]
-        if missing or not props:
-            raise ValueError(f"{self.model} has no {surface.name} ({', '.join(missing)})")
-        nodes = [pm.get_node(p) for p in props]
-        pos_node = pm.get_node(surface.position)
+        nodes, pos_node = self._nodes_of(surface)
         cmd0 = nodes[0].get_double_value()
         pos0 = pos_node.get_double_value()
         lo, hi = surface.command_range
