@@ -99,6 +99,9 @@ def test_every_surface_reaches_its_position_exactly(model: str, surface: str):
     realised = np.empty(asked.size)
     plant.step(drive.command(asked), [], np.empty((asked.size, 0)), realised, drive)
     np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)
+    if surface == "throttle":  # every engine's lever, not only the first's
+        levers = [plant.fdm[f"fcs/throttle-pos-norm[{i}]"] for i in range(plant.engine_count())]
+        assert len(levers) >= 2 and levers == pytest.approx([asked[-1]] * len(levers), abs=1e-12)
     if surface == "aileron" and model == "737":
         left = plant.fdm["fcs/left-aileron-pos-deg"]
         assert left == pytest.approx(-plant.fdm["fcs/right-aileron-pos-deg"], abs=1e-12)
