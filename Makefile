@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral bench clean
+.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral simultaneous manoeuvres bench clean
 
 setup: $(STAMP)
 
@@ -76,6 +76,16 @@ monitor-lateral: setup
 	  $(PY) -m probing sweep $$f --out $(LATERAL_OUT) $(if $(JOBS),-j $(JOBS)) \
 	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(LATERAL_OUT) --summary docs/monitoring_lateral_summary.md
+
+# Several surfaces probed at once (docs/simultaneous.md): every scenario in
+# scenarios/simultaneous flown together and each surface alone, then the cross-talk tables
+# (docs/simultaneous_summary.md) and figures (figures/simultaneous_*.png).  About a minute.
+SIMULTANEOUS_OUT ?= results/simultaneous
+simultaneous: setup
+	@for f in $(sort $(wildcard scenarios/simultaneous/*.toml)); do \
+	  $(PY) -m probing run $$f --truth --out $(SIMULTANEOUS_OUT) > /dev/null || exit $$?; done
+	$(PY) -m probing plot simultaneous $(SIMULTANEOUS_OUT) --figures figures \
+	  --summary docs/simultaneous_summary.md
 
 bench: setup
 	$(PY) -m bench

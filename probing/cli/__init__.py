@@ -81,6 +81,8 @@ def _simulating(job: Callable[[], int], where: str) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     scn = _load_scenario(args.scenario)
     _out_folder(args.out, "--out")
+    if scn.simultaneous is not None:
+        return _run_simultaneous(scn, args)
 
     def job() -> int:
         from probing.experiment.run import run_scenario
@@ -97,14 +99,46 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return _simulating(job, str(args.scenario))
 
 
+def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
+    """``probing run`` of a ``[simultaneous]`` scenario: ``responses.parquet``; with
+    ``--truth`` each surface is flown alone too and the measured cross-talk printed."""
+    from probing.experiment.simultaneous import SeparationError, run_simultaneous
+
+    def job() -> int:
+        try:
+            result = run_simultaneous(scn, args.out, truth=args.truth, progress=None)
+        except SeparationError as exc:
+            raise UsageError(f"{args.scenario}: {exc}") from None
+        print(
+            f"{scn.name}: {len(scn.simultaneous.surfaces)} surfaces together "
+            f"({scn.simultaneous.design}), {result.steps_simulated} steps in "
+            f"{result.wall_s:.2f} s -> {result.out_dir}"
+        )
+        if result.crosstalk:
+            print(result.table())
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
 def _print_truth(scn: Any, out: Path) -> None:
     from probing.experiment.truth import compute_truth
 
     print(f"{scn.name}: ground truth -> {compute_truth(scn, out)}")
 
 
+def _one_surface(scn: Any, path: Path, command: str) -> Any:
+    """``scn``, unless it probes several surfaces ([simultaneous]: ``probing run`` flies it)."""
+    if scn.simultaneous is not None:
+        raise UsageError(
+            f"{path}: probing {command} takes one probed surface; a [simultaneous] scenario "
+            f"is flown by probing run (its --truth flies each surface alone)"
+        )
+    return scn
+
+
 def _cmd_truth(args: argparse.Namespace) -> int:
-    scn = _load_scenario(args.scenario)
+    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "truth")
     _out_folder(args.out, "--out")
 
     def job() -> int:
@@ -117,7 +151,7 @@ def _cmd_truth(args: argparse.Namespace) -> int:
 def _cmd_monitor(args: argparse.Namespace) -> int:
     from probing.experiment.scenario import ScenarioError
 
-    scn = _load_scenario(args.scenario)
+    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
     try:
         scn.monitor_settings()
     except ScenarioError as exc:
@@ -249,6 +283,8 @@ def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int
 def _cmd_plot(args: argparse.Namespace) -> int:
     if args.target == "monitor":
         return _plot_monitor(args)
+    if args.target == "simultaneous":
+        return _plot_simultaneous(args)
     if args.target == "sweep":
         figures = args.figures if args.figures is not None else args.results / "figures"
         _out_folder(figures, "--figures")
@@ -262,24 +298,41 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 def _plot_monitor(args: argparse.Namespace) -> int:
     """The monitor study's tables and figures from its stored flights."""
+    from analysis.monitoring import evaluate, load_study, summary_markdown
+    from analysis.monitoring_plots import draw_all
+
+    return _plot_study(args, lambda path: evaluate(load_study(path)), summary_markdown, draw_all)
+
+
+def _plot_simultaneous(args: argparse.Namespace) -> int:
+    """The simultaneous designs' cross-talk tables and figures from their stored runs."""
+    from analysis.simultaneous import draw, load_runs, summary_markdown
+
+    return _plot_study(args, load_runs, summary_markdown, draw)
+
+
+def _plot_study(
+    args: argparse.Namespace,
+    load: Callable[[Path], Any],
+    summarise: Callable[[Any], str],
+    draw: Callable[[Any, Path], list[Path]],
+) -> int:
+    """A study's summary (``--summary``) and figures (``--figures``) from the stored runs in
+    RESULTS: ``load`` them (FileNotFoundError: none there), ``summarise`` and ``draw``."""
     if not args.results.is_dir():
         raise UsageError(f"RESULTS: {args.results} is not a folder")
     figures = args.figures if args.figures is not None else args.results / "figures"
     summary = args.summary if args.summary is not None else args.results / "summary.md"
     _out_folder(figures, "--figures")
     _out_folder(summary.parent, "--summary")
-    from analysis.monitoring import evaluate, load_study, summary_markdown
-    from analysis.monitoring_plots import draw_all
-
     try:
-        study = load_study(args.results)
+        study = load(args.results)
     except FileNotFoundError as exc:
         raise UsageError(str(exc)) from None
-    flights = evaluate(study)
-    text = summary_markdown(flights)
+    text = summarise(study)
     summary.write_text(text)
     print(text)
-    for path in draw_all(flights, figures):
+    for path in draw(study, figures):
         print(f"figure -> {path}")
     print(f"summary -> {summary}")
     return 0
@@ -287,6 +340,12 @@ def _plot_monitor(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------ design
 def _cmd_design(args: argparse.Namespace) -> int:
+    if args.simultaneous is not None:
+        return _check_simultaneous(args.simultaneous)
+    missing = [o for o in ("aircraft", "altitude_ft", "speed_kcas") if getattr(args, o) is None]
+    if missing:
+        options = ", ".join("--" + o.replace("_", "-") for o in missing)
+        raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
     from probing.experiment.design import (
         DesignError,
         DesignInputError,
@@ -339,6 +398,32 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return 0
 
     return _simulating(job, f"--aircraft {args.aircraft}")
+
+
+def _check_simultaneous(path: Path) -> int:
+    """``probing design --simultaneous``: the design's memory condition, or its refusal."""
+    from probing.experiment.simultaneous import SeparationError, check_separation
+
+    scn = _load_scenario(path)
+    if scn.simultaneous is None:
+        raise UsageError(f"{path}: has no [simultaneous] section")
+
+    def job() -> int:
+        try:
+            check = check_separation(scn)
+        except SeparationError as exc:
+            raise UsageError(f"{path}: {exc}") from None
+        if not check.ok:
+            raise UsageError(f"{path}: {check.refusal()}")
+        layout = check.layout
+        print(
+            f"{scn.name}: {layout.design} design, {layout.surfaces} surfaces, "
+            f"{layout.window_bits} taps each, {layout.total_periods} periods flown"
+        )
+        print(check.table())
+        return 0
+
+    return _simulating(job, str(path))
 
 
 def _modes_dict(modes: Any) -> dict[str, float]:
@@ -518,7 +603,9 @@ def build_parser() -> argparse.ArgumentParser:
     fig4.set_defaults(func=_cmd_fig4)
 
     plot = command("plot", "redraw figures from stored Parquet (no simulation)")
-    plot.add_argument("target", choices=["fig4", "sweep", "monitor"], help="which figure set")
+    plot.add_argument(
+        "target", choices=["fig4", "sweep", "monitor", "simultaneous"], help="which figure set"
+    )
     plot.add_argument(
         "results",
         type=Path,
@@ -582,9 +669,17 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     from probing.sim.channels import CHANNEL_NAMES
     from probing.sim.flight import TURBULENCE_SEVERITY
 
-    parser.add_argument("--aircraft", required=True, help="JSBSim model, e.g. gtm_t2 or 737")
-    parser.add_argument("--altitude-ft", type=float, required=True, help="trim altitude (ft)")
-    parser.add_argument("--speed-kcas", type=float, required=True, help="trim speed (kt CAS)")
+    parser.add_argument(
+        "--simultaneous",
+        type=Path,
+        default=None,
+        metavar="SCENARIO",
+        help="check a scenario's [simultaneous] design from the linearisation (exit 2 if "
+        "its surfaces cannot be kept apart) instead of recommending a probe",
+    )
+    parser.add_argument("--aircraft", help="JSBSim model, e.g. gtm_t2 or 737 (required)")
+    parser.add_argument("--altitude-ft", type=float, help="trim altitude (ft) (required)")
+    parser.add_argument("--speed-kcas", type=float, help="trim speed (kt CAS) (required)")
     parser.add_argument("--dt-s", type=float, default=0.01, help="simulation step (s)")
     parser.add_argument(
         "--deadband-deg",

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from probing.core.monitor import MonitorSettings
+from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER
@@ -79,6 +80,7 @@ SECTIONS: dict[str, set[str] | None] = {
     | {n for t in NONLINEARITIES.values() for n in t.names},
     "control": {f.name for f in dataclasses.fields(Control)},
     "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
+    "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
 }
 #: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
 #: that appears on the probe path, and faults of the probed surface's actuator.
@@ -111,6 +113,43 @@ class ScenarioError(ValueError):
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}{field}: {message}")
+
+
+#: Largest cross-talk a simultaneous design may be predicted to leave, as a fraction of the
+#: largest response in the channel (``simultaneous.max_crosstalk``'s default).
+DEFAULT_MAX_CROSSTALK = 0.02
+
+
+@dataclass(frozen=True)
+class Simultaneous:
+    """The ``[simultaneous]`` section: several surfaces probed in one flight.
+
+    Attributes
+    ----------
+    design : str
+        A key of :data:`probing.core.multiplex.DESIGNS`.
+    surfaces : tuple of str
+        Every probed surface, ``probe.surface`` first.
+    amplitudes : tuple of float
+        Their probe amplitudes, each in its surface's unit (deg, or normalised).
+    max_crosstalk : float
+        The design is refused if the linearisation leaves more cross-talk than this fraction
+        of the largest response of a channel (its memory condition).
+    """
+
+    design: str
+    surfaces: tuple[str, ...]
+    amplitudes: tuple[float, ...]
+    max_crosstalk: float = DEFAULT_MAX_CROSSTALK
+
+    def to_dict(self) -> dict[str, Any]:
+        """The section in its file layout."""
+        return {
+            "design": self.design,
+            "also_surfaces": list(self.surfaces[1:]),
+            "also_amplitudes": list(self.amplitudes[1:]),
+            "max_crosstalk": self.max_crosstalk,
+        }
 
 
 @dataclass(frozen=True)
@@ -148,6 +187,7 @@ class Scenario:
     control: Control | None = None  # [control]: the autopilot (None: open loop)
     monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
     surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
+    simultaneous: Simultaneous | None = None  # [simultaneous]: more surfaces probed at once
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -303,6 +343,11 @@ class Scenario:
             **({"fault": self._fault()} if self.fault_type != "none" else {}),
             **({"control": self.control.to_dict()} if self.control is not None else {}),
             **({"monitor": self.monitor.to_dict()} if self.monitor is not None else {}),
+            **(
+                {"simultaneous": self.simultaneous.to_dict()}
+                if self.simultaneous is not None
+                else {}
+            ),
         }
 
     def _fault(self) -> dict[str, Any]:
@@ -592,7 +637,14 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     if changes:
         scn = dataclasses.replace(scn, **changes)
     monitor = _monitor(data.get("monitor"), scn)
-    return dataclasses.replace(scn, **monitor) if monitor else scn
+    scn = dataclasses.replace(scn, **monitor) if monitor else scn
+    if "simultaneous" in data:
+        scn = dataclasses.replace(scn, simultaneous=_simultaneous(data, scn))
+    return scn
+
+
+#: Largest probe amplitude in each surface unit: 10 deg, or half the throttle lever.
+AMPLITUDE_MAX = {"deg": 10.0, "norm": 0.5}
 
 
 def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
@@ -606,7 +658,65 @@ def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
         )
     if key not in probe:
         raise ScenarioError(f"probe.{key}", "missing")
-    return _number(probe, "probe", key, lo=0, hi=10 if unit == "deg" else 0.5, lo_open=True)
+    return _number(probe, "probe", key, lo=0, hi=AMPLITUDE_MAX[unit], lo_open=True)
+
+
+def _simultaneous(data: dict[str, Any], scn: Scenario) -> Simultaneous:
+    """The ``[simultaneous]`` section: the surfaces probed besides ``probe.surface``, their
+    amplitudes (each in its surface's unit), the design, and what it offers only alone."""
+    section = data["simultaneous"]
+    for key in ("design", "also_surfaces", "also_amplitudes"):
+        if key not in section:
+            raise ScenarioError(f"simultaneous.{key}", "missing")
+    design = _choice(section, "simultaneous", "design", tuple(DESIGNS))
+    also, amplitudes = section["also_surfaces"], section["also_amplitudes"]
+    surfaces = [scn.surface, *also] if isinstance(also, list) else []
+    if (
+        not surfaces
+        or not also
+        or any(s not in SURFACE_NAMES for s in also)
+        or len(set(surfaces)) != len(surfaces)
+    ):
+        raise ScenarioError(
+            "simultaneous.also_surfaces",
+            f"must be a non-empty list of distinct surfaces from {', '.join(SURFACE_NAMES)}, "
+            f"without probe.surface ({scn.surface})",
+        )
+    if not isinstance(amplitudes, list) or len(amplitudes) != len(also):
+        raise ScenarioError(
+            "simultaneous.also_amplitudes",
+            f"must be a list of {len(also)} amplitude(s), one per surface, in its unit",
+        )
+    levels = [scn.amplitude_deg]
+    for surface, value in zip(also, amplitudes, strict=True):
+        hi = AMPLITUDE_MAX[SURFACES[surface].unit]  # each in its surface's unit
+        levels.append(
+            _number(
+                {surface: value}, "simultaneous.also_amplitudes", surface, lo=0, hi=hi, lo_open=True
+            )
+        )
+    max_crosstalk = (
+        _number(section, "simultaneous", "max_crosstalk", lo=0, hi=0.5, lo_open=True)
+        if "max_crosstalk" in section
+        else DEFAULT_MAX_CROSSTALK
+    )
+    alone = {
+        "nonlinearity": scn.nonlinearity != "none",
+        "fault": scn.fault_type != "none",
+        "control": scn.control is not None,
+        "monitor": scn.monitor is not None,
+    }
+    for section_name, present in alone.items():
+        if present:
+            raise ScenarioError(
+                "simultaneous", f"is offered without [{section_name}] (a linear probe path)"
+            )
+    if scn.drift not in ("reference", "none") or scn.estimator != "cyclic":
+        raise ScenarioError(
+            "simultaneous",
+            'needs output.estimator = "cyclic" and output.drift = "reference" or "none"',
+        )
+    return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
 
 
 def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool) -> None:

@@ -20,6 +20,7 @@ import collections
 import functools
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
@@ -618,6 +619,37 @@ class Plant:
         out[:] = block[:, : len(nodes)]
         if position is not None:
             position[:] = block[:, -1]
+
+    def step_surfaces(
+        self, commands: np.ndarray, drives: Sequence[SurfaceDrive], nodes: list, out: np.ndarray
+    ) -> None:
+        """Run ``out.shape[0]`` steps driving several surfaces at once: before step k,
+        ``commands[k, i]`` (normalised) is written to ``drives[i]``; ``out[k, j]`` is channel j
+        read after it.  :meth:`step` drives one surface; this is the simultaneous probe's.
+
+        Raises
+        ------
+        ValueError
+            If the shapes disagree, or a damage onset is pending (not offered here).
+        """
+        n = out.shape[0]
+        if commands.shape != (n, len(drives)):
+            raise ValueError(f"commands {commands.shape} for {n} steps of {len(drives)} surfaces")
+        if self._fault is not None:
+            raise ValueError("a damage onset is not offered with several surfaces driven")
+        self._steps += n
+        getters = [node.get_double_value for node in nodes]
+        setters = [d.set for d in drives]
+        run = self.fdm.run
+        values: list[float] = []
+        append = values.append
+        for row in commands.tolist():
+            for write, c in zip(setters, row, strict=True):
+                write(c)
+            run()
+            for get in getters:
+                append(get())
+        out[:] = np.array(values, dtype=np.float64).reshape(n, len(nodes))
 
     def check_state(self) -> None:
         """Raise :class:`DivergenceError` if the aircraft left the meaningful region."""
