@@ -87,6 +87,16 @@ simultaneous: setup
 	$(PY) -m probing plot simultaneous $(SIMULTANEOUS_OUT) --figures figures \
 	  --summary docs/simultaneous_summary.md
 
+# Incremental probing through manoeuvres (docs/manoeuvres.md): every scenario in
+# scenarios/manoeuvres (the GTM speeding up by 20 kt at 0.5 to 4 kt/s), then the table
+# (docs/manoeuvres_summary.md) and figures (figures/manoeuvres_*.png).  About a minute.
+MANOEUVRES_OUT ?= results/manoeuvres
+manoeuvres: setup
+	@for f in $(sort $(wildcard scenarios/manoeuvres/*.toml)); do \
+	  $(PY) -m probing run $$f --out $(MANOEUVRES_OUT) > /dev/null || exit $$?; done
+	$(PY) -m probing plot manoeuvres $(MANOEUVRES_OUT) --figures figures \
+	  --summary docs/manoeuvres_summary.md
+
 bench: setup
 	$(PY) -m bench
 

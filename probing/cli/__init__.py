@@ -83,6 +83,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _out_folder(args.out, "--out")
     if scn.simultaneous is not None:
         return _run_simultaneous(scn, args)
+    if scn.manoeuvre is not None:
+        return _run_manoeuvre(scn, args)
 
     def job() -> int:
         from probing.experiment.run import run_scenario
@@ -121,6 +123,26 @@ def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
     return _simulating(job, str(args.scenario))
 
 
+def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
+    """``probing run`` of a ``[manoeuvre]`` scenario: ``manoeuvre.parquet``, the probing
+    output period by period with its single-pulse truth (so ``--truth`` adds nothing)."""
+    from probing.experiment.manoeuvre import run_manoeuvre
+
+    def job() -> int:
+        result = run_manoeuvre(scn, args.out, progress=None)
+        worst = ", ".join(
+            f"{c} {100 * e[scn.settle_periods :].max():.1f} %" for c, e in result.errors.items()
+        )
+        print(
+            f"{scn.name}: {scn.periods} periods through a {scn.manoeuvre.hold} manoeuvre, "
+            f"{result.steps_simulated} steps in {result.wall_s:.2f} s -> {result.out_dir}; "
+            f"largest error against the single pulse after settling: {worst}"
+        )
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
 def _print_truth(scn: Any, out: Path) -> None:
     from probing.experiment.truth import compute_truth
 
@@ -133,6 +155,11 @@ def _one_surface(scn: Any, path: Path, command: str) -> Any:
         raise UsageError(
             f"{path}: probing {command} takes one probed surface; a [simultaneous] scenario "
             f"is flown by probing run (its --truth flies each surface alone)"
+        )
+    if scn.manoeuvre is not None:
+        raise UsageError(
+            f"{path}: probing {command} flies a steady condition; a [manoeuvre] scenario is "
+            f"flown by probing run (with its single-pulse truth along the manoeuvre)"
         )
     return scn
 
@@ -285,6 +312,8 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         return _plot_monitor(args)
     if args.target == "simultaneous":
         return _plot_simultaneous(args)
+    if args.target == "manoeuvres":
+        return _plot_manoeuvres(args)
     if args.target == "sweep":
         figures = args.figures if args.figures is not None else args.results / "figures"
         _out_folder(figures, "--figures")
@@ -307,6 +336,13 @@ def _plot_monitor(args: argparse.Namespace) -> int:
 def _plot_simultaneous(args: argparse.Namespace) -> int:
     """The simultaneous designs' cross-talk tables and figures from their stored runs."""
     from analysis.simultaneous import draw, load_runs, summary_markdown
+
+    return _plot_study(args, load_runs, summary_markdown, draw)
+
+
+def _plot_manoeuvres(args: argparse.Namespace) -> int:
+    """The manoeuvre study's table and figures from its stored runs."""
+    from analysis.manoeuvres import draw, load_runs, summary_markdown
 
     return _plot_study(args, load_runs, summary_markdown, draw)
 
@@ -604,7 +640,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     plot = command("plot", "redraw figures from stored Parquet (no simulation)")
     plot.add_argument(
-        "target", choices=["fig4", "sweep", "monitor", "simultaneous"], help="which figure set"
+        "target",
+        choices=["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"],
+        help="which figure set",
     )
     plot.add_argument(
         "results",

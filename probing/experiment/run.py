@@ -551,8 +551,8 @@ def run_scenario(
     probing.sim.errors.TrimError, probing.sim.errors.DivergenceError
         On trim failure or divergence; no output file is left behind.
     """
-    if scn.simultaneous is not None:
-        raise ValueError("a [simultaneous] scenario: fly it with run_simultaneous")
+    if scn.simultaneous is not None or scn.manoeuvre is not None:
+        raise ValueError("a [simultaneous] or [manoeuvre] scenario has its own runner")
     t_start = time.perf_counter()
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
     rig.stop_on_divergence = stop_on_divergence

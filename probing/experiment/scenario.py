@@ -31,11 +31,13 @@ from probing.sim.flight import (
     ACTUATOR_FAULTS,
     DAMAGE_CASES,
     DAMAGE_MODEL,
+    MANOEUVRE_HOLDS,
     SPEED_KINDS,
     TURBULENCE_SEVERITY,
     ActuatorFault,
     Control,
     Flight,
+    Manoeuvre,
 )
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACE_NAMES, SURFACES
 
@@ -81,6 +83,7 @@ SECTIONS: dict[str, set[str] | None] = {
     "control": {f.name for f in dataclasses.fields(Control)},
     "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
     "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
+    "manoeuvre": {"hold", "start_s", "change_deg", "rate_deg_s", "change_kt", "rate_kt_s"},
 }
 #: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
 #: that appears on the probe path, and faults of the probed surface's actuator.
@@ -188,6 +191,7 @@ class Scenario:
     monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
     surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
     simultaneous: Simultaneous | None = None  # [simultaneous]: more surfaces probed at once
+    manoeuvre: Manoeuvre | None = None  # [manoeuvre]: an autopilot reference that moves
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -348,6 +352,7 @@ class Scenario:
                 if self.simultaneous is not None
                 else {}
             ),
+            **({"manoeuvre": self.manoeuvre.to_dict()} if self.manoeuvre is not None else {}),
         }
 
     def _fault(self) -> dict[str, Any]:
@@ -640,7 +645,42 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     scn = dataclasses.replace(scn, **monitor) if monitor else scn
     if "simultaneous" in data:
         scn = dataclasses.replace(scn, simultaneous=_simultaneous(data, scn))
+    if "manoeuvre" in data:
+        scn = dataclasses.replace(scn, manoeuvre=_manoeuvre(data["manoeuvre"], scn))
     return scn
+
+
+def _manoeuvre(section: dict[str, Any], scn: Scenario) -> Manoeuvre:
+    """The ``[manoeuvre]`` section: which hold loop's reference ramps, by how much, how fast
+    and when; the loop must be closed, and the probe path linear."""
+    if "hold" not in section:
+        raise ScenarioError("manoeuvre.hold", f"missing (one of {', '.join(MANOEUVRE_HOLDS)})")
+    hold = _choice(section, "manoeuvre", "hold", tuple(MANOEUVRE_HOLDS))
+    unit = MANOEUVRE_HOLDS[hold][0]
+    own = {"hold", "start_s", f"change_{unit}", f"rate_{unit}_s"}
+    for key in section:
+        if key not in own:
+            raise ScenarioError(
+                f"manoeuvre.{key}", f"not a field of a {hold} manoeuvre: {', '.join(sorted(own))}"
+            )
+    for key in sorted(own):
+        if key not in section:
+            raise ScenarioError(f"manoeuvre.{key}", "missing")
+    limit = 60.0 if unit == "deg" else 200.0
+    change = _number(section, "manoeuvre", f"change_{unit}", lo=-limit, hi=limit)
+    rate = _number(section, "manoeuvre", f"rate_{unit}_s", lo=0, hi=100, lo_open=True)
+    duration_s = scn.total_steps * scn.dt_s
+    start = _number(section, "manoeuvre", "start_s", lo=0, hi=duration_s)
+    if scn.control is None or not getattr(scn.control, f"{hold}_hold"):
+        raise ScenarioError(
+            "manoeuvre.hold", f"a {hold} manoeuvre needs [control] {hold}_hold = true"
+        )
+    _alone("manoeuvre", scn, ("nonlinearity", "fault", "monitor", "simultaneous"))
+    if scn.estimator != "cyclic":
+        raise ScenarioError(
+            "manoeuvre", 'needs output.estimator = "cyclic": each period is estimated alone'
+        )
+    return Manoeuvre(hold, change, rate, start)
 
 
 #: Largest probe amplitude in each surface unit: 10 deg, or half the throttle lever.
@@ -659,6 +699,21 @@ def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
     if key not in probe:
         raise ScenarioError(f"probe.{key}", "missing")
     return _number(probe, "probe", key, lo=0, hi=AMPLITUDE_MAX[unit], lo_open=True)
+
+
+def _alone(section: str, scn: Scenario, without: tuple[str, ...]) -> None:
+    """``[section]`` is offered on a linear probe path only: none of the sections ``without``
+    (``nonlinearity`` counts when its type is not ``none``)."""
+    present = {
+        "nonlinearity": scn.nonlinearity != "none",
+        "fault": scn.fault_type != "none",
+        "control": scn.control is not None,
+        "monitor": scn.monitor is not None,
+        "simultaneous": scn.simultaneous is not None,
+    }
+    for name in without:
+        if present[name]:
+            raise ScenarioError(section, f"is offered without [{name}] (a linear probe path)")
 
 
 def _simultaneous(data: dict[str, Any], scn: Scenario) -> Simultaneous:
@@ -700,17 +755,7 @@ def _simultaneous(data: dict[str, Any], scn: Scenario) -> Simultaneous:
         if "max_crosstalk" in section
         else DEFAULT_MAX_CROSSTALK
     )
-    alone = {
-        "nonlinearity": scn.nonlinearity != "none",
-        "fault": scn.fault_type != "none",
-        "control": scn.control is not None,
-        "monitor": scn.monitor is not None,
-    }
-    for section_name, present in alone.items():
-        if present:
-            raise ScenarioError(
-                "simultaneous", f"is offered without [{section_name}] (a linear probe path)"
-            )
+    _alone("simultaneous", scn, ("nonlinearity", "fault", "control", "monitor"))
     if scn.drift not in ("reference", "none") or scn.estimator != "cyclic":
         raise ScenarioError(
             "simultaneous",

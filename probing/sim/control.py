@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from probing.sim.flight import ActuatorFault, Control, Flight
+from probing.sim.flight import ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.fork import trim_key
 from probing.sim.plant import Plant, SurfaceDrive, trim_flight
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
@@ -117,6 +117,9 @@ class ClosedLoop:
         A fault of the probed surface's actuator from its onset on.
     surface : str
         The probed surface (:data:`probing.sim.surfaces.SURFACES`).
+    manoeuvre : Manoeuvre or None
+        Moves one loop's reference along its schedule (the loop must be closed); None holds
+        every reference at its trimmed value.
     """
 
     def __init__(
@@ -126,6 +129,7 @@ class ClosedLoop:
         power: ControlPower | None = None,
         fault: ActuatorFault | None = None,
         surface: str = DEFAULT_SURFACE,
+        manoeuvre: Manoeuvre | None = None,
     ) -> None:
         if control.active and power is None:
             raise ValueError("a closed loop needs the aircraft's control power")
@@ -147,6 +151,9 @@ class ClosedLoop:
         self._aileron_now, self._throttle_now = self._aileron0, self._throttle0
         self.dt_s = plant.dt_s
         self.drive: SurfaceDrive = plant.drive(surface)
+        if manoeuvre is not None and not getattr(control, f"{manoeuvre.hold}_hold"):
+            raise ValueError(f"a {manoeuvre.hold} manoeuvre needs {manoeuvre.hold}_hold")
+        self.manoeuvre = manoeuvre
 
     def step(
         self,
@@ -189,6 +196,8 @@ class ClosedLoop:
         get_theta, get_q, get_phi, get_p, get_v = (g[k] for k in (_THETA, _Q, _PHI, _P, _VT))
         theta0, phi0, v0 = self._ref[_THETA], self._ref[_PHI], self._ref[_VT]
         gains, integral, dt = self._gains, self._integral, self.dt_s
+        moving = self.manoeuvre.offsets(first, n, dt).tolist() if self.manoeuvre else None
+        base = (theta0, phi0, v0)
         c = self.control
         elevator, drive = plant.drive(), self.drive
         probed = drive.surface.name
@@ -213,6 +222,8 @@ class ClosedLoop:
         for k in range(n):
             step = first + k
             u_el = 0.0
+            if moving is not None:
+                theta0, phi0, v0 = (r + o for r, o in zip(base, moving[k], strict=True))
             if gains is not None:
                 if c.pitch_hold:
                     e = get_theta() - theta0

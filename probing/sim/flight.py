@@ -8,8 +8,11 @@ is loaded here.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
+
+import numpy as np
 
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -17,12 +20,14 @@ __all__ = [
     "ACTUATOR_FAULTS",
     "DAMAGE_CASES",
     "DAMAGE_MODEL",
+    "MANOEUVRE_HOLDS",
     "SPEED_KINDS",
     "SYMMETRIC_DAMAGE",
     "TURBULENCE_SEVERITY",
     "ActuatorFault",
     "Control",
     "Flight",
+    "Manoeuvre",
     "SpeedKind",
     "check_damage_case",
 ]
@@ -126,6 +131,81 @@ class ActuatorFault:
             raise ValueError(f"kind must be one of {', '.join(ACTUATOR_FAULTS)}")
         if self.onset_s < 0:
             raise ValueError("onset_s must be >= 0")
+
+
+#: The autopilot loops a manoeuvre moves the reference of -> (unit of change and rate, the
+#: factor to the loop's own unit: rad for pitch and bank, ft/s of true airspeed for speed).
+MANOEUVRE_HOLDS: dict[str, tuple[str, float]] = {
+    "pitch": ("deg", math.pi / 180.0),
+    "bank": ("deg", math.pi / 180.0),
+    "speed": ("kt", 1852.0 / 0.3048 / 3600.0),
+}
+
+
+@dataclass(frozen=True)
+class Manoeuvre:
+    """A manoeuvre flown by the autopilot: the reference of one hold loop ramps from its
+    trimmed value by ``change`` at ``rate``, starting ``start_s`` after the trim, then holds.
+
+    Attributes
+    ----------
+    hold : str
+        ``"pitch"`` (attitude), ``"bank"`` or ``"speed"`` (true airspeed); a key of
+        :data:`MANOEUVRE_HOLDS`.
+    change : float
+        The reference's change, deg (pitch, bank) or kt (speed); its sign is the direction.
+    rate : float
+        How fast the reference moves, deg/s or kt/s (> 0).
+    start_s : float
+        Time after the trim the ramp starts, s.
+    """
+
+    hold: str
+    change: float
+    rate: float
+    start_s: float
+
+    def __post_init__(self) -> None:
+        if self.hold not in MANOEUVRE_HOLDS:
+            raise ValueError(f"hold must be one of {', '.join(MANOEUVRE_HOLDS)}")
+        if not self.rate > 0:
+            raise ValueError("rate must be > 0")
+
+    @property
+    def unit(self) -> str:
+        """``"deg"`` or ``"kt"``: the unit of :attr:`change` (and of :attr:`rate` per s)."""
+        return MANOEUVRE_HOLDS[self.hold][0]
+
+    @property
+    def duration_s(self) -> float:
+        """How long the ramp lasts, s."""
+        return abs(self.change) / self.rate
+
+    def offset(self, time_s: np.ndarray) -> np.ndarray:
+        """The reference's offset from its trimmed value at ``time_s`` (s after the trim), in
+        :attr:`unit`."""
+        ramp = np.clip((np.asarray(time_s, dtype=float) - self.start_s) * self.rate, 0.0, None)
+        return np.sign(self.change) * np.minimum(ramp, abs(self.change))
+
+    def offsets(self, first_step: int, n: int, dt_s: float) -> np.ndarray:
+        """The offsets of the three loops' references (pitch rad, bank rad, speed ft/s) for
+        steps ``first_step .. first_step + n - 1``, as the autopilot reads them before each
+        step (at t = step dt), shape (n, 3)."""
+        out = np.zeros((n, 3))
+        column = list(MANOEUVRE_HOLDS).index(self.hold)
+        factor = MANOEUVRE_HOLDS[self.hold][1]
+        out[:, column] = self.offset((first_step + np.arange(n)) * dt_s) * factor
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[manoeuvre]`` section's fields."""
+        u = self.unit
+        return {
+            "hold": self.hold,
+            f"change_{u}": self.change,
+            f"rate_{u}_s": self.rate,
+            "start_s": self.start_s,
+        }
 
 
 @dataclass(frozen=True)

@@ -195,10 +195,11 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         base = load_scenario(base_path)
     except ScenarioError as exc:
         raise ScenarioError("base", f"{base_rel}: {exc.field}: {exc.message}", source) from None
-    if base.simultaneous is not None:
-        raise ScenarioError(
-            "base", f"{base_rel}: a [simultaneous] scenario is flown by probing run", source
-        )
+    for section in ("simultaneous", "manoeuvre"):
+        if getattr(base, section) is not None:
+            raise ScenarioError(
+                "base", f"{base_rel}: a [{section}] scenario is flown by probing run", source
+            )
 
     tables: dict[str, dict[str, Any]] = {}
     for table in ("fixed", "grid", "zip"):

@@ -1,0 +1,193 @@
+"""Incremental probing through manoeuvres: the table and figures of the stored runs.
+
+Reads the ``manoeuvre.parquet`` of runs of ``[manoeuvre]`` scenarios (``make manoeuvres``):
+per period and channel the probing output's pulse response (``h_est``) and the single pulse
+on the unprobed twin at the period's middle (``h_pulse``), with the manoeuvre's reference and
+the state the twin reached.  The error of a period is ||h_est - h_pulse|| / ||h_pulse|| over
+the taps; how fast the response moves is the change of the truth's peak from the period
+before to the period after, per period.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+
+from analysis.figures import RC, save_figure
+
+__all__ = ["draw", "load_runs", "period_table", "summary_markdown"]
+
+
+def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
+    """Run name -> (its rows, its scenario), for every ``<results>/<name>/manoeuvre.parquet``,
+    ordered by the manoeuvre's rate.
+
+    Raises
+    ------
+    FileNotFoundError
+        If no such run is there.
+    """
+    runs = []
+    for path in sorted(Path(results).glob("*/manoeuvre.parquet")):
+        meta = pq.read_schema(path).metadata or {}
+        scenario = json.loads(meta[b"probing.scenario"])
+        runs.append((path.parent.name, pd.read_parquet(path), scenario))
+    if not runs:
+        raise FileNotFoundError(f"{results}: no manoeuvre run (manoeuvre.parquet)")
+    runs.sort(key=lambda r: _rate(r[2]))
+    return {name: (table, scenario) for name, table, scenario in runs}
+
+
+def _rate(scenario: dict) -> float:
+    man = scenario["manoeuvre"]
+    return float(next(v for k, v in man.items() if k.startswith("rate_")))
+
+
+def _unit(scenario: dict) -> str:
+    return next(k for k in scenario["manoeuvre"] if k.startswith("rate_"))[len("rate_") :]
+
+
+def period_table(table: pd.DataFrame) -> pd.DataFrame:
+    """Per period and channel: time, reference, achieved, the error against the single pulse,
+    the truth's peak and how much it moves per period (relative, central difference)."""
+    rows = []
+    for (channel, period), g in table.groupby(["channel", "period"], sort=True):
+        est, pulse = g.h_est.to_numpy(), g.h_pulse.to_numpy()
+        rows.append(
+            {
+                "channel": channel,
+                "period": period,
+                "time_mid_s": g.time_mid_s.iloc[0],
+                "reference": g.reference.iloc[0],
+                "achieved": g.achieved.iloc[0],
+                "error": np.linalg.norm(est - pulse) / np.linalg.norm(pulse),
+                "peak_pulse": np.abs(pulse).max(),
+                "peak_est": np.abs(est).max(),
+            }
+        )
+    out = pd.DataFrame(rows)
+    out["moving"] = out.groupby("channel").peak_pulse.transform(
+        lambda s: np.abs(np.gradient(s.to_numpy())) / s.to_numpy()
+    )
+    return out
+
+
+def summary_markdown(runs: dict[str, tuple[pd.DataFrame, dict]]) -> str:
+    """One row per run and channel: the error while the response moves and once it is still."""
+    lines = [
+        "<!-- written by probing plot manoeuvres (make manoeuvres); do not edit -->",
+        "",
+        "| run | rate | channel | response change per period (largest) | median error while "
+        "the reference moves | largest error after settling | error in the last period |",
+        "|---|---:|---|---:|---:|---:|---:|",
+    ]
+    for name, (table, scenario) in runs.items():
+        settle = scenario["probe"]["settle_periods"]
+        man = scenario["manoeuvre"]
+        start = man["start_s"]
+        end = start + abs(next(v for k, v in man.items() if k.startswith("change_"))) / _rate(
+            scenario
+        )
+        per = period_table(table)
+        for channel, g in per[per.period >= settle].groupby("channel", sort=False):
+            moving = g[(g.time_mid_s >= start) & (g.time_mid_s <= end)]
+            lines.append(
+                f"| {name} | {_rate(scenario):g} {_unit(scenario).replace('_s', '/s')} | "
+                f"{channel} | {100 * g.moving.max():.1f} % | {100 * moving.error.median():.1f} % "
+                f"| {100 * g.error.max():.1f} % | {100 * g.error.iloc[-1]:.2f} % |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def draw(runs: dict[str, tuple[pd.DataFrame, dict]], figures: Path) -> list[Path]:
+    """``manoeuvres_periods``: the manoeuvre, the response's peak and the error period by
+    period, every run; ``manoeuvres_rate``: the error against how fast the response moves;
+    ``manoeuvres_snapshot``: one period in the middle of the fastest ramp and the last."""
+    figures = Path(figures)
+    tables = {name: period_table(t) for name, (t, _) in runs.items()}
+    channels = list(dict.fromkeys(next(iter(runs.values()))[0].channel))
+    colours = {name: f"C{i}" for i, name in enumerate(runs)}
+    paths = []
+    with plt.rc_context(RC):
+        fig, axes = plt.subplots(
+            1 + len(channels),
+            2,
+            figsize=(8, 2.0 * (1 + len(channels))),
+            sharex=True,
+            constrained_layout=True,
+        )
+        for name, per in tables.items():
+            settle = runs[name][1]["probe"]["settle_periods"]
+            c0 = per[per.channel == channels[0]]
+            axes[0, 0].plot(c0.time_mid_s, c0.reference, ":", color=colours[name])
+            axes[0, 0].plot(c0.time_mid_s, c0.achieved, color=colours[name], label=name)
+            for i, channel in enumerate(channels, start=1):
+                g = per[(per.channel == channel) & (per.period >= settle)]
+                axes[i, 0].plot(g.time_mid_s, g.peak_pulse, color=colours[name])
+                axes[i, 0].plot(g.time_mid_s, g.peak_est, "o", ms=2, color=colours[name])
+                axes[i, 1].semilogy(g.time_mid_s, 100 * g.error, "o-", ms=2, color=colours[name])
+                axes[i, 0].set_ylabel(f"peak |h|, {channel}")
+                axes[i, 1].set_ylabel(f"error (%), {channel}")
+            axes[0, 1].plot(c0.time_mid_s, 100 * c0.moving, color=colours[name])
+        unit = _unit(next(iter(runs.values()))[1])
+        axes[0, 0].set_ylabel(f"change ({unit.split('_')[0]})")
+        axes[0, 0].set_title("reference (dotted), twin reached (line)")
+        axes[0, 1].set_ylabel("response change / period (%)")
+        axes[0, 1].set_title(f"how fast {channels[0]}'s response moves")
+        axes[1, 0].set_title("single pulse at mid-period (line), probing output (dots)")
+        axes[1, 1].set_title("||h_est - h_pulse|| / ||h_pulse||")
+        axes[0, 0].legend(loc="lower right")
+        for ax in axes[-1]:
+            ax.set_xlabel("time after trim (s)")
+        paths += save_figure(fig, figures / "manoeuvres_periods")
+
+        fig, axes = plt.subplots(
+            1,
+            len(channels),
+            figsize=(3.2 * len(channels), 2.6),
+            constrained_layout=True,
+            squeeze=False,
+        )
+        for name, per in tables.items():
+            settle = runs[name][1]["probe"]["settle_periods"]
+            for j, channel in enumerate(channels):
+                g = per[(per.channel == channel) & (per.period >= settle)]
+                axes[0, j].loglog(
+                    100 * g.moving, 100 * g.error, "o", ms=3, color=colours[name], label=name
+                )
+                axes[0, j].set_title(channel)
+                axes[0, j].set_xlabel("response change per period (%)")
+        axes[0, 0].set_ylabel("error against the single pulse (%)")
+        axes[0, 0].legend(loc="upper left")
+        paths += save_figure(fig, figures / "manoeuvres_rate")
+
+        name = list(runs)[-1]
+        table, scenario = runs[name]
+        per = tables[name]
+        settle = scenario["probe"]["settle_periods"]
+        g0 = per[(per.channel == channels[0]) & (per.period >= settle)]
+        worst = int(g0.loc[g0.error.idxmax(), "period"])
+        last = int(per.period.max())
+        fig, axes = plt.subplots(
+            len(channels),
+            2,
+            figsize=(7, 2.2 * len(channels)),
+            constrained_layout=True,
+            squeeze=False,
+        )
+        for i, channel in enumerate(channels):
+            for j, period in enumerate((worst, last)):
+                g = table[(table.channel == channel) & (table.period == period)]
+                ax = axes[i, j]
+                ax.plot(g.lag_s, g.h_pulse, color="0.5", lw=2, label="single pulse, mid-period")
+                ax.plot(g.lag_s, g.h_est, "--", color="C1", label="probing output")
+                ax.set_title(f"{name}, period {period} ({g.time_mid_s.iloc[0]:.1f} s): {channel}")
+                ax.set_xlabel("lag (s)")
+        axes[0, 0].legend()
+        paths += save_figure(fig, figures / "manoeuvres_snapshot")
+    return paths

@@ -1,0 +1,227 @@
+"""Incremental probing through a manoeuvre (``[manoeuvre]``): the probing output period by
+period around a moving operating point, against a single-pulse truth started there.
+
+Two aircraft fly the same autopilot and the same manoeuvre (one hold loop's reference ramps,
+:class:`probing.sim.flight.Manoeuvre`): the probed one, with the probe between the autopilot
+and the surface, and an unprobed twin.  Their difference holds only the probe's response
+around the moving point (to first order); each period is estimated from its own samples (the
+cyclic estimator with its DC correction), so period p reports the response the aircraft had
+during that period.
+
+Truth: at the middle of every period the twin is forked, and the copy gets a one-bit pulse
+of the probe's amplitude while a second copy does not; both fly on for
+:data:`FOLD_PERIODS` periods with the same autopilot and manoeuvre.  Their difference, folded
+onto one period as the cyclic estimate folds a response longer than a period, is the
+small-signal pulse response at the state the manoeuvre reached there, closed loop as
+the probe sees it (JSBSim's linearisation is the open-loop aircraft's, and away from trim
+the state is not an equilibrium: the single-pulse twin is the truth that holds both).
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+import pyarrow as pa
+
+from probing.core.forked import forked_map
+from probing.core.noise import cyclic_estimates
+from probing.core.prbs import Probe
+from probing.experiment.progress import progress_bar
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import (
+    PER_DEG,
+    AtomicParquetWriter,
+    field,
+    output_folder,
+    provenance,
+    units,
+)
+from probing.sim.control import ClosedLoop, control_power
+from probing.sim.fork import trim_spec
+from probing.sim.plant import make_plant
+
+__all__ = ["MANOEUVRE_SCHEMA", "ManoeuvreResult", "run_manoeuvre"]
+
+MANOEUVRE_SCHEMA = pa.schema(
+    [
+        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
+        field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
+        field("time_mid_s", pa.float64(), "s", "time after trim at the middle of the period"),
+        field("reference", pa.float64(), "<manoeuvre>", "the hold's reference change there"),
+        field(
+            "achieved",
+            pa.float64(),
+            "<manoeuvre>",
+            "the twin's change there (pitch, bank: deg; speed: kt true)",
+        ),
+        field("tap", pa.int32(), "1", "tap i: the response i bits after a one-bit pulse"),
+        field("lag_s", pa.float64(), "s", "lag of the tap, i t0"),
+        field("h_est", pa.float64(), PER_DEG, "the period's own cyclic estimate"),
+        field(
+            "h_pulse",
+            pa.float64(),
+            PER_DEG,
+            "single pulse on the twin at mid-period, folded onto one period",
+        ),
+    ]
+)
+
+_ACHIEVED = {  # JSBSim property and factor to the manoeuvre's unit
+    "pitch": ("attitude/theta-rad", 180.0 / np.pi),
+    "bank": ("attitude/phi-rad", 180.0 / np.pi),
+    "speed": ("velocities/vt-fps", 0.3048 * 3600.0 / 1852.0),
+}
+
+
+@dataclass(frozen=True)
+class ManoeuvreResult:
+    """What :func:`run_manoeuvre` found.
+
+    Attributes
+    ----------
+    out_dir : pathlib.Path
+        The run's folder (``manoeuvre.parquet``).
+    errors : dict
+        Channel -> per period, ||h_est - h_pulse|| / ||h_pulse|| (L2 over the taps).
+    steps_simulated : int
+        JSBSim steps: both aircraft and the truth's copies.
+    wall_s : float
+        Wall-clock time, s.
+    """
+
+    out_dir: Path
+    errors: dict[str, np.ndarray]
+    steps_simulated: int
+    wall_s: float
+
+
+#: Periods the truth's copies fly on after their pulse: the response is folded onto one
+#: period over them (sum of h[k + jM]), as the cyclic estimate folds it.
+FOLD_PERIODS = 8
+
+
+def _pulse_copy(
+    pulsed: bool, loop: ClosedLoop, nodes: list, n_steps: int, spb: int, amplitude: float
+) -> np.ndarray:
+    """In a forked copy of the twin: fly on ``n_steps`` steps, with a one-bit pulse first if
+    ``pulsed``; the outputs at every bit's end."""
+    probe = None
+    if pulsed:
+        probe = np.zeros(n_steps)
+        probe[:spb] = amplitude
+    out = np.empty((n_steps, len(nodes)))
+    loop.step(probe, nodes, out)
+    loop.plant.check_state()
+    return out[spb - 1 :: spb]
+
+
+def run_manoeuvre(
+    scn: Scenario,
+    out: str | Path,
+    *,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+) -> ManoeuvreResult:
+    """Fly a ``[manoeuvre]`` scenario and write ``out/<name>/manoeuvre.parquet``.
+
+    Raises
+    ------
+    probing.sim.errors.TrimError, probing.sim.errors.DivergenceError
+        On trim failure or divergence; nothing is written.
+    """
+    t_start = time.perf_counter()
+    man = scn.manoeuvre
+    assert man is not None and scn.control is not None, "not a manoeuvre scenario"
+    flight = scn.flight
+    power = control_power(flight)
+    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
+    period = m * spb
+    half = (m // 2) * spb  # the pulse of the truth starts on a bit boundary near mid-period
+    channels = list(scn.channels)
+    loops = []
+    for _ in range(2):
+        plant = make_plant(flight)
+        loops.append(ClosedLoop(plant, scn.control, power, surface=scn.surface, manoeuvre=man))
+    probed, twin = loops
+    nodes_p, nodes_t = (loop.plant.channel_nodes(channels) for loop in loops)
+    achieved_prop, achieved_factor = _ACHIEVED[man.hold]
+    achieved_node = twin.plant.fdm.get_property_manager().get_node(achieved_prop)
+    trimmed_value = achieved_node.get_double_value()
+    u = probe.samples(scn.dt_s)
+    reference = probe.reference()
+    y_p, y_t = np.empty((period, len(channels))), np.empty((period, len(channels)))
+    rows: dict[str, list] = {f.name: [] for f in MANOEUVRE_SCHEMA}
+    errors: dict[str, list[float]] = {c: [] for c in channels}
+    steps = 0
+    with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
+        for p in range(scn.periods):
+            probed.step(u, nodes_p, y_p)
+            probed.plant.check_state()
+            twin.step(None, nodes_t, y_t[:half])
+            mid_s = (p * period + half) * scn.dt_s
+            achieved = (achieved_node.get_double_value() - trimmed_value) * achieved_factor
+            copy = functools.partial(
+                _pulse_copy,
+                loop=twin,
+                nodes=nodes_t,
+                n_steps=FOLD_PERIODS * period,
+                spb=spb,
+                amplitude=scn.amplitude_deg,
+            )
+            found = {o.index: o.get() for o in forked_map(copy, [True, False], jobs=2)}
+            twin.step(None, nodes_t, y_t[half:])
+            twin.plant.check_state()
+            steps += (2 + 2 * FOLD_PERIODS) * period
+            dy = (y_p - y_t)[spb - 1 :: spb]  # (M, C)
+            _, _, h_est = cyclic_estimates(dy.T, reference, scn.amplitude_deg)  # (C, M)
+            pulse = (found[0] - found[1]) / scn.amplitude_deg  # (FOLD_PERIODS M, C)
+            h_pulse = pulse.reshape(FOLD_PERIODS, m, -1).sum(axis=0).T  # folded, (C, M)
+            taps = np.arange(m, dtype=np.int32)
+            for j, c in enumerate(channels):
+                rows["channel"] += [c] * m
+                rows["period"] += [p] * m
+                rows["time_mid_s"] += [mid_s] * m
+                rows["reference"] += [float(man.offset(np.array(mid_s)))] * m
+                rows["achieved"] += [achieved] * m
+                rows["tap"].append(taps)
+                rows["lag_s"].append(taps * scn.bit_duration_s)
+                rows["h_est"].append(h_est[j])
+                rows["h_pulse"].append(h_pulse[j])
+                errors[c].append(
+                    float(np.linalg.norm(h_est[j] - h_pulse[j]) / np.linalg.norm(h_pulse[j]))
+                )
+            bar.advance()
+    columns = {
+        k: np.concatenate(v) if k in ("tap", "lag_s", "h_est", "h_pulse") else np.array(v)
+        for k, v in rows.items()
+    }
+    columns["period"] = columns["period"].astype(np.int32)
+    folder = Path(out) / scn.name
+    found_units = units(MANOEUVRE_SCHEMA, channels, scn.surface_unit)
+    found_units["reference"] = found_units["achieved"] = man.unit
+    meta = provenance(
+        scenario_toml=scn.text,
+        scenario=scn.to_dict(),
+        scenario_digest=scn.digest(),
+        aircraft=trim_spec(flight),
+        trim=probed.plant.trim_result.to_dict(),
+        units=found_units,
+        description="the probing output's pulse response period by period along the "
+        "manoeuvre, and a single pulse on the unprobed twin at each period's middle",
+    )
+    with output_folder(folder, meta) as files:
+        writer = AtomicParquetWriter(folder / "manoeuvre.parquet", MANOEUVRE_SCHEMA, meta)
+        files.writers.append(writer)
+        writer.write(columns)
+    return ManoeuvreResult(
+        folder,
+        {c: np.array(e) for c, e in errors.items()},
+        steps,
+        time.perf_counter() - t_start,
+    )
