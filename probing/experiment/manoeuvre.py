@@ -32,17 +32,14 @@ from probing.core.forked import forked_map
 from probing.core.noise import cyclic_estimates
 from probing.core.prbs import Probe
 from probing.experiment.progress import progress_bar
+from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PER_DEG,
-    AtomicParquetWriter,
     field,
     output_folder,
-    provenance,
-    units,
 )
 from probing.sim.control import ClosedLoop, control_power
-from probing.sim.fork import trim_spec
 from probing.sim.plant import make_plant
 
 __all__ = ["MANOEUVRE_SCHEMA", "ManoeuvreResult", "run_manoeuvre"]
@@ -70,12 +67,6 @@ MANOEUVRE_SCHEMA = pa.schema(
         ),
     ]
 )
-
-_ACHIEVED = {  # JSBSim property and factor to the manoeuvre's unit
-    "pitch": ("attitude/theta-rad", 180.0 / np.pi),
-    "bank": ("attitude/phi-rad", 180.0 / np.pi),
-    "speed": ("velocities/vt-fps", 0.3048 * 3600.0 / 1852.0),
-}
 
 
 @dataclass(frozen=True)
@@ -150,8 +141,7 @@ def run_manoeuvre(
         loops.append(ClosedLoop(plant, scn.control, power, surface=scn.surface, manoeuvre=man))
     probed, twin = loops
     nodes_p, nodes_t = (loop.plant.channel_nodes(channels) for loop in loops)
-    achieved_prop, achieved_factor = _ACHIEVED[man.hold]
-    achieved_node = twin.plant.fdm.get_property_manager().get_node(achieved_prop)
+    (achieved_node,) = twin.plant.channel_nodes([man.channel])
     trimmed_value = achieved_node.get_double_value()
     u = probe.samples(scn.dt_s)
     reference = probe.reference()
@@ -165,7 +155,7 @@ def run_manoeuvre(
             probed.plant.check_state()
             twin.step(None, nodes_t, y_t[:half])
             mid_s = (p * period + half) * scn.dt_s
-            achieved = (achieved_node.get_double_value() - trimmed_value) * achieved_factor
+            achieved = man.in_unit(achieved_node.get_double_value() - trimmed_value)
             copy = functools.partial(
                 _pulse_copy,
                 loop=twin,
@@ -203,21 +193,17 @@ def run_manoeuvre(
     }
     columns["period"] = columns["period"].astype(np.int32)
     folder = Path(out) / scn.name
-    found_units = units(MANOEUVRE_SCHEMA, channels, scn.surface_unit)
-    found_units["reference"] = found_units["achieved"] = man.unit
-    meta = provenance(
-        scenario_toml=scn.text,
-        scenario=scn.to_dict(),
-        scenario_digest=scn.digest(),
-        aircraft=trim_spec(flight),
-        trim=probed.plant.trim_result.to_dict(),
-        units=found_units,
-        description="the probing output's pulse response period by period along the "
-        "manoeuvre, and a single pulse on the unprobed twin at each period's middle",
-    )
+    meta = scenario_provenance(scn, probed.plant.trim_result)
     with output_folder(folder, meta) as files:
-        writer = AtomicParquetWriter(folder / "manoeuvre.parquet", MANOEUVRE_SCHEMA, meta)
-        files.writers.append(writer)
+        writer = files.writer(
+            "manoeuvre.parquet",
+            MANOEUVRE_SCHEMA,
+            "the probing output's pulse response period by period along the manoeuvre, "
+            "and a single pulse on the unprobed twin at each period's middle",
+            channels,
+            scn.surface_unit,
+            own_units={"reference": man.unit, "achieved": man.unit},
+        )
         writer.write(columns)
     return ManoeuvreResult(
         folder,

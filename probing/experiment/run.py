@@ -23,7 +23,7 @@ from collections.abc import Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, TextIO
+from typing import Any, Protocol, TextIO
 
 import numpy as np
 
@@ -200,11 +200,6 @@ class _Rig:
         """The key-value metadata of the run's files."""
         scn = self.scn
         meta: dict[str, object] = {
-            "scenario_toml": scn.text,
-            "scenario": scn.to_dict(),
-            "scenario_digest": scn.digest(),
-            "aircraft": trim_spec(scn.flight),  # model files' digest, condition, JSBSim
-            "trim": self.plant.trim_result.to_dict(),
             "drift": scn.drift,
             "sampling": "one correlator sample per bit: the output read after the last step "
             "of the bit",
@@ -213,7 +208,21 @@ class _Rig:
             meta["twin"] = {"key": self.twin.key}  # not whether it was cached: same bytes
             if self.nominal_twin:
                 meta["twin"]["nominal"] = True  # the fault-free model, not the flown one
-        return provenance(**meta)
+        return scenario_provenance(scn, self.plant.trim_result, **meta)
+
+
+def scenario_provenance(scn: Scenario, trim: TrimResult, **items: Any) -> dict[bytes, bytes]:
+    """The key-value metadata of a run's files: the scenario as written and resolved, its
+    digest, what the trim depends on (model files' digest, condition, JSBSim) and the trim
+    found, then ``items``, with the versions and git revision (:func:`provenance`)."""
+    return provenance(
+        scenario_toml=scn.text,
+        scenario=scn.to_dict(),
+        scenario_digest=scn.digest(),
+        aircraft=trim_spec(scn.flight),
+        trim=trim.to_dict(),
+        **items,
+    )
 
 
 # ------------------------------------------------------------------ stepping

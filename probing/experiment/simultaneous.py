@@ -26,13 +26,13 @@ import pyarrow as pa
 
 from probing.core.convolution import causal_convolve
 from probing.core.multiplex import Layout, memory_bits
-from probing.core.prbs import Probe
+from probing.core.prbs import Probe, mls
 from probing.experiment.progress import progress_bar
+from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import AtomicParquetWriter, field, output_folder, provenance
+from probing.experiment.storage import field, output_folder
 from probing.sim.channels import CHANNELS, unit_of
-from probing.sim.fork import trim_spec
-from probing.sim.plant import make_plant
+from probing.sim.plant import TrimResult, make_plant
 from probing.sim.surfaces import SURFACES
 from probing.sim.truth import linear_pulse_response
 from probing.sim.twins import open_twin
@@ -175,7 +175,7 @@ def check_separation(scn: Scenario) -> SeparationCheck:
     )  # (k, C, bits), per unit of the surface
     scaled = pulse * amplitudes[:, None, None]  # at each surface's amplitude
     largest = np.abs(scaled).max(axis=(0, 2))  # (C,)
-    reference = Probe(scn.order, scn.bit_duration_s, 1.0).reference()
+    reference = mls(scn.order)
     inputs = layout.inputs(reference) * amplitudes[:, None]  # (k, bits)
     outputs = np.array(
         [
@@ -302,7 +302,7 @@ def run_simultaneous(
     if truth:
         flights += [tuple(i == j for j in range(k)) for i in range(k)]
     estimates, steps, trim = [], 0, None
-    reference = Probe(scn.order, scn.bit_duration_s, 1.0).reference()
+    reference = mls(scn.order)
     amplitudes = np.array(sim.amplitudes)
     with progress_bar(len(flights), scn.name, "flights", stream, progress) as bar:
         for active in flights:
@@ -318,26 +318,21 @@ def run_simultaneous(
     )
     crosstalk = _crosstalk(scn, together, alone, check.h_lin) if truth else None
     folder = Path(out) / scn.name
-    meta = provenance(
-        scenario_toml=scn.text,
-        scenario=scn.to_dict(),
-        scenario_digest=scn.digest(),
-        aircraft=trim_spec(scn.flight),
-        trim=trim,
+    meta = scenario_provenance(
+        scn,
+        trim,
         design={"check": check.rows, "window_bits": layout.window_bits},
         crosstalk=crosstalk,
-        units={
-            "h_est": _units(scn),
-            "h_alone": _units(scn),
-            "h_lin": _units(scn),
-            "lag_s": "s",
-        },
-        description="each probed surface's pulse response, probed together, alone and on "
-        "the linearisation, over the surface's window of taps",
     )
     with output_folder(folder, meta) as files:
-        writer = AtomicParquetWriter(folder / "responses.parquet", RESPONSES_SCHEMA, meta)
-        files.writers.append(writer)  # closed (renamed into place) or dropped with the folder
+        writer = files.writer(
+            "responses.parquet",
+            RESPONSES_SCHEMA,
+            "each probed surface's pulse response, probed together, alone and on the "
+            "linearisation, over the surface's window of taps",
+            scn.channels,
+            own_units={column: _units(scn) for column in ("h_est", "h_alone", "h_lin")},
+        )
         writer.write(_rows(scn, layout, together, alone, check.h_lin))
     return SimultaneousResult(folder, check, crosstalk, steps, time.perf_counter() - t_start)
 
@@ -393,7 +388,7 @@ def _rows(
 
 def _fly(
     scn: Scenario, layout: Layout, active: tuple[bool, ...], twin_cache: bool
-) -> tuple[np.ndarray, int, dict]:
+) -> tuple[np.ndarray, int, TrimResult]:
     """One flight of the design with the ``active`` surfaces probed (the others at trim):
     the output's deviation from the unprobed twin (or the trimmed output) at every bit's
     end, the steps simulated and the trim."""
@@ -402,8 +397,8 @@ def _fly(
     flight = scn.flight
     plant = make_plant(flight)
     drives = [plant.drive(s) for s in sim.surfaces]
-    spb = round(scn.bit_duration_s / scn.dt_s)
-    inputs = layout.inputs(Probe(scn.order, scn.bit_duration_s, 1.0).reference())
+    spb = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).steps_per_bit(scn.dt_s)
+    inputs = layout.inputs(mls(scn.order))
     commands = np.empty((inputs.shape[1] * spb, len(drives)))
     for i, (drive, a) in enumerate(zip(drives, sim.amplitudes, strict=True)):
         position = drive.trim_position + (a * np.repeat(inputs[i], spb) if active[i] else 0.0)
@@ -438,4 +433,4 @@ def _fly(
                 y[span] -= twin.next(period)
             steps += twin.steps_simulated
     assert plant.trim_result is not None
-    return y[spb - 1 :: spb], steps, plant.trim_result.to_dict()
+    return y[spb - 1 :: spb], steps, plant.trim_result

@@ -262,14 +262,16 @@ class OutputFolder:
         description: str,
         channels: Sequence[str],
         per: str = "deg",
+        own_units: dict[str, Any] | None = None,
     ) -> AtomicParquetWriter:
         """A new atomic writer for ``<folder>/<name>``.
 
         The file carries the folder's metadata, ``probing.description`` and the
         ``probing.units`` of its columns for these channels, per unit of ``per`` where a
-        column is per unit of probe (:func:`units`).
+        column is per unit of probe (:func:`units`); ``own_units`` replaces the entries of
+        the columns whose unit the schema cannot say alone.
         """
-        found = units(schema, channels, per)
+        found = {**units(schema, channels, per), **(own_units or {})}
         meta = {**self.metadata, **metadata(description=description, units=found)}
         w = AtomicParquetWriter(self.path / name, schema, meta)
         self.writers.append(w)

@@ -134,11 +134,12 @@ class ActuatorFault:
 
 
 #: The autopilot loops a manoeuvre moves the reference of -> (unit of change and rate, the
-#: factor to the loop's own unit: rad for pitch and bank, ft/s of true airspeed for speed).
-MANOEUVRE_HOLDS: dict[str, tuple[str, float]] = {
-    "pitch": ("deg", math.pi / 180.0),
-    "bank": ("deg", math.pi / 180.0),
-    "speed": ("kt", 1852.0 / 0.3048 / 3600.0),
+#: factor to the loop's own unit: rad for pitch and bank, ft/s of true airspeed for speed,
+#: the output channel the loop holds, in that unit).
+MANOEUVRE_HOLDS: dict[str, tuple[str, float, str]] = {
+    "pitch": ("deg", math.pi / 180.0, "theta_rad"),
+    "bank": ("deg", math.pi / 180.0, "phi_rad"),
+    "speed": ("kt", 1852.0 / 0.3048 / 3600.0, "vt_fps"),
 }
 
 
@@ -186,6 +187,15 @@ class Manoeuvre:
         :attr:`unit`."""
         ramp = np.clip((np.asarray(time_s, dtype=float) - self.start_s) * self.rate, 0.0, None)
         return np.sign(self.change) * np.minimum(ramp, abs(self.change))
+
+    @property
+    def channel(self) -> str:
+        """The output channel the moved loop holds (``theta_rad``, ``phi_rad``, ``vt_fps``)."""
+        return MANOEUVRE_HOLDS[self.hold][2]
+
+    def in_unit(self, value: float) -> float:
+        """``value`` of :attr:`channel` (rad or ft/s) in :attr:`unit` (deg or kt)."""
+        return value / MANOEUVRE_HOLDS[self.hold][1]
 
     def offsets(self, first_step: int, n: int, dt_s: float) -> np.ndarray:
         """The offsets of the three loops' references (pitch rad, bank rad, speed ft/s) for

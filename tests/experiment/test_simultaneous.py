@@ -29,13 +29,6 @@ SHIFT = ROOT / "scenarios" / "simultaneous" / "shift-737.toml"
 MULTIPLEX = ROOT / "scenarios" / "simultaneous" / "multiplex-737.toml"
 
 
-@pytest.fixture(scope="module", autouse=True)
-def private_twin_cache(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("PROBING_TWIN_CACHE", str(tmp_path_factory.mktemp("twins")))
-        yield
-
-
 @pytest.mark.parametrize("path", [SHIFT, MULTIPLEX], ids=["shift", "multiplex"])
 def test_crosstalk_against_one_surface_at_a_time(path: Path, tmp_path: Path) -> None:
     scn = load_scenario(path)

@@ -52,13 +52,6 @@ def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
-@pytest.fixture(scope="module", autouse=True)
-def private_twin_cache(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("PROBING_TWIN_CACHE", str(tmp_path_factory.mktemp("twins")))
-        yield
-
-
 # ------------------------------------------------------------------ the scenario
 def test_the_elevator_is_the_default_and_keeps_the_digest():
     data = json.loads(json.dumps(BASE))
