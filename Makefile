@@ -4,17 +4,34 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral simultaneous manoeuvres bench clean
+.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral simultaneous manoeuvres bench clean
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+# Exactly the versions in requirements.lock (every runtime and test dependency, pip and the
+# build tools included), then the project itself on top, without letting pip resolve anything.
+$(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
 	# setuptools warns that a folder named like the package in the working directory takes
 	# precedence on imports: in this flat, editable layout that folder is the package itself.
-	PYTHONWARNINGS="ignore:Editable installation:UserWarning" $(PY) -m pip install --quiet -e '.[dev]'
+	PYTHONWARNINGS="ignore:Editable installation:UserWarning" $(PY) -m pip install --quiet \
+	  --disable-pip-version-check --no-deps --no-build-isolation -e .
+	$(PY) -m pip check --disable-pip-version-check
 	touch $(STAMP)
+
+# Refresh requirements.lock: the newest releases that pyproject.toml admits, resolved in a
+# throw-away environment.  Then run `make test` and commit the lock if it passes.
+LOCK_VENV := .venv-lock
+lock:
+	rm -rf $(LOCK_VENV)
+	$(PYTHON) -m venv $(LOCK_VENV)
+	$(LOCK_VENV)/bin/python -m pip install --quiet --disable-pip-version-check --upgrade pip setuptools wheel
+	$(LOCK_VENV)/bin/python -m pip install --quiet --disable-pip-version-check '.[dev]'
+	{ echo "# Exact versions of every dependency (runtime, test, build), installed by make setup."; \
+	  echo "# CPython $$($(LOCK_VENV)/bin/python -c 'import platform; print(platform.python_version())') on x86-64 Linux. Refresh: make lock, then make test."; \
+	  $(LOCK_VENV)/bin/python -m pip freeze --all --disable-pip-version-check --exclude probing; } > requirements.lock
+	rm -rf $(LOCK_VENV) build probing.egg-info
 
 lint: setup
 	$(PY) -m ruff check .
@@ -100,5 +117,6 @@ manoeuvres: setup
 bench: setup
 	$(PY) -m bench
 
+# Generated outputs that are not committed; the committed figures and tables stay.
 clean:
-	rm -rf results figures .pytest_cache
+	rm -rf results .pytest_cache .hypothesis figures/sweep_*.pdf

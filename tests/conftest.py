@@ -7,10 +7,51 @@ developer's runs left behind nor fill the user's cache.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Iterator
+from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 import pytest
+
+LOCK = Path(__file__).resolve().parents[1] / "requirements.lock"
+#: The packages whose numbers the results depend on, named first in the session header.
+NUMERIC = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "dask")
+
+
+def locked_versions() -> dict[str, str]:
+    """``{normalised name: version}`` of every ``name==version`` line of requirements.lock."""
+    pins = {}
+    for line in LOCK.read_text().splitlines():
+        if line and not line.startswith("#"):
+            name, version = line.split("==")
+            pins[re.sub(r"[-_.]+", "-", name).lower()] = version.strip()
+    return pins
+
+
+def installed_version(name: str) -> str | None:
+    """The installed distribution's version, or None if it is not installed."""
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def pytest_report_header(config: pytest.Config) -> list[str]:
+    """The session header names the pinned versions it runs with (and any that differ)."""
+    pins = locked_versions()
+    off = [
+        f"{name} {installed_version(name)} (lock: {pins[name]})"
+        for name in sorted(pins)
+        if installed_version(name) != pins[name]
+    ]
+    shown = ", ".join(f"{name} {pins[name]}" for name in NUMERIC)
+    lines = [f"pinned (requirements.lock, {len(pins)} packages): {shown}, ..."]
+    lines.append("NOT as pinned: " + "; ".join(off) if off else "all installed as pinned")
+    if os.environ.get("OPENBLAS_CORETYPE"):
+        lines.append(f"OPENBLAS_CORETYPE={os.environ['OPENBLAS_CORETYPE']}")
+    return lines
 
 
 @pytest.fixture(scope="session", autouse=True)

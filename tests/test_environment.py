@@ -1,0 +1,53 @@
+"""The environment the suite runs in is the pinned one (requirements.lock, make setup)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+from conftest import LOCK, installed_version, locked_versions
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_locked_package_is_installed_at_its_pinned_version() -> None:
+    """make setup installs requirements.lock exactly: a drifted package fails here."""
+    off = {
+        name: (installed_version(name), version)
+        for name, version in locked_versions().items()
+        if installed_version(name) != version
+    }
+    assert not off, f"installed vs pinned: {off}"
+
+
+def test_the_lock_pins_every_declared_dependency() -> None:
+    """Each dependency pyproject.toml declares (runtime and dev) has a line in the lock."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    declared = project["dependencies"] + project["optional-dependencies"]["dev"]
+    names = {re.sub(r"[-_.]+", "-", re.split(r"[\[<>=!~ ]", d)[0]).lower() for d in declared}
+    names |= {"pip", "setuptools", "wheel"}  # make setup installs and builds with these
+    assert names <= set(locked_versions()), names - set(locked_versions())
+    assert all(re.fullmatch(r"[0-9][0-9A-Za-z.]*", v) for v in locked_versions().values())
+
+
+def test_make_clean_removes_no_committed_file(tmp_path: Path) -> None:
+    """make clean deletes generated outputs only: none of its paths is tracked by git."""
+    recipe = subprocess.run(
+        ["make", "-n", "clean"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert recipe[:2] == ["rm", "-rf"], recipe
+    tracked = subprocess.run(
+        ["git", "ls-files", "--", *recipe[2:]], cwd=ROOT, capture_output=True, text=True
+    )
+    if tracked.returncode != 0:  # not a git checkout (an unpacked archive): nothing to check
+        return
+    assert tracked.stdout == "", f"make clean would delete tracked files:\n{tracked.stdout}"
+
+
+def test_lock_file_is_where_make_setup_reads_it() -> None:
+    """The Makefile's stamp depends on the lock, so a changed lock reinstalls."""
+    makefile = (ROOT / "Makefile").read_text()
+    assert LOCK.name in makefile and f"-r {LOCK.name}" in makefile
