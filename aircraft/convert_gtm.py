@@ -42,6 +42,7 @@ import argparse
 import itertools
 import math
 from collections.abc import Sequence
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -1255,7 +1256,31 @@ def inertia_tensor(ixx: float, iyy: float, izz: float, ixz: float, iyz: float, i
 
 def _parallel(mass_slug: float, r_ft: np.ndarray) -> np.ndarray:
     """m (|r|^2 I - r r^T): a point mass's inertia about a point at -r from it (JSBSim's)."""
-    return mass_slug * (float(r_ft @ r_ft) * np.eye(3) - np.outer(r_ft, r_ft))
+    r2 = float(r_ft[0] * r_ft[0] + r_ft[1] * r_ft[1] + r_ft[2] * r_ft[2])  # no BLAS: see below
+    return mass_slug * (r2 * np.eye(3) - np.outer(r_ft, r_ft))
+
+
+def solve_exact(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with a x = b, solved in exact rational arithmetic and rounded once to float64.
+
+    The written model must be a pure function of the .mat file on every machine.  A LAPACK
+    solve (and a BLAS dot product) picks its kernel by the processor (OpenBLAS's
+    ``OPENBLAS_CORETYPE``), and the kernels round differently in the last digit, which
+    ``exact_value`` writes; the floats in ``a`` and ``b`` are exact rationals, so Gauss-Jordan
+    elimination over ``Fraction`` gives the one correctly rounded answer.  (Hand-written:
+    numpy and scipy have no exact solver, and six unknowns do not justify a CAS.)
+    """
+    n = len(b)
+    rows = [[Fraction(float(v)) for v in a[i]] + [Fraction(float(b[i]))] for i in range(n)]
+    for col in range(n):
+        pivot = next(r for r in range(col, n) if rows[r][col] != 0)  # exact: any nonzero
+        rows[col], rows[pivot] = rows[pivot], rows[col]
+        head = rows[col]
+        for r in range(n):
+            if r != col and rows[r][col] != 0:
+                f = rows[r][col] / head[col]
+                rows[r] = [x - f * y for x, y in zip(rows[r], head, strict=True)]
+    return np.array([float(rows[i][n] / rows[i][i]) for i in range(n)])
 
 
 def _to_body_ft(struct_in: np.ndarray, cg_in: np.ndarray) -> np.ndarray:
@@ -1295,7 +1320,7 @@ def damage_point_masses() -> tuple[np.ndarray, np.ndarray]:
         extra += _parallel(dw / SLUG_LB, _to_body_ft(lost, cg))
         need = target - extra  # what the dipoles must add: X = tr(S) I - S
         second = 0.5 * np.trace(need) * np.eye(3) - need
-        m = np.linalg.solve(a, np.array([second[i, j] for i, j in sym]))  # slug per pair mass
+        m = solve_exact(a, np.array([second[i, j] for i, j in sym]))  # slug per pair mass
         weights[case, 0] = dw
         locations[case, 0] = lost
         for k in range(n_dip):
