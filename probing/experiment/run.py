@@ -48,6 +48,7 @@ from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, SurfaceDrive, TrimResult, make_plant
+from probing.sim.surfaces import SURFACES
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
@@ -626,7 +627,7 @@ def _timeseries_rows(
         "time_s": (c.first * n_steps + np.arange(1, rows + 1)) * scn.dt_s,
         f"probe_{u}": np.tile(x_period, c.count),
         f"nl_out_{u}": c.nl_out,
-        scn.surface_channel: c.surface,
+        SURFACES[scn.surface].position_column: c.surface,
     }
     if c.control is not None:
         cols[f"control_{u}"] = c.control

@@ -293,7 +293,7 @@ class Scenario:
         if self.monitor is not None:
             return self.monitor
         settings = MonitorSettings()
-        _check_baseline(self, settings.windows, settings.baseline_periods, given=False)
+        _check_baseline(self, settings.windows, settings.baseline_periods, given=None)
         return settings
 
     @property
@@ -764,16 +764,18 @@ def _simultaneous(data: dict[str, Any], scn: Scenario) -> Simultaneous:
     return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
 
 
-def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool) -> None:
+def _check_baseline(scn: Scenario, windows: int, baseline: int, given: bool | None) -> None:
     """A monitor's baseline must exceed ``windows + 1`` periods and leave one settled period
-    of the run to test."""
+    of the run to test.  ``given``: the section gave it (True), left it to its default
+    (False), or there is no ``[monitor]`` section at all (None)."""
     settled = scn.periods - max(scn.settle_periods, scn.first_estimated_period)
     if windows + 2 <= baseline < settled:
         return
     what = f"{baseline}" if given else f"the default, {baseline},"
+    missing = "" if given is not None else "the scenario has no [monitor] section, and "
     raise ScenarioError(
         "monitor.baseline_periods",
-        f"must be more than windows + 1 ({windows + 1}) and fewer than the run's "
+        f"{missing}must be more than windows + 1 ({windows + 1}) and fewer than the run's "
         f"{settled} settled periods; {what} is not",
     )
 

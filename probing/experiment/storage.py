@@ -191,6 +191,10 @@ class AtomicParquetWriter:
     ) -> None:
         if row_group_rows < 1:
             raise ValueError("row_group_rows must be >= 1")
+        names = schema.names
+        if len(set(names)) != len(names):
+            twice = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"{Path(path).name}: column names given twice: {twice}")
         self.path = Path(path)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         self.schema = schema.with_metadata(metadata)
@@ -354,16 +358,17 @@ def timeseries_schema(
 ) -> pa.Schema:
     """``timeseries.parquet``: one row per simulation step; channels in their own units; the
     probe, its nonlinearity's output and the probed surface's realised position in the
-    surface's unit (``probe_deg``, ``nl_out_deg``, ``elevator_deg``; ``_norm`` and
-    ``throttle_norm`` for the throttle); with ``control``, the autopilot's command of the
-    probed surface too."""
+    surface's unit (``probe_deg``, ``nl_out_deg``, ``elevator_pos_deg``; ``_norm`` and
+    ``throttle_pos_norm`` for the throttle; the surface's sensor channel, ``elevator_deg``,
+    is a channel like any other); with ``control``, the autopilot's command of the probed
+    surface too."""
     s = SURFACES[surface]
     u = s.unit
     fields = [
         field("time_s", pa.float64(), "s", "time after trim, at the end of the step"),
         field(f"probe_{u}", pa.float64(), u, "probe a sigma, relative to trim"),
         field(f"nl_out_{u}", pa.float64(), u, "probe after the nonlinearity"),
-        field(s.channel, pa.float64(), u, f"realised {s.name} position"),
+        field(s.position_column, pa.float64(), u, f"realised {s.name} position (no noise)"),
     ]
     if control:
         fields.append(

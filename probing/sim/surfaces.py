@@ -62,6 +62,13 @@ class Surface:
     channel: str
     lateral: bool = False
 
+    @property
+    def position_column(self) -> str:
+        """The column of its realised position in ``timeseries.parquet`` (the simulation's,
+        no sensor noise): ``<name>_pos_<unit>``, never a channel's name, so that the surface's
+        own sensor channel (``elevator_deg``, noise added) can be recorded beside it."""
+        return f"{self.name}_pos_{self.unit}"
+
     def command_properties(self, engines: int) -> list[str]:
         """The properties written with the command (one per engine for ``[*]``)."""
         if self.command.endswith("[*]"):

@@ -86,10 +86,10 @@ def test_outputs_layout_and_metadata(baseline: Path) -> None:
     trim = json.loads(meta[b"probing.trim"])
     assert 0 < trim["alpha_deg"] < 10
     ts = pd.read_parquet(baseline / "timeseries.parquet")
-    for col in ("time_s", "probe_deg", "nl_out_deg", "elevator_deg", "theta_rad"):
+    for col in ("time_s", "probe_deg", "nl_out_deg", "elevator_pos_deg", "theta_rad"):
         assert col in ts
     assert len(ts) == 8 * 511
-    np.testing.assert_allclose(ts.elevator_deg - trim["elevator_deg"], ts.probe_deg, atol=1e-12)
+    np.testing.assert_allclose(ts.elevator_pos_deg - trim["elevator_deg"], ts.probe_deg, atol=1e-12)
     assert not any(p.name.startswith(".") for p in baseline.iterdir())
 
 

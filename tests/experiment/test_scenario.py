@@ -353,3 +353,16 @@ def test_replace_with_invalid_value_raises(changes: dict, field: str):
     with pytest.raises(ScenarioError) as info:
         load_scenario(BASELINE).replace(changes)
     assert info.value.field == field
+
+
+def test_monitor_without_its_section_says_the_section_is_missing() -> None:
+    """A scenario without [monitor], too short for the detector's defaults, is told that the
+    section is missing (not only that the default baseline does not fit); a section that
+    leaves baseline_periods to its default is told about the default alone."""
+    scn = load_scenario(BASELINE)  # 8 periods, no [monitor]
+    with pytest.raises(ScenarioError, match=r"has no \[monitor\] section.*the default, 50,"):
+        scn.monitor_settings()
+    data = tomllib.loads(BASELINE.read_text())
+    with pytest.raises(ScenarioError, match="the default, 50,") as info:
+        parse_scenario({**data, "monitor": {"window_periods": 2}})
+    assert "no [monitor] section" not in str(info.value)

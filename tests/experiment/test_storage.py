@@ -55,7 +55,7 @@ def test_units_resolve_per_channel(run_folder: Path) -> None:
     assert units["h_est"]["q_rad_s"] == "rad/s/deg" and units["h_est"]["theta_rad"] == "rad/deg"
     assert schema.field("h_est").metadata[b"unit"] == b"<channel>/deg"
     ts = json.loads(pq.read_schema(run_folder / "timeseries.parquet").metadata[b"probing.units"])
-    assert ts["nz_g"] == ts["nz_g_reference"] == "g" and ts["elevator_deg"] == "deg"
+    assert ts["nz_g"] == ts["nz_g_reference"] == "g" and ts["elevator_pos_deg"] == "deg"
     truth = json.loads(pq.read_schema(run_folder / "truth.parquet").metadata[b"probing.units"])
     assert truth["h_lin"]["alpha_rad"] == "rad/deg"
 
@@ -69,3 +69,31 @@ def test_prediction_says_what_it_is(run_folder: Path) -> None:
         meta[b"probing.scenario_digest"]
         == pq.read_schema(run_folder / "probing.parquet").metadata[b"probing.scenario_digest"]
     )
+
+
+@pytest.mark.parametrize("surface", ["elevator", "aileron", "rudder", "throttle"])
+def test_timeseries_has_each_column_once_with_every_channel_and_surface(surface: str) -> None:
+    """The surface's realised position and its own sensor channel are two columns: every
+    channel measured, with reference and autopilot columns, names no column twice (the
+    monitor's scenarios measure elevator_deg while probing the elevator)."""
+    from probing.experiment.storage import timeseries_schema
+    from probing.sim.channels import CHANNELS
+    from probing.sim.surfaces import SURFACES
+
+    schema = timeseries_schema(list(CHANNELS), reference=True, control=True, surface=surface)
+    assert len(set(schema.names)) == len(schema.names)
+    s = SURFACES[surface]
+    assert {s.position_column, s.channel} <= set(schema.names)
+    assert schema.field(s.position_column).metadata[b"unit"] == s.unit.encode()
+
+
+def test_a_writer_refuses_a_schema_that_names_a_column_twice(tmp_path: Path) -> None:
+    """A schema with a repeated column name is refused before any file is opened."""
+    import pyarrow as pa
+
+    from probing.experiment.storage import AtomicParquetWriter
+
+    schema = pa.schema([("a_deg", pa.float64()), ("a_deg", pa.float64())])
+    with pytest.raises(ValueError, match=r"given twice: \['a_deg'\]"):
+        AtomicParquetWriter(tmp_path / "x.parquet", schema, {})
+    assert list(tmp_path.iterdir()) == []

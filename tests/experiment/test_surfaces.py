@@ -255,7 +255,7 @@ def test_throttle_probing_matches_ground_truth(tmp_path: Path):
         errors = _z_against_single_pulse(folder, channel, range(2, 8))
         assert max(errors) < 0.01, (channel, errors)
     ts = pd.read_parquet(tmp_path / scn.name / "timeseries.parquet")
-    assert {"probe_norm", "nl_out_norm", "throttle_norm"} <= set(ts.columns)
+    assert {"probe_norm", "nl_out_norm", "throttle_pos_norm"} <= set(ts.columns)
     units = json.loads(pq_meta(tmp_path / scn.name / "probing.parquet")[b"probing.units"])
     assert units["h_est"]["vt_fps"] == "ft/s/norm"
 
