@@ -231,6 +231,16 @@ def test_figures_are_readable(results, which):
         fig.clf()
 
 
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("which", sorted(SETS))
+def test_summary_names_the_aircraft_it_was_flown_on(results, which):
+    """The note on h_est's DC term speaks of the set's aircraft (the 737's said "the GTM")."""
+    text = fig4.write_summary(fig4.collect(results[which]), results[which])
+    name = {"gtm": "GTM", "737": "737"}[which]
+    assert f"on the {name} h_est is dominated" in text
+    assert ("GTM" in text) == (which == "gtm")
+
+
 def test_plot_without_results_fails_cleanly(tmp_path, capsys):
     assert cli_main(["plot", "fig4", str(tmp_path)]) == 2
 
