@@ -3,9 +3,9 @@ the checks that keep them readable.
 
 Figures are saved without a creation date, so the same results give byte-identical files
 (the committed figures stay unchanged when a documented command redraws them).
-:func:`covers_data` and :func:`clipped_texts` say, from the laid-out figure, whether a box
-(a legend, a note) hides plotted data and whether a text runs off the figure;
-:func:`place_clear_of_data` puts a note where it hides none.
+:func:`covers_data`, :func:`legends_over_data` and :func:`clipped_texts` say, from the
+laid-out figure, whether a box (a legend, a note) hides plotted data and whether a text
+runs off the figure; :func:`place_clear_of_data` puts a note where it hides none.
 """
 
 from __future__ import annotations
@@ -22,7 +22,14 @@ import numpy as np
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Bbox
 
-__all__ = ["RC", "clipped_texts", "covers_data", "place_clear_of_data", "save_figure"]
+__all__ = [
+    "RC",
+    "clipped_texts",
+    "covers_data",
+    "legends_over_data",
+    "place_clear_of_data",
+    "save_figure",
+]
 
 #: Style of the project's figures (matplotlib rc parameters).
 RC = {
@@ -141,6 +148,30 @@ def _labels(fig: Any) -> list[Any]:
         if ax.get_legend() is not None:
             texts += [ax.get_legend().get_title(), *ax.get_legend().get_texts()]
     return texts
+
+
+def legends_over_data(fig: Any) -> list[str]:
+    """The legends of ``fig`` (its own and its axes') that hide data of an axes, each named
+    by its first entry.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, laid out here as it will be saved.
+
+    Returns
+    -------
+    list of str
+        The first entry of each legend that crosses a line or marker.
+    """
+    renderer = _renderer(fig)
+    legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
+    out = []
+    for legend in legends:
+        box = legend.get_window_extent(renderer)
+        if any(covers_data(ax, box) for ax in fig.axes):
+            out.append(legend.get_texts()[0].get_text() if legend.get_texts() else "")
+    return out
 
 
 def clipped_texts(fig: Any) -> list[str]:
