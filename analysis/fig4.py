@@ -235,6 +235,10 @@ def collect(results: Path) -> Fig4Data:
 
 
 # -------------------------------------------------------------------------- output
+#: How the summary names an aircraft model; a model not listed goes by its own name.
+_AIRCRAFT_NAMES = {"gtm_t2": "GTM"}
+
+
 def _fmt(x: float, spec: str = ".4f") -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
 
@@ -265,7 +269,8 @@ def write_summary(data: Fig4Data, results: Path) -> str:
         "h_est (mean over settled periods) against the baseline's; shape error "
         "||h - g h0|| / ||g h0||; compensation error ||z_c - z0|| / ||z0|| after eq. (11) "
         "(row b': z of the offset-removed run divided by a~/a). The _z columns make the same "
-        "fit on the probing output z (the curves drawn): on the GTM h_est is dominated by "
+        "fit on the probing output z (the curves drawn): on the "
+        f"{_AIRCRAFT_NAMES.get(base.model, base.model)} h_est is dominated by "
         "the phugoid's DC term, z shows the shape.",
         "",
         "| panel | nonlinearity | parameters | predicted_gain | measured_gain "

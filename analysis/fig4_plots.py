@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from analysis.fig4 import Fig4Data, PanelResult
-from analysis.figures import RC, save_figure
+from analysis.figures import RC, place_clear_of_data, save_figure
 from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
 
@@ -39,7 +39,8 @@ def _title(p: PanelResult, remedy_gain: float | None = None) -> str:
         b_txt = "0" if b == 0 else f"{b:+.3g}a"
         pred = f"a~ = {p.predicted_gain:.3g}a, b~ = {b_txt}; measured gain {p.measured_gain:.3g}"
         if p.key == "b_saturation" and remedy_gain is not None:
-            pred += f" (b~ DC)\noffset twin subtracted: gain {remedy_gain:.3f}"
+            # the DC note on the third line: on the second it ran off the figure's edge
+            pred += f"\n(b~ DC); offset twin subtracted: gain {remedy_gain:.3f}"
     return f"{head}\n{pred}"
 
 
@@ -50,12 +51,22 @@ def _predicted_z(p: PanelResult, z0: np.ndarray) -> np.ndarray:
     return p.predicted_gain * z0 + p.predicted_offset_deg * s
 
 
+#: Where the note on the saturation offset may go (axes coordinates, alignments): the
+#: lower right corner first, then up the right side, then up the left, below the legend.
+_NOTE_POSITIONS = [
+    (x, y / 100, ha, "bottom")
+    for x, ha in ((0.98, "right"), (0.02, "left"))
+    for y in range(4, 42, 2)
+]
+
+
 def _panels(data: Fig4Data) -> Any:
     base = data.baseline
     z0 = base.z.mean(axis=0)
     lag = base.lag_s
     scn = base.scenario
     fig, axes = plt.subplots(4, 2, figsize=(7.0, 9.0), sharex=True, constrained_layout=True)
+    offset_note = None
     for ax, p in zip(axes.flat, data.panels, strict=False):
         ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
         if p.key == "b_saturation":
@@ -68,10 +79,10 @@ def _panels(data: Fig4Data) -> Any:
                 label="(a~/a) x no nonlinearity",
             )
             offset = (_predicted_z(p, z0) - p.predicted_gain * z0).mean()
-            ax.text(
+            offset_note = ax.text(
                 0.98,
                 0.04,
-                f"steady-state offset b~·Σh of eq. (11):\n{offset * MRAD:+.2f} mrad (off scale)",
+                f"steady-state offset\nb~·Σh of eq. (11):\n{offset * MRAD:+.2f} mrad (off scale)",
                 transform=ax.transAxes,
                 ha="right",
                 va="bottom",
@@ -105,6 +116,8 @@ def _panels(data: Fig4Data) -> Any:
             ax.legend(loc="upper center", ncol=2, frameon=False, fontsize=6.5)
         else:
             ax.legend(loc="best", frameon=False)
+    if offset_note is not None:  # once every panel is drawn: the layout is final
+        place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
     for ax in axes[-1]:
         ax.set_xlabel("lag (s)")
     info = axes.flat[-1]
@@ -153,7 +166,7 @@ def _compensated(data: Fig4Data) -> Any:
         ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
         ax.plot(lag, p.compensated_z * MRAD, color=C_FIX, lw=0.8, label="compensated")
         if p.letter == "b'":
-            title = "(b') saturation: offset twin subtracted, divided by a~/a"
+            title = "(b') saturation, offset twin subtracted, / (a~/a)"
         else:
             title = f"({p.letter}) {p.nonlinearity}: {p.parameters}"
         ax.set_title(f"{title}\n||z_c - z0|| / ||z0|| = {p.compensation_error:.2e}", loc="left")

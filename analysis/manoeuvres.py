@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -20,7 +21,7 @@ import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
 
-__all__ = ["draw", "load_runs", "period_table", "summary_markdown"]
+__all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 
 
 def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
@@ -104,90 +105,130 @@ def summary_markdown(runs: dict[str, tuple[pd.DataFrame, dict]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def draw(runs: dict[str, tuple[pd.DataFrame, dict]], figures: Path) -> list[Path]:
-    """``manoeuvres_periods``: the manoeuvre, the response's peak and the error period by
-    period, every run; ``manoeuvres_rate``: the error against how fast the response moves;
-    ``manoeuvres_snapshot``: one period in the middle of the fastest ramp and the last."""
-    figures = Path(figures)
-    tables = {name: period_table(t) for name, (t, _) in runs.items()}
+def _periods(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.DataFrame]) -> Any:
+    """The manoeuvre, the response's peak and the error period by period, every run."""
     channels = list(dict.fromkeys(next(iter(runs.values()))[0].channel))
     colours = {name: f"C{i}" for i, name in enumerate(runs)}
+    fig, axes = plt.subplots(
+        1 + len(channels),
+        2,
+        figsize=(8, 2.0 * (1 + len(channels))),
+        sharex=True,
+        constrained_layout=True,
+    )
+    for name, per in tables.items():
+        settle = runs[name][1]["probe"]["settle_periods"]
+        c0 = per[per.channel == channels[0]]
+        axes[0, 0].plot(c0.time_mid_s, c0.reference, ":", color=colours[name])
+        axes[0, 0].plot(c0.time_mid_s, c0.achieved, color=colours[name], label=name)
+        for i, channel in enumerate(channels, start=1):
+            g = per[(per.channel == channel) & (per.period >= settle)]
+            axes[i, 0].plot(g.time_mid_s, g.peak_pulse, color=colours[name])
+            axes[i, 0].plot(g.time_mid_s, g.peak_est, "o", ms=2, color=colours[name])
+            axes[i, 1].semilogy(g.time_mid_s, 100 * g.error, "o-", ms=2, color=colours[name])
+            axes[i, 0].set_ylabel(f"peak |h|, {channel}")
+            axes[i, 1].set_ylabel(f"error (%), {channel}")
+        axes[0, 1].plot(c0.time_mid_s, 100 * c0.moving, color=colours[name])
+    unit = _unit(next(iter(runs.values()))[1])
+    axes[0, 0].set_ylabel(f"change ({unit.split('_')[0]})")
+    axes[0, 0].set_title("reference (dotted), twin reached (line)")
+    axes[0, 1].set_ylabel("response change / period (%)")
+    axes[0, 1].set_title(f"how fast {channels[0]}'s response moves")
+    axes[1, 0].set_title("single pulse at mid-period (line), probing output (dots)")
+    axes[1, 1].set_title("||h_est - h_pulse|| / ||h_pulse||")
+    axes[0, 0].legend(loc="lower right")
+    for ax in axes[-1]:
+        ax.set_xlabel("time after trim (s)")
+    return fig
+
+
+def _rate_figure(
+    runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.DataFrame]
+) -> Any:
+    """The error of every settled period against how fast the response moves, every run; the
+    legend (the runs' rates) under the panels, where it hides no point."""
+    channels = list(dict.fromkeys(next(iter(runs.values()))[0].channel))
+    colours = {name: f"C{i}" for i, name in enumerate(runs)}
+    fig, axes = plt.subplots(
+        1,
+        len(channels),
+        figsize=(3.2 * len(channels), 3.3),
+        constrained_layout=True,
+        squeeze=False,
+    )
+    for name, per in tables.items():
+        scenario = runs[name][1]
+        settle = scenario["probe"]["settle_periods"]
+        rate = f"{_rate(scenario):g} {_unit(scenario).replace('_s', '/s')}"
+        for j, channel in enumerate(channels):
+            g = per[(per.channel == channel) & (per.period >= settle)]
+            axes[0, j].loglog(
+                100 * g.moving, 100 * g.error, "o", ms=3, color=colours[name], label=rate
+            )
+            axes[0, j].set_title(channel)
+            axes[0, j].set_xlabel("response change per period (%)")
+    axes[0, 0].set_ylabel("error against the single pulse (%)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), title="ramp rate")
+    scenario = next(iter(runs.values()))[1]
+    man = scenario["manoeuvre"]
+    change = next((k, v) for k, v in man.items() if k.startswith("change_"))
+    fig.suptitle(
+        "Error of the probing output against how fast the response moves, every settled "
+        f"period\n({scenario['aircraft']['model']}: {man['hold']} reference ramped by "
+        f"{change[1]:+g} {change[0].removeprefix('change_')} at each rate)"
+    )
+    return fig
+
+
+def _snapshot(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.DataFrame]) -> Any:
+    """One period in the middle of the fastest ramp (its worst) and the last."""
+    channels = list(dict.fromkeys(next(iter(runs.values()))[0].channel))
+    name = list(runs)[-1]
+    table, scenario = runs[name]
+    per = tables[name]
+    settle = scenario["probe"]["settle_periods"]
+    g0 = per[(per.channel == channels[0]) & (per.period >= settle)]
+    worst = int(g0.loc[g0.error.idxmax(), "period"])
+    last = int(per.period.max())
+    fig, axes = plt.subplots(
+        len(channels),
+        2,
+        figsize=(7, 2.2 * len(channels)),
+        constrained_layout=True,
+        squeeze=False,
+    )
+    for i, channel in enumerate(channels):
+        for j, period in enumerate((worst, last)):
+            g = table[(table.channel == channel) & (table.period == period)]
+            ax = axes[i, j]
+            ax.plot(g.lag_s, g.h_pulse, color="0.5", lw=2, label="single pulse, mid-period")
+            ax.plot(g.lag_s, g.h_est, "--", color="C1", label="probing output")
+            ax.set_title(f"{name}, period {period} ({g.time_mid_s.iloc[0]:.1f} s): {channel}")
+            ax.set_xlabel("lag (s)")
+    axes[0, 0].legend()
+    return fig
+
+
+#: The figures, by the suffix of their file name (``manoeuvres_<suffix>``).
+_FIGURES = {"periods": _periods, "rate": _rate_figure, "snapshot": _snapshot}
+
+
+def figures(runs: dict[str, tuple[pd.DataFrame, dict]]) -> dict[str, Any]:
+    """The figures, by the suffix of their file name: ``"periods"``, the manoeuvre, the
+    response's peak and the error period by period, every run; ``"rate"``, the error against
+    how fast the response moves; ``"snapshot"``, one period in the middle of the fastest
+    ramp and the last.  Close them (or :func:`draw` them)."""
+    tables = {name: period_table(t) for name, (t, _) in runs.items()}
+    with plt.rc_context(RC):
+        return {suffix: build(runs, tables) for suffix, build in _FIGURES.items()}
+
+
+def draw(runs: dict[str, tuple[pd.DataFrame, dict]], figures: Path) -> list[Path]:
+    """Save the :func:`figures` as ``<figures>/manoeuvres_<suffix>.png``."""
+    tables = {name: period_table(t) for name, (t, _) in runs.items()}
     paths = []
     with plt.rc_context(RC):
-        fig, axes = plt.subplots(
-            1 + len(channels),
-            2,
-            figsize=(8, 2.0 * (1 + len(channels))),
-            sharex=True,
-            constrained_layout=True,
-        )
-        for name, per in tables.items():
-            settle = runs[name][1]["probe"]["settle_periods"]
-            c0 = per[per.channel == channels[0]]
-            axes[0, 0].plot(c0.time_mid_s, c0.reference, ":", color=colours[name])
-            axes[0, 0].plot(c0.time_mid_s, c0.achieved, color=colours[name], label=name)
-            for i, channel in enumerate(channels, start=1):
-                g = per[(per.channel == channel) & (per.period >= settle)]
-                axes[i, 0].plot(g.time_mid_s, g.peak_pulse, color=colours[name])
-                axes[i, 0].plot(g.time_mid_s, g.peak_est, "o", ms=2, color=colours[name])
-                axes[i, 1].semilogy(g.time_mid_s, 100 * g.error, "o-", ms=2, color=colours[name])
-                axes[i, 0].set_ylabel(f"peak |h|, {channel}")
-                axes[i, 1].set_ylabel(f"error (%), {channel}")
-            axes[0, 1].plot(c0.time_mid_s, 100 * c0.moving, color=colours[name])
-        unit = _unit(next(iter(runs.values()))[1])
-        axes[0, 0].set_ylabel(f"change ({unit.split('_')[0]})")
-        axes[0, 0].set_title("reference (dotted), twin reached (line)")
-        axes[0, 1].set_ylabel("response change / period (%)")
-        axes[0, 1].set_title(f"how fast {channels[0]}'s response moves")
-        axes[1, 0].set_title("single pulse at mid-period (line), probing output (dots)")
-        axes[1, 1].set_title("||h_est - h_pulse|| / ||h_pulse||")
-        axes[0, 0].legend(loc="lower right")
-        for ax in axes[-1]:
-            ax.set_xlabel("time after trim (s)")
-        paths += save_figure(fig, figures / "manoeuvres_periods")
-
-        fig, axes = plt.subplots(
-            1,
-            len(channels),
-            figsize=(3.2 * len(channels), 2.6),
-            constrained_layout=True,
-            squeeze=False,
-        )
-        for name, per in tables.items():
-            settle = runs[name][1]["probe"]["settle_periods"]
-            for j, channel in enumerate(channels):
-                g = per[(per.channel == channel) & (per.period >= settle)]
-                axes[0, j].loglog(
-                    100 * g.moving, 100 * g.error, "o", ms=3, color=colours[name], label=name
-                )
-                axes[0, j].set_title(channel)
-                axes[0, j].set_xlabel("response change per period (%)")
-        axes[0, 0].set_ylabel("error against the single pulse (%)")
-        axes[0, 0].legend(loc="upper left")
-        paths += save_figure(fig, figures / "manoeuvres_rate")
-
-        name = list(runs)[-1]
-        table, scenario = runs[name]
-        per = tables[name]
-        settle = scenario["probe"]["settle_periods"]
-        g0 = per[(per.channel == channels[0]) & (per.period >= settle)]
-        worst = int(g0.loc[g0.error.idxmax(), "period"])
-        last = int(per.period.max())
-        fig, axes = plt.subplots(
-            len(channels),
-            2,
-            figsize=(7, 2.2 * len(channels)),
-            constrained_layout=True,
-            squeeze=False,
-        )
-        for i, channel in enumerate(channels):
-            for j, period in enumerate((worst, last)):
-                g = table[(table.channel == channel) & (table.period == period)]
-                ax = axes[i, j]
-                ax.plot(g.lag_s, g.h_pulse, color="0.5", lw=2, label="single pulse, mid-period")
-                ax.plot(g.lag_s, g.h_est, "--", color="C1", label="probing output")
-                ax.set_title(f"{name}, period {period} ({g.time_mid_s.iloc[0]:.1f} s): {channel}")
-                ax.set_xlabel("lag (s)")
-        axes[0, 0].legend()
-        paths += save_figure(fig, figures / "manoeuvres_snapshot")
+        for suffix, build in _FIGURES.items():
+            paths += save_figure(build(runs, tables), Path(figures) / f"manoeuvres_{suffix}")
     return paths

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -18,7 +19,7 @@ import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
 
-__all__ = ["draw", "load_runs", "summary_markdown"]
+__all__ = ["draw", "figure", "load_runs", "summary_markdown"]
 
 
 def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
@@ -80,38 +81,50 @@ def summary_markdown(runs: dict[str, tuple[pd.DataFrame, dict]]) -> str:
     return "\n".join(lines)
 
 
+def figure(name: str, table: pd.DataFrame) -> Any:
+    """The figure of one run: every surface (rows) and channel (columns), probed together,
+    alone and on the linearisation, and the difference together - alone (x 10).
+
+    The legend sits below the panels, where it hides no curve.  Close the figure (or let
+    :func:`draw` save it).
+    """
+    surfaces = list(dict.fromkeys(table.surface))
+    channels = list(dict.fromkeys(table.channel))
+    with plt.rc_context(RC):
+        fig, axes = plt.subplots(
+            len(surfaces),
+            len(channels),
+            figsize=(2.4 * len(channels), 1.9 * len(surfaces) + 0.3),
+            squeeze=False,
+            constrained_layout=True,
+        )
+        for i, s in enumerate(surfaces):
+            for j, c in enumerate(channels):
+                ax = axes[i, j]
+                rows = table[(table.surface == s) & (table.channel == c)]
+                lag = rows.lag_s.to_numpy()
+                ax.plot(lag, rows.h_lin, color="0.6", lw=2.0, label="linearisation")
+                ax.plot(lag, rows.h_alone, color="C0", label="probed alone")
+                ax.plot(lag, rows.h_est, "--", color="C1", label="probed together")
+                diff = 10 * (rows.h_est.to_numpy() - rows.h_alone.to_numpy())
+                ax.plot(lag, diff, color="C3", lw=0.8, label="(together - alone) x 10")
+                ax.set_title(f"{s} -> {c}")
+                if i == len(surfaces) - 1:
+                    ax.set_xlabel("lag (s)")
+                if j == 0:
+                    ax.set_ylabel("h (channel unit / deg)")
+                ax.set_xlim(0, min(lag[-1], 30.0) if np.isfinite(lag[-1]) else None)
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        # one row under three panels or more; two under fewer, which it would outgrow
+        ncol = len(labels) if len(channels) >= 3 else 2
+        fig.legend(handles, labels, loc="outside lower center", ncol=ncol)
+        fig.suptitle(f"{name}: pulse responses, probed together and one at a time")
+    return fig
+
+
 def draw(runs: dict[str, tuple[pd.DataFrame, dict]], figures: Path) -> list[Path]:
-    """One figure per run: every surface (rows) and channel (columns), probed together,
-    alone and on the linearisation, and the difference together - alone (x 10)."""
+    """Save :func:`figure` of every run as ``<figures>/simultaneous_<name>.png``."""
     paths = []
     for name, (table, _) in runs.items():
-        surfaces = list(dict.fromkeys(table.surface))
-        channels = list(dict.fromkeys(table.channel))
-        with plt.rc_context(RC):
-            fig, axes = plt.subplots(
-                len(surfaces),
-                len(channels),
-                figsize=(2.4 * len(channels), 1.9 * len(surfaces)),
-                squeeze=False,
-                constrained_layout=True,
-            )
-            for i, s in enumerate(surfaces):
-                for j, c in enumerate(channels):
-                    ax = axes[i, j]
-                    rows = table[(table.surface == s) & (table.channel == c)]
-                    lag = rows.lag_s.to_numpy()
-                    ax.plot(lag, rows.h_lin, color="0.6", lw=2.0, label="linearisation")
-                    ax.plot(lag, rows.h_alone, color="C0", label="probed alone")
-                    ax.plot(lag, rows.h_est, "--", color="C1", label="probed together")
-                    diff = 10 * (rows.h_est.to_numpy() - rows.h_alone.to_numpy())
-                    ax.plot(lag, diff, color="C3", lw=0.8, label="(together - alone) x 10")
-                    ax.set_title(f"{s} -> {c}")
-                    if i == len(surfaces) - 1:
-                        ax.set_xlabel("lag (s)")
-                    if j == 0:
-                        ax.set_ylabel("h (channel unit / deg)")
-                    ax.set_xlim(0, min(lag[-1], 30.0) if np.isfinite(lag[-1]) else None)
-            axes[0, 0].legend(loc="upper right")
-            fig.suptitle(f"{name}: pulse responses, probed together and one at a time")
-            paths += save_figure(fig, Path(figures) / f"simultaneous_{name}")
+        paths += save_figure(figure(name, table), Path(figures) / f"simultaneous_{name}")
     return paths

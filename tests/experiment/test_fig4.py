@@ -207,6 +207,40 @@ def test_figures_show_the_probing_outputs_and_eq_11(results):
         fig.clf()
 
 
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("which", sorted(SETS))
+def test_figures_are_readable(results, which):
+    """No title or label runs off a figure's edge (the (b') title of the compensated figure
+    did), and the note on the offset in panel (b) hides neither a curve nor the legend (on
+    the 737 it lay across the curve with the nonlinearity)."""
+    from analysis import fig4_plots
+    from analysis.figures import clipped_texts, covers_data
+
+    figs = fig4_plots.figures(fig4.collect(results[which]))
+    for suffix, fig in figs.items():
+        assert clipped_texts(fig) == [], suffix
+    fig = figs[""]
+    fig.draw_without_rendering()
+    renderer = fig.canvas.get_renderer()
+    sat = next(ax for ax in fig.axes if ax.get_title(loc="left").startswith("(b) saturation"))
+    (note,) = sat.texts
+    box = note.get_window_extent(renderer)
+    assert not covers_data(sat, box)
+    assert not box.overlaps(sat.get_legend().get_window_extent(renderer))
+    for fig in figs.values():
+        fig.clf()
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize("which", sorted(SETS))
+def test_summary_names_the_aircraft_it_was_flown_on(results, which):
+    """The note on h_est's DC term speaks of the set's aircraft (the 737's said "the GTM")."""
+    text = fig4.write_summary(fig4.collect(results[which]), results[which])
+    name = {"gtm": "GTM", "737": "737"}[which]
+    assert f"on the {name} h_est is dominated" in text
+    assert ("GTM" in text) == (which == "gtm")
+
+
 def test_plot_without_results_fails_cleanly(tmp_path, capsys):
     assert cli_main(["plot", "fig4", str(tmp_path)]) == 2
 
