@@ -187,7 +187,7 @@ def _rate_limit(data: Fig4Data) -> Any:
     sweep = data.sweep
     a = data.baseline.scenario.amplitude_deg
     dt = data.baseline.scenario.dt_s
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7.0, 3.0), constrained_layout=True)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7.0, 3.5), constrained_layout=True)
     floor = 1e-7
     for i, (t0, grp) in enumerate(sweep.groupby("bit_duration_s")):
         color = f"C{i}"
@@ -224,7 +224,8 @@ def _rate_limit(data: Fig4Data) -> Any:
     ax1.text(2.0, floor * 1.6, "at floor: error exactly 0", fontsize=6.5, ha="center")
     ax1.set_ylabel("shape error ||x - g x0|| / ||g x0||")
     ax2.set_ylabel("least-squares gain g")
-    ax2.legend(frameon=False, loc="upper right", fontsize=6.5)
+    handles, labels = ax2.get_legend_handles_labels()  # under the panels: it hides no curve
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, frameon=False, fontsize=6.5)
     fig.suptitle(
         f"Rate limit against the bound of eq. (21), a = {a:g} deg ({data.set_name})", fontsize=8
     )

@@ -136,7 +136,8 @@ def _periods(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.Da
     axes[0, 1].set_title(f"how fast {channels[0]}'s response moves")
     axes[1, 0].set_title("single pulse at mid-period (line), probing output (dots)")
     axes[1, 1].set_title("||h_est - h_pulse|| / ||h_pulse||")
-    axes[0, 0].legend(loc="lower right")
+    handles, labels = axes[0, 0].get_legend_handles_labels()  # under the panels: hides no line
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), title="run")
     for ax in axes[-1]:
         ax.set_xlabel("time after trim (s)")
     return fig

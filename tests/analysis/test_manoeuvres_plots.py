@@ -83,3 +83,14 @@ def test_rate_figure_has_a_title_and_its_legend_hides_nothing() -> None:
     )
     for fig in figs.values():
         plt.close(fig)
+
+
+def test_no_manoeuvre_figure_has_a_legend_over_data_or_clipped_text() -> None:
+    """Every manoeuvre figure: no legend hides a point or a line, no text runs off the edge
+    (the periods figure's legend lay over the 0.1 kt/s line in its first panel)."""
+    figs = manoeuvres.figures(_runs())
+    for name, fig in figs.items():
+        assert legends_over_data(fig) == [], name
+        assert clipped_texts(fig) == [], name
+    for fig in figs.values():
+        plt.close(fig)

@@ -214,11 +214,12 @@ def test_figures_are_readable(results, which):
     did), and the note on the offset in panel (b) hides neither a curve nor the legend (on
     the 737 it lay across the curve with the nonlinearity)."""
     from analysis import fig4_plots
-    from analysis.figures import clipped_texts, covers_data
+    from analysis.figures import clipped_texts, covers_data, legends_over_data
 
     figs = fig4_plots.figures(fig4.collect(results[which]))
     for suffix, fig in figs.items():
         assert clipped_texts(fig) == [], suffix
+        assert legends_over_data(fig) == [], suffix  # the rate limit's lay over its curves
     fig = figs[""]
     fig.draw_without_rendering()
     renderer = fig.canvas.get_renderer()
