@@ -10,6 +10,7 @@ import pytest
 
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import load_scenario
+from probing.experiment.storage import MONITOR_SCHEMA, metadata, output_folder
 from probing.experiment.truth import compute_truth
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -69,3 +70,54 @@ def test_prediction_says_what_it_is(run_folder: Path) -> None:
         meta[b"probing.scenario_digest"]
         == pq.read_schema(run_folder / "probing.parquet").metadata[b"probing.scenario_digest"]
     )
+
+
+def _monitor_rows(n: int) -> dict:
+    """``n`` made-up rows of the monitor's layout."""
+    return {
+        "period": list(range(n)),
+        "time_s": [float(p + 1) for p in range(n)],
+        "channel": ["theta_rad"] * n,
+        "statistic": [0.5] * n,
+        "threshold": [4.0] * n,
+        "alarm": [False] * n,
+        "gain_change": [1.0] * n,
+        "shape_change": [0.1] * n,
+        "verdict": ["none"] * n,
+    }
+
+
+@pytest.mark.parametrize("exists", [True, False])
+def test_a_failed_run_leaves_nothing_half_written(tmp_path: Path, exists: bool) -> None:
+    """Two files written (one past a full row group), then the run fails: the folder, whether
+    it was there before (it stays, empty: not even a hidden partial file) or created by the
+    run (removed), holds nothing; the error propagates.  The listing of the disk is the
+    truth."""
+    path = tmp_path / "out" / "run"
+    if exists:
+        path.mkdir(parents=True)
+    with pytest.raises(RuntimeError, match="diverged"):
+        with output_folder(path, metadata(scenario="x")) as folder:
+            for name in ("monitor.parquet", "other.parquet"):
+                w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+                w.row_group_rows = 4
+                w.write(_monitor_rows(6))
+            assert len(list(path.iterdir())) == 2  # the partial files are on disk
+            raise RuntimeError("diverged")
+    if exists:
+        assert list(path.iterdir()) == []
+    else:
+        assert not (tmp_path / "out").exists()
+    assert list(tmp_path.iterdir()) == ([tmp_path / "out"] if exists else [])
+
+
+def test_a_finished_run_has_its_files_and_no_partial_one(tmp_path: Path) -> None:
+    """The same writes without a failure: the two files under their names, with every row,
+    and no hidden temporary file."""
+    path = tmp_path / "run"
+    with output_folder(path, metadata(scenario="x")) as folder:
+        for name in ("monitor.parquet", "other.parquet"):
+            w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+            w.write(_monitor_rows(6))
+    assert sorted(p.name for p in path.iterdir()) == ["monitor.parquet", "other.parquet"]
+    assert pq.read_table(path / "monitor.parquet").num_rows == 6
