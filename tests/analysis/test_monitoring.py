@@ -288,3 +288,12 @@ def test_the_roc_counts_a_ratio_equal_to_its_factor_as_no_alarm(on_the_edge):
     hours = on_the_edge.healthy_h.sum()
     assert fa[0] == pytest.approx(1 / hours) and p[0] == pytest.approx(2 / 3)
     assert fa[1] == 0 and p[1] == 0
+
+
+def test_an_alarm_in_the_first_tested_period_is_an_event(tmp_path: Path):
+    """A healthy flight alarmed in its first tested period (12) and again in 13: one event,
+    counted although no tested period precedes it; 28 monitored periods."""
+    flight = _flight(tmp_path, "monitor-none", "f1", math.nan, {12: "airframe", 13: "airframe"})
+    pd.DataFrame([flight]).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
+    f1 = evaluate(load_study(tmp_path)).iloc[0]
+    assert f1.false_alarms == 1 and f1.healthy_h == pytest.approx(28 * T / 3600)

@@ -296,3 +296,36 @@ def test_a_surface_is_lost_inside_the_two_sided_t_interval_of_zero(t_ratio, lost
     y, _ = _closed_loop(H0, 1.0, 0.3)
     d = det.update(y, c * s_mean)
     assert (d.shape_change == 0.0) == lost, (c / se, one_sided, two_sided, d.shape_change)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"windows": 3, "baseline_periods": 5}, None),  # the least: windows + 2 periods
+        ({"windows": 3, "baseline_periods": 4}, "baseline_periods"),
+        ({"isolation_periods": 1}, None),
+        ({"isolation_periods": 0}, "isolation_periods"),
+        ({"window": 1}, None),
+        ({"alpha": 1.0}, "alpha"),
+        ({"alpha": 0.999}, None),
+        ({"shape_alpha": 0.0}, "shape_alpha"),
+        ({"shape_alpha": 1.0}, "shape_alpha"),
+    ],
+)
+def test_settings_on_either_side_of_their_bounds(kwargs, message):
+    """The least baseline (windows + 2), one isolation period, one period per test and an
+    alpha just below 1 are accepted; one fewer, none, and probabilities of 0 or 1 are not."""
+    args = {"m": M, "baseline_periods": 30, "alpha": 0.01} | kwargs
+    if message is None:
+        assert ChangeDetector(**args).learning
+    else:
+        with pytest.raises(ValueError, match=message):
+            ChangeDetector(**args)
+
+
+def test_the_false_alarm_probability_per_period_is_capped_at_a_half():
+    """A rate that would give more than 0.5 per period is capped there (a test at alpha above
+    a half would alarm more often than not); exactly 0.5 is kept."""
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 2) == 0.5
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 1) == 0.5
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 4) == 0.25

@@ -10,7 +10,12 @@ import pytest
 
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import load_scenario
-from probing.experiment.storage import MONITOR_SCHEMA, metadata, output_folder
+from probing.experiment.storage import (
+    MONITOR_SCHEMA,
+    AtomicParquetWriter,
+    metadata,
+    output_folder,
+)
 from probing.experiment.truth import compute_truth
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -121,3 +126,22 @@ def test_a_finished_run_has_its_files_and_no_partial_one(tmp_path: Path) -> None
             w.write(_monitor_rows(6))
     assert sorted(p.name for p in path.iterdir()) == ["monitor.parquet", "other.parquet"]
     assert pq.read_table(path / "monitor.parquet").num_rows == 6
+
+
+@pytest.mark.parametrize(("writes", "groups"), [((4, 2), [4, 2]), ((3, 3), [6]), ((5,), [5])])
+def test_a_row_group_is_written_once_it_is_full(
+    tmp_path: Path, writes: tuple[int, ...], groups: list[int]
+) -> None:
+    """Row groups of 4 rows: a write that fills one exactly (4) goes out as a row group at
+    once, one that does not waits for the next; the file's own row groups (Parquet's
+    metadata) say which.  A row group of 0 rows is refused."""
+    path = tmp_path / "f.parquet"
+    w = AtomicParquetWriter(path, MONITOR_SCHEMA, metadata(scenario="x"), row_group_rows=4)
+    for n in writes:
+        w.write(_monitor_rows(n))
+    w.close()
+    meta = pq.read_metadata(path)
+    assert [meta.row_group(i).num_rows for i in range(meta.num_row_groups)] == groups
+    AtomicParquetWriter(tmp_path / "g.parquet", MONITOR_SCHEMA, {}, row_group_rows=1).abort()
+    with pytest.raises(ValueError, match="row_group_rows"):
+        AtomicParquetWriter(tmp_path / "h.parquet", MONITOR_SCHEMA, {}, row_group_rows=0)
