@@ -226,3 +226,74 @@ def test_a_lateral_study_is_scored_per_probed_surface(tmp_path: Path):
     text = summary_markdown(flights)
     assert "| rudder | case 1: rudder off | reference | 1 |" in text
     assert "| aileron | reference | 2 |" in text  # false alarms per probe
+
+
+@pytest.fixture
+def on_the_edge(tmp_path: Path) -> pd.DataFrame:
+    """Dead band flights with the onset at 40 s, the end of period 19 (T = 2 s, goal 5 T)."""
+    flights = [
+        # alarmed in period 19, which ends at the onset: a false alarm; then period 24, which
+        # ends 5 T after the onset, at the edge of the goal
+        _flight(
+            tmp_path, "monitor-deadband", "e1", 40.0, {19: "airframe", 24: "actuator"}, "airframe"
+        ),
+        # first alarm in period 20, the first to end after the onset
+        _flight(tmp_path, "monitor-deadband", "e2", 40.0, {20: "actuator"}, "actuator"),
+        # first alarm in period 25, one period past the goal
+        _flight(tmp_path, "monitor-deadband", "e3", 40.0, {25: "airframe"}, "airframe"),
+    ]
+    pd.DataFrame(flights).to_parquet(tmp_path / "monitor-deadband" / "summary.parquet")
+    return evaluate(load_study(tmp_path))
+
+
+def test_a_period_ending_at_the_onset_is_healthy(on_the_edge):
+    """Period 19 ends at 40 s = the onset: it is healthy (monitored periods 12..19, 8 x T),
+    its alarm a false one; the delay counts from the first alarm after it (period 24, 50 s)."""
+    e1 = on_the_edge.set_index("point_id").loc["e1"]
+    assert e1.healthy_h == pytest.approx(8 * T / 3600)
+    assert e1.false_alarms == 1
+    assert e1.delay_s == pytest.approx(50.0 - 40.0)
+    e2 = on_the_edge.set_index("point_id").loc["e2"]
+    assert e2.false_alarms == 0 and e2.delay_s == pytest.approx(42.0 - 40.0)
+
+
+def test_a_first_alarm_at_the_onset_gives_no_verdict_for_the_fault(on_the_edge):
+    """The monitor's first alarm at 40 s = the onset came before the fault could show: its
+    verdict is not the fault's ("none"); a first alarm at 42 s, after it, gives the
+    monitor's."""
+    s = on_the_edge.set_index("point_id")
+    assert s.loc["e1"].verdict_after == "none"
+    assert s.loc["e2"].verdict_after == "actuator"
+    assert s.loc["e3"].verdict_after == "airframe"
+
+
+def test_the_goal_includes_the_period_ending_exactly_at_its_edge(on_the_edge):
+    """Goal 5 T = 10 s after the onset: an alarm in the period ending at 50 s is within it
+    (score = its statistic over threshold, 2; detected in the goal), one ending at 52 s is
+    not (score of the unalarmed periods, 0.5)."""
+    s = on_the_edge.set_index("point_id")
+    assert s.loc["e1"].score == pytest.approx(2.0)
+    assert s.loc["e2"].score == pytest.approx(2.0)
+    assert s.loc["e3"].score == pytest.approx(0.5)
+    table = fault_table(on_the_edge).set_index("fault").loc["dead band, a~/a = 0.8"]
+    assert table.p_detect == pytest.approx(1.0)
+    assert table.p_detect_goal == pytest.approx(2 / 3)  # delays 10 s and 2 s, not 12 s
+
+
+def test_the_roc_counts_a_ratio_equal_to_its_factor_as_no_alarm(on_the_edge):
+    """The monitor alarms on statistic > threshold: at c = 2, a ratio of exactly 2 is neither
+    a false alarm nor a detection; at c = 1 the false alarm at the onset and two detections
+    within the goal count."""
+    fa, p = roc(on_the_edge, "deadband", "reference", [1.0, 2.0])
+    hours = on_the_edge.healthy_h.sum()
+    assert fa[0] == pytest.approx(1 / hours) and p[0] == pytest.approx(2 / 3)
+    assert fa[1] == 0 and p[1] == 0
+
+
+def test_an_alarm_in_the_first_tested_period_is_an_event(tmp_path: Path):
+    """A healthy flight alarmed in its first tested period (12) and again in 13: one event,
+    counted although no tested period precedes it; 28 monitored periods."""
+    flight = _flight(tmp_path, "monitor-none", "f1", math.nan, {12: "airframe", 13: "airframe"})
+    pd.DataFrame([flight]).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
+    f1 = evaluate(load_study(tmp_path)).iloc[0]
+    assert f1.false_alarms == 1 and f1.healthy_h == pytest.approx(28 * T / 3600)

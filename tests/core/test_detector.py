@@ -6,6 +6,8 @@ F distributions of Hotelling's T^2 (the rates the thresholds are set for).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -206,3 +208,124 @@ def test_a_surface_detector_needs_the_surface():
     det = ChangeDetector(M, 10, 0.01, windows=4, surface=True)
     with pytest.raises(ValueError, match="surface"):
         det.update(H0)
+
+
+# ------------------------------------------------------------------ isolation: which periods
+def test_isolation_rests_on_exactly_the_periods_after_the_first_alarm():
+    """``isolation_periods`` = 3: the alarmed period (a gain change, 0.5) is left out, the
+    next three (the same gain change) are the verdict's, and a fourth period with a changed
+    shape (damping halved) changes neither the shape statistic (to the bit) nor the verdict.
+    Truth: what was fed, period by period (a gain change keeps the shape, eqs. 10-12)."""
+    rng = np.random.default_rng(11)
+    sigma = SIGMA / 5
+    det = ChangeDetector(M, 30, 1e-4, isolation_periods=3)
+    for _ in range(30):
+        det.update(H0 + sigma * rng.standard_normal(M))
+    first = det.update(0.5 * H0 + sigma * rng.standard_normal(M))
+    assert first.alarm and not det.isolated
+    decided = []
+    for i in range(3):
+        decided.append(det.update(0.5 * H0 + sigma * rng.standard_normal(M)))
+        assert det.isolated == (i == 2), i  # isolated with the third, not before
+    assert all(d.alarm for d in decided) and decided[-1].verdict == "actuator"
+    later = det.update(SLOW + sigma * rng.standard_normal(M))
+    assert later.alarm
+    assert later.shape_change == decided[-1].shape_change  # the same three periods
+    assert later.verdict == "actuator"
+    # the fourth period alone is a shape change: had it been averaged in, it would show
+    alone = ChangeDetector(M, 30, 1e-4, isolation_periods=3)
+    for _ in range(30):
+        alone.update(H0 + sigma * rng.standard_normal(M))
+    assert alone.update(SLOW + sigma * rng.standard_normal(M)).verdict == "airframe"
+
+
+def test_isolation_leaves_out_the_alarmed_period_itself():
+    """``isolation_periods`` = 1: a shape change (damping halved) raises the first alarm; the
+    period after it, a pure gain change (0.5), is the one the verdict rests on: actuator,
+    the shape statistic that of the gain-changed period alone."""
+    rng = np.random.default_rng(12)
+    sigma = SIGMA / 5
+    det = ChangeDetector(M, 30, 1e-4, isolation_periods=1)
+    for _ in range(30):
+        det.update(H0 + sigma * rng.standard_normal(M))
+    onset = det.update(SLOW + sigma * rng.standard_normal(M))
+    assert onset.alarm and onset.verdict == "airframe" and not det.isolated
+    after = det.update(0.5 * H0 + sigma * rng.standard_normal(M))
+    assert det.isolated and after.alarm and after.verdict == "actuator"
+    assert after.shape_change < 1.0
+
+
+def _surface_detector(rng: np.random.Generator, shape_alpha: float) -> tuple:
+    """A surface-isolating detector learned on 40 periods; the baseline's reduced surface
+    responses, computed here (mean and covariance by numpy)."""
+    baseline, windows = 40, 6
+    det = ChangeDetector(M, baseline, 1e-3, windows=windows, shape_alpha=shape_alpha, surface=True)
+    y, s = _closed_loop(H0, 1.0, 0.3)
+    ss = s + SIGMA * rng.standard_normal((baseline, M))
+    for row in ss:
+        det.update(y + SIGMA * rng.standard_normal(M), row)
+    v = ss @ window_matrix(M, windows).T
+    s0, cov = v.mean(axis=0), np.cov(v, rowvar=False, ddof=1)
+    se = math.sqrt(s0 @ cov @ s0) / (s0 @ s0)  # the gain's standard error, one period
+    return det, ss.mean(axis=0), se, baseline
+
+
+@pytest.mark.parametrize(
+    ("t_ratio", "lost"),
+    [
+        ("between", True),  # |t| between the one- and the two-sided quantile: still lost
+        (0.98, True),  # just inside the two-sided interval
+        (1.02, False),  # just outside it: the surface answers
+    ],
+)
+def test_a_surface_is_lost_inside_the_two_sided_t_interval_of_zero(t_ratio, lost):
+    """A period whose surface response is c x the baseline's mean (its gain c exactly): lost
+    (nothing reaches the airframe, shape statistic 0) while |c| / se < t(1 - shape_alpha / 2,
+    B - 1), the two-sided quantile from scipy, and not lost beyond it; se from the baseline's
+    own scatter, computed here.  Between the one-sided and the two-sided quantile it is
+    lost."""
+    from scipy.stats import t
+
+    shape_alpha = 0.1
+    rng = np.random.default_rng(13)
+    det, s_mean, se, baseline = _surface_detector(rng, shape_alpha)
+    one_sided = t.ppf(1 - shape_alpha, baseline - 1)
+    two_sided = t.ppf(1 - shape_alpha / 2, baseline - 1)
+    ratio = (one_sided + two_sided) / 2 / two_sided if t_ratio == "between" else t_ratio
+    c = ratio * two_sided * se
+    y, _ = _closed_loop(H0, 1.0, 0.3)
+    d = det.update(y, c * s_mean)
+    assert (d.shape_change == 0.0) == lost, (c / se, one_sided, two_sided, d.shape_change)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"windows": 3, "baseline_periods": 5}, None),  # the least: windows + 2 periods
+        ({"windows": 3, "baseline_periods": 4}, "baseline_periods"),
+        ({"isolation_periods": 1}, None),
+        ({"isolation_periods": 0}, "isolation_periods"),
+        ({"window": 1}, None),
+        ({"alpha": 1.0}, "alpha"),
+        ({"alpha": 0.999}, None),
+        ({"shape_alpha": 0.0}, "shape_alpha"),
+        ({"shape_alpha": 1.0}, "shape_alpha"),
+    ],
+)
+def test_settings_on_either_side_of_their_bounds(kwargs, message):
+    """The least baseline (windows + 2), one isolation period, one period per test and an
+    alpha just below 1 are accepted; one fewer, none, and probabilities of 0 or 1 are not."""
+    args = {"m": M, "baseline_periods": 30, "alpha": 0.01} | kwargs
+    if message is None:
+        assert ChangeDetector(**args).learning
+    else:
+        with pytest.raises(ValueError, match=message):
+            ChangeDetector(**args)
+
+
+def test_the_false_alarm_probability_per_period_is_capped_at_a_half():
+    """A rate that would give more than 0.5 per period is capped there (a test at alpha above
+    a half would alarm more often than not); exactly 0.5 is kept."""
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 2) == 0.5
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 1) == 0.5
+    assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 4) == 0.25

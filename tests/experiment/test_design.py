@@ -192,3 +192,62 @@ def test_the_readme_design_keeps_its_promise_over_100_seeds(capsys):
     measured = measured_over_seeds(design["scenario_toml"], design["channel"], seeds=100)
     for key, value in measured.items():
         assert value / design[key] == pytest.approx(1.0, abs=0.25), (key, value, design[key])
+
+
+@pytest.mark.parametrize(
+    ("settling_s", "order"),
+    [
+        (511 / 16, 9),  # T = 511 t0 = 31.9375 s covers it exactly
+        (511 / 16 + 0.01, 10),  # just more than T of order 9 (still less than 2^9 t0 = 32 s)
+        (511 / 16 - 0.01, 9),
+        (7 / 16, 3),  # the smallest order, T = 0.4375 s
+        (7 / 16 + 0.01, 4),
+    ],
+)
+def test_the_order_is_the_smallest_whose_period_covers_the_short_period(settling_s, order):
+    """t0 = dt = 1/16 s (exact in binary): the order n is the smallest with T = (2^n - 1) t0
+    >= the short-period settling time, M = 2^n - 1 the m-sequence's length (not 2^n)."""
+    shape = probe_shape(
+        request(dt_s=1 / 16), short_period_settling_s=settling_s, phugoid_settling_s=1.0
+    )
+    assert shape.bit_duration_s == 1 / 16
+    assert shape.order == order and shape.bits_per_period == 2**order - 1
+    assert shape.memory_s >= settling_s > (2 ** (order - 1) - 1) / 16
+
+
+@pytest.mark.parametrize(("rate_deg_s", "steps"), [(0.5, 2), (0.4999, 3), (1.0, 1), (1 / 7, 7)])
+def test_the_bit_is_the_fewest_steps_that_meet_eq_21(rate_deg_s, steps):
+    """a = 0.005 deg, dt = 0.01 s: eq. (21) asks t0 >= 2a / r_l; at r_l = 0.5 deg/s that is
+    0.02 s exactly, two steps (met with equality), a hair slower rate needs three; at
+    1/7 deg/s, 0.07 s, seven steps (the quotient's rounding error, 7.000000000000001, must
+    not cost an eighth)."""
+    shape = probe_shape(
+        request(rate_limit_deg_s=rate_deg_s), short_period_settling_s=1.4, phugoid_settling_s=1.0
+    )
+    assert shape.bit_duration_s == pytest.approx(steps * 0.01, rel=1e-12)
+    assert 2 * 0.005 / shape.bit_duration_s <= rate_deg_s * (1 + 1e-12)
+
+
+@pytest.mark.parametrize(
+    ("room", "refused"), [(0.25, False), (0.2499, "exceeds"), (0.125, "wider than")]
+)
+def test_the_deadband_margin_may_fill_the_room_exactly(room, refused):
+    """Dead band +-0.125 deg, margin 2: the amplitude needed is 0.25 deg; a saturation of
+    +-0.25 deg leaves exactly that (accepted, a = 0.25), a hair less does not, and a band as
+    wide as the room is refused as such."""
+    r = request(deadband_deg=(-0.125, 0.125), saturation_deg=(-room, room), deadband_margin=2.0)
+    if refused:
+        with pytest.raises(DesignError, match=refused):
+            probe_shape(r, short_period_settling_s=1.4, phugoid_settling_s=1.0)
+    else:
+        shape = probe_shape(r, short_period_settling_s=1.4, phugoid_settling_s=1.0)
+        assert shape.amplitude_deg == 0.25
+
+
+@pytest.mark.parametrize(("settling_s", "warned"), [(10 / 16, False), (10 / 16 - 0.01, True)])
+def test_a_bit_longer_than_a_tenth_of_the_short_period_is_warned_of(settling_s, warned):
+    """t0 = 1/16 s: no warning while t0 <= settling / 10 (equality included), one past it."""
+    shape = probe_shape(
+        request(dt_s=1 / 16), short_period_settling_s=settling_s, phugoid_settling_s=1.0
+    )
+    assert any("coarsely resolved" in w for w in shape.warnings) == warned

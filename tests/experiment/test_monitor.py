@@ -342,3 +342,56 @@ def test_cli_monitor_one_line_and_short_runs_refused(tmp_path):
     assert res.returncode == 2 and len(res.stderr.splitlines()) == 1, res.stderr
     assert "monitor.baseline_periods" in res.stderr and "Traceback" not in res.stderr
     assert not (tmp_path / "out2").exists()
+
+
+@pytest.mark.parametrize(
+    ("surface", "monitored"),
+    [(True, ["theta_rad", "q_rad_s"]), (False, ["theta_rad", "q_rad_s", "elevator_deg"])],
+)
+def test_the_false_alarm_rate_is_shared_by_the_monitored_channels_only(
+    tmp_path, surface, monitored
+):
+    """theta, q and the elevator's sensor: isolating with the surface, the elevator is an
+    instrument and the rate (0.1 per hour) is shared by the two monitored channels, alpha =
+    0.1 T / 3600 / 2 per period (T = 63 x 0.01 s); without it, by all three.  Every row's
+    threshold is -log10 of that alpha, and each row ends its period: time_s = (p + 1) T
+    (the analysis scores delays from it)."""
+    period_s = 63 * 0.01
+    data = closed_loop(
+        name="share",
+        **{
+            "probe.periods": 14,
+            "output.channels": ["theta_rad", "q_rad_s", "elevator_deg"],
+            "disturbance": {
+                "seed": 4,
+                "sensor_noise": {"theta_rad": THETA_NOISE_RAD, "elevator_deg": 0.0025},
+            },
+            "monitor": {"baseline_periods": 8, "windows": 4, "surface": surface},
+        },
+    )
+    result = monitor_scenario(parse_scenario(data), tmp_path, progress=False)
+    alpha = 0.1 * period_s / 3600 / len(monitored)
+    assert result.alpha == pytest.approx(alpha, rel=1e-12)
+    mon = pd.read_parquet(tmp_path / "share" / "monitor.parquet")
+    assert sorted(set(mon.channel)) == sorted(monitored)
+    np.testing.assert_allclose(mon.threshold, -np.log10(alpha), rtol=1e-12)
+    meta = pq.read_metadata(tmp_path / "share" / "monitor.parquet").metadata
+    assert json.loads(meta[b"probing.detector"])["alpha_per_period"] == pytest.approx(alpha)
+    assert mon.period.min() == 2 and mon.period.max() == 13
+    np.testing.assert_allclose(mon.time_s, (mon.period + 1) * period_s, rtol=1e-12)
+
+
+def test_the_first_alarms_row_ends_at_the_reported_first_alarm(flights):
+    """The dead band flight: the first alarmed row's time_s is the end of its period,
+    (p + 1) T, which is the first alarm the metadata and the result report; no row ending
+    by the onset (25 s) is alarmed."""
+    _, result, folder = flights["deadband"]
+    period_s = 63 * 0.01
+    mon = pd.read_parquet(folder / "monitor.parquet")
+    np.testing.assert_allclose(mon.time_s, (mon.period + 1) * period_s, rtol=1e-12)
+    first = mon[mon.alarm].iloc[0]
+    assert first.period == result.first_alarm_period
+    assert first.time_s == pytest.approx(result.first_alarm_s, rel=1e-12)
+    meta = pq.read_metadata(folder / "monitor.parquet").metadata
+    assert json.loads(meta[b"probing.first_alarm_s"]) == pytest.approx(first.time_s, rel=1e-12)
+    assert not mon[mon.time_s <= 25.0].alarm.any()

@@ -140,3 +140,25 @@ def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(
         gain = models[channel].gain_std(bare[j])
         assert found[channel].gain_stderr == pytest.approx(gain, rel=1e-9)
     assert found["theta_rad"].h_bias > 0.005 * rms(steady[0])  # a bias to get right
+
+
+@pytest.mark.parametrize("estimator", ["streaming", "cyclic"])
+def test_extra_noise_adds_to_the_sensor_noise(estimator: str) -> None:
+    """Independent noises' variances add: with sensor noise (1e-4) and a coloured extra
+    autocovariance on theta, each tap's variance of the settled h is the sensor noise's alone
+    plus the extra's alone (a scenario without sensor noise); q, given no extra, keeps its
+    sensor noise only."""
+    base = gtm(estimator, "none")
+    noisy = base.replace({"disturbance.sensor_noise": {"theta_rad": 1e-4, "q_rad_s": 2e-4}})
+    quiet = base.replace({"disturbance.sensor_noise": {}})
+    extra = {"theta_rad": np.array([2e-8, 1.5e-8, 1e-8, 0.5e-8])}
+    both = scatter_models(noisy, extra)
+    sensor = scatter_models(noisy)
+    alone = scatter_models(quiet, extra)
+    np.testing.assert_allclose(
+        both["theta_rad"].h_std() ** 2,
+        sensor["theta_rad"].h_std() ** 2 + alone["theta_rad"].h_std() ** 2,
+        rtol=1e-9,
+    )
+    assert rms(sensor["theta_rad"].h_std()) > 0.1 * rms(alone["theta_rad"].h_std())
+    np.testing.assert_array_equal(both["q_rad_s"].h_std(), sensor["q_rad_s"].h_std())

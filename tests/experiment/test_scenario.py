@@ -11,6 +11,7 @@ create nothing under DIR.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import subprocess
 import sys
@@ -366,3 +367,45 @@ def test_monitor_without_its_section_says_the_section_is_missing() -> None:
     with pytest.raises(ScenarioError, match="the default, 50,") as info:
         parse_scenario({**data, "monitor": {"window_periods": 2}})
     assert "no [monitor] section" not in str(info.value)
+
+
+@pytest.mark.parametrize("kind", ["stuck", "gtm_damage"])
+def test_a_fault_onset_must_come_before_the_run_ends(kind: str):
+    """The baseline run lasts M x periods x t0 = 511 x 8 x 0.01 s: a fault at that instant
+    would act on no step and is refused naming fault.onset_s; the largest float below it,
+    and a step before it, are accepted."""
+    duration = 511 * 8 * 0.01
+    fault = {"type": kind, **({"case": 2} if kind == "gtm_damage" else {})}
+
+    def with_onset(onset: float) -> dict:
+        data = _baseline_dict()
+        if kind == "gtm_damage":
+            data["aircraft"]["model"] = "gtm_t2"
+        data["fault"] = {**fault, "onset_s": onset}
+        return data
+
+    with pytest.raises(ScenarioError, match="before the run ends") as info:
+        parse_scenario(with_onset(duration))
+    assert info.value.field == "fault.onset_s"
+    for onset in (math.nextafter(duration, 0.0), duration - 0.01, 0.0):
+        assert parse_scenario(with_onset(onset)).fault_onset_s == onset
+
+
+@pytest.mark.parametrize(
+    ("windows", "baseline", "accepted"),
+    [(3, 4, False), (3, 5, True), (4, 5, False), (4, 6, False)],
+)
+def test_a_monitor_baseline_fits_between_its_windows_and_the_settled_periods(
+    windows: int, baseline: int, accepted: bool
+):
+    """Baseline 8 periods, 2 settling: 6 settled.  A baseline needs windows + 2 periods (a
+    covariance of the K windows with a degree of freedom to spare) and must leave one of the
+    6 to test: with 3 windows, 5 is the only one accepted; 4 windows leave none."""
+    data = _baseline_dict()
+    data["monitor"] = {"windows": windows, "baseline_periods": baseline}
+    if accepted:
+        assert parse_scenario(data).monitor.baseline_periods == baseline
+    else:
+        with pytest.raises(ScenarioError) as info:
+            parse_scenario(data)
+        assert info.value.field == "monitor.baseline_periods"

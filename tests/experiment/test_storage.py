@@ -10,6 +10,12 @@ import pytest
 
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import load_scenario
+from probing.experiment.storage import (
+    MONITOR_SCHEMA,
+    AtomicParquetWriter,
+    metadata,
+    output_folder,
+)
 from probing.experiment.truth import compute_truth
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -97,3 +103,73 @@ def test_a_writer_refuses_a_schema_that_names_a_column_twice(tmp_path: Path) -> 
     with pytest.raises(ValueError, match=r"given twice: \['a_deg'\]"):
         AtomicParquetWriter(tmp_path / "x.parquet", schema, {})
     assert list(tmp_path.iterdir()) == []
+
+
+def _monitor_rows(n: int) -> dict:
+    """``n`` made-up rows of the monitor's layout."""
+    return {
+        "period": list(range(n)),
+        "time_s": [float(p + 1) for p in range(n)],
+        "channel": ["theta_rad"] * n,
+        "statistic": [0.5] * n,
+        "threshold": [4.0] * n,
+        "alarm": [False] * n,
+        "gain_change": [1.0] * n,
+        "shape_change": [0.1] * n,
+        "verdict": ["none"] * n,
+    }
+
+
+@pytest.mark.parametrize("exists", [True, False])
+def test_a_failed_run_leaves_nothing_half_written(tmp_path: Path, exists: bool) -> None:
+    """Two files written (one past a full row group), then the run fails: the folder, whether
+    it was there before (it stays, empty: not even a hidden partial file) or created by the
+    run (removed), holds nothing; the error propagates.  The listing of the disk is the
+    truth."""
+    path = tmp_path / "out" / "run"
+    if exists:
+        path.mkdir(parents=True)
+    with pytest.raises(RuntimeError, match="diverged"):
+        with output_folder(path, metadata(scenario="x")) as folder:
+            for name in ("monitor.parquet", "other.parquet"):
+                w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+                w.row_group_rows = 4
+                w.write(_monitor_rows(6))
+            assert len(list(path.iterdir())) == 2  # the partial files are on disk
+            raise RuntimeError("diverged")
+    if exists:
+        assert list(path.iterdir()) == []
+    else:
+        assert not (tmp_path / "out").exists()
+    assert list(tmp_path.iterdir()) == ([tmp_path / "out"] if exists else [])
+
+
+def test_a_finished_run_has_its_files_and_no_partial_one(tmp_path: Path) -> None:
+    """The same writes without a failure: the two files under their names, with every row,
+    and no hidden temporary file."""
+    path = tmp_path / "run"
+    with output_folder(path, metadata(scenario="x")) as folder:
+        for name in ("monitor.parquet", "other.parquet"):
+            w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+            w.write(_monitor_rows(6))
+    assert sorted(p.name for p in path.iterdir()) == ["monitor.parquet", "other.parquet"]
+    assert pq.read_table(path / "monitor.parquet").num_rows == 6
+
+
+@pytest.mark.parametrize(("writes", "groups"), [((4, 2), [4, 2]), ((3, 3), [6]), ((5,), [5])])
+def test_a_row_group_is_written_once_it_is_full(
+    tmp_path: Path, writes: tuple[int, ...], groups: list[int]
+) -> None:
+    """Row groups of 4 rows: a write that fills one exactly (4) goes out as a row group at
+    once, one that does not waits for the next; the file's own row groups (Parquet's
+    metadata) say which.  A row group of 0 rows is refused."""
+    path = tmp_path / "f.parquet"
+    w = AtomicParquetWriter(path, MONITOR_SCHEMA, metadata(scenario="x"), row_group_rows=4)
+    for n in writes:
+        w.write(_monitor_rows(n))
+    w.close()
+    meta = pq.read_metadata(path)
+    assert [meta.row_group(i).num_rows for i in range(meta.num_row_groups)] == groups
+    AtomicParquetWriter(tmp_path / "g.parquet", MONITOR_SCHEMA, {}, row_group_rows=1).abort()
+    with pytest.raises(ValueError, match="row_group_rows"):
+        AtomicParquetWriter(tmp_path / "h.parquet", MONITOR_SCHEMA, {}, row_group_rows=0)

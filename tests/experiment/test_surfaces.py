@@ -297,3 +297,30 @@ def test_a_surface_calibrated_without_forking_steps_the_same(tmp_path: Path, mon
     alone = run_scenario(scn, tmp_path / "alone", progress=False, twin_cache=False).out_dir
     for name in ("probing.parquet", "timeseries.parquet"):
         assert (forked / name).read_bytes() == (alone / name).read_bytes()
+
+
+@pytest.mark.parametrize("model", ["737", "A320"])
+def test_the_aileron_driven_and_measured_is_the_right_panel(model: str):
+    """The probed aileron is the right panel (probing.sim.surfaces): asked deflections away
+    from trim are what JSBSim's own ``fcs/right-aileron-pos-deg`` reads after the step, and
+    the drive's realised position and the ``aileron_deg`` sensor channel read the same; on
+    the 737, whose left panel mirrors the right, the left reads the opposite."""
+    plant = make_plant(scenario("aileron", model).flight)
+    drive = plant.drive("aileron")
+    asked = drive.trim_position + np.array([2.0, -3.0, 1.5])
+    fdm = plant.fdm
+    for target in asked:
+        realised = np.empty(1)
+        sensor = np.empty((1, 1))
+        plant.step(
+            drive.command(np.array([target])),
+            plant.channel_nodes(["aileron_deg"]),
+            sensor,
+            realised,
+            drive,
+        )
+        right = fdm["fcs/right-aileron-pos-deg"]
+        assert right == pytest.approx(target, abs=1e-12), (target, right)
+        assert realised[0] == right and sensor[0, 0] == right
+        if model == "737":
+            assert fdm["fcs/left-aileron-pos-deg"] == pytest.approx(-target, abs=1e-12)

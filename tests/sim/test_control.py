@@ -96,3 +96,58 @@ def test_effectiveness_scales_the_surface_about_trim_and_stuck_holds_it():
     ratio = (weak[settled] - trim) / (healthy[settled] - trim)
     assert np.median(ratio) == pytest.approx(0.4, abs=0.02)
     assert np.ptp(stuck[k + 30 :]) < 1e-3 * np.ptp(healthy[k + 30 :])
+
+
+@pytest.mark.parametrize("kind", ["effectiveness", "stuck"])
+def test_an_actuator_fault_acts_from_the_exact_step_of_its_onset(kind):
+    """Onset 0.5 s = step 50 (dt 0.01 s): JSBSim's own elevator command property and the
+    realised position, read after each step, are the healthy flight's up to step 49 and
+    differ from step 50 on.  At step 50 the command is the map's for trim + 0.4 x probe
+    (effectiveness); a stuck surface holds, from step 50 on, the position it had after step
+    49."""
+    n, onset = 80, 0.5
+    k = round(onset / GTM.dt_s)
+    q = _square(n, 0.05, seed=1)
+    runs = {}
+    for name, fault in (
+        ("healthy", None),
+        (kind, ActuatorFault(kind, onset, 0.4 if kind == "effectiveness" else 1.0)),
+    ):
+        plant = make_plant(GTM)
+        pm = plant.fdm.get_property_manager()
+        nodes = [pm.get_node("fcs/elevator-cmd-norm")]
+        out, realised = np.empty((n, 1)), np.empty(n)
+        ClosedLoop(plant, Control(), None, fault).step(q, nodes, out, realised)
+        runs[name] = (out[:, 0], realised)
+    (cmd, pos), (cmd_h, pos_h) = runs[kind], runs["healthy"]
+    assert np.flatnonzero(cmd != cmd_h)[0] == k
+    assert np.flatnonzero(pos != pos_h)[0] == k
+    if kind == "stuck":
+        np.testing.assert_allclose(pos[k:], pos_h[k - 1], rtol=0, atol=1e-12)
+    else:
+        trim = plant.trim_result.elevator_deg
+        assert cmd[k] == pytest.approx(plant.drive().command(np.array([trim + 0.4 * q[k]]))[0])
+
+
+def test_a_stuck_fault_at_zero_holds_the_trimmed_surface_from_the_first_step():
+    """Onset 0 s: the first step is already faulted; the elevator stays at its trimmed
+    position (JSBSim's own property after the trim) whatever the probe asks."""
+    n = 40
+    plant = make_plant(GTM)
+    trimmed = plant.fdm["fcs/elevator-pos-deg"]
+    realised = np.empty(n)
+    loop = ClosedLoop(plant, Control(), None, ActuatorFault("stuck", 0.0))
+    loop.step(_square(n, 0.05, seed=2), [], np.empty((n, 0)), realised)
+    np.testing.assert_allclose(realised, trimmed, rtol=0, atol=1e-12)
+
+
+def test_a_scheduled_damage_acts_from_its_onset_step_in_closed_loop():
+    """NASA's case 5 at 0.3 s = step 30, the pitch loop closed: JSBSim's own ``damage/case``
+    read after each step is 0 up to step 29 and 5 from step 30 on."""
+    flight = Flight("gtm_t2", 800.0, "speed_kcas", 75.0, 0.01, damage_case=5, damage_onset_s=0.3)
+    plant = make_plant(flight)
+    node = plant.fdm.get_property_manager().get_node("damage/case")
+    out = np.empty((60, 1))
+    loop = ClosedLoop(plant, Control(pitch_hold=True), control_power(flight.nominal))
+    loop.step(None, [node], out)
+    assert np.array_equal(out[:, 0], np.where(np.arange(60) >= 30, 5.0, 0.0))

@@ -155,3 +155,21 @@ def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection(new_plant) ->
         plant.step(plant.drive().command(asked[k : k + 1]), plant.channel_nodes(["theta_rad"]),
                    out[k : k + 1], realised[k : k + 1])  # fmt: skip
     np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("chunks", [(60,), (29, 1, 30), (30, 30), (31, 29)])
+def test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset(chunks) -> None:
+    """GTM, NASA's case 5 at 0.3 s = step 30 (dt 0.01 s): JSBSim's own ``damage/case`` read
+    after each step is 0 up to step 29 and 5 from step 30 on, whether the steps come in one
+    call or in calls that end just before, at or just after the onset."""
+    from probing.sim.plant import make_plant
+
+    flight = Flight("gtm_t2", 800.0, "speed_kcas", 75.0, 0.01, damage_case=5, damage_onset_s=0.3)
+    plant = make_plant(flight)
+    node = plant.fdm.get_property_manager().get_node("damage/case")
+    out = np.empty((sum(chunks), 1))
+    start = 0
+    for n in chunks:
+        plant.step(None, [node], out[start : start + n])
+        start += n
+    assert np.array_equal(out[:, 0], np.where(np.arange(60) >= 30, 5.0, 0.0))

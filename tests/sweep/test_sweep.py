@@ -553,3 +553,22 @@ def test_forked_runs_import_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     records = execute.execute_chunk(tasks)
     assert [r["status"] for r in records] == ["done"] * 2
     assert [r["imported"] for r in records] == [[]] * 2
+
+
+@pytest.mark.jsbsim
+def test_a_retry_that_succeeds_removes_the_old_failure_record(tmp_path: Path) -> None:
+    """A point recorded as failed by an earlier invocation, run again and finished: its
+    folder holds the point's file and ``failed/`` no longer holds its record (the listing of
+    the disk is the truth), so nothing says it failed."""
+    import probing.sweep.execute as execute
+
+    sweep = load_sweep(SMALL)
+    point = sweep.points[0]
+    points_dir, _, failed_dir = execute.sweep_folders(tmp_path / sweep.name)
+    task = execute._task("point", point.point_id, point.scenario, points_dir, failed_dir)
+    failed_dir.mkdir(parents=True, exist_ok=True)
+    record = failed_dir / f"{point.point_id}.json"
+    record.write_text(json.dumps({"status": "failed", "message": "trim failed before"}))
+    assert execute.execute_task(task)["status"] == "done"
+    assert (Path(task.target) / "point.json").exists()
+    assert list(failed_dir.iterdir()) == []
