@@ -437,6 +437,15 @@ def _number(
     return value
 
 
+def _instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
+    """A time after trim (s) at which something starts: from 0 up to, not at, the run's end
+    (a fault or a manoeuvre starting as the run ends would never act)."""
+    value = _number(data, section, key, lo=0, hi=duration_s)
+    if value >= duration_s:
+        raise ScenarioError(f"{section}.{key}", f"must be before the run ends ({duration_s:g} s)")
+    return value
+
+
 def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
     name = f"{section}.{key}"
     value = data[key]
@@ -670,7 +679,7 @@ def _manoeuvre(section: dict[str, Any], scn: Scenario) -> Manoeuvre:
     change = _number(section, "manoeuvre", f"change_{unit}", lo=-limit, hi=limit)
     rate = _number(section, "manoeuvre", f"rate_{unit}_s", lo=0, hi=100, lo_open=True)
     duration_s = scn.total_steps * scn.dt_s
-    start = _number(section, "manoeuvre", "start_s", lo=0, hi=duration_s)
+    start = _instant_in_run(section, "manoeuvre", "start_s", duration_s)
     if scn.control is None or not getattr(scn.control, f"{hold}_hold"):
         raise ScenarioError(
             "manoeuvre.hold", f"a {hold} manoeuvre needs [control] {hold}_hold = true"
@@ -861,9 +870,7 @@ def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
     for key in ("onset_s", *_FAULT_FIELDS[kind]):
         if key not in fault:
             raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
-    onset = _number(fault, "fault", "onset_s", lo=0, hi=duration_s, lo_open=False)
-    if onset >= duration_s:
-        raise ScenarioError("fault.onset_s", f"must be before the run ends ({duration_s:g} s)")
+    onset = _instant_in_run(fault, "fault", "onset_s", duration_s)
     out: dict[str, Any] = {"fault_type": kind, "fault_onset_s": onset}
     if kind == "gtm_damage":
         out["fault_case"] = _damage_case(fault, model, kind)

@@ -53,3 +53,15 @@ def test_probing_output_follows_the_single_pulse_along_the_manoeuvre(tmp_path: P
     grew = peak.loc[after[-1]] / peak.loc[before[-1]]
     assert grew.h_pulse > 1.3
     assert grew.h_est == pytest.approx(grew.h_pulse, rel=0.01)
+
+
+def test_a_manoeuvre_must_start_before_the_run_ends() -> None:
+    """start_s at the run's end is refused (the ramp would never act), as a fault's onset is;
+    one step before the end is accepted."""
+    from probing.experiment.scenario import ScenarioError
+
+    scn = load_scenario(SPEED)
+    end_s = scn.total_steps * scn.dt_s
+    assert scn.replace({"manoeuvre.start_s": end_s - scn.dt_s}).manoeuvre is not None
+    with pytest.raises(ScenarioError, match=r"manoeuvre.start_s.*before the run ends"):
+        scn.replace({"manoeuvre.start_s": end_s})
