@@ -178,6 +178,11 @@ def test_files_summary_and_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert table.loc[2, "beta_deg_end"] == ts["beta_deg"].iloc[-1]
     after = ts[ts["time_s"] >= SHORT.onset_s - 1e-12]
     assert table.loc[2, "beta_deg_max"] == after["beta_deg"].max()
+    trim = gtm_damage.trim_table(cases).set_index("trim")
+    assert list(trim.index) == ["jsbsim", "zero sideslip"]
+    assert abs(trim.loc["zero sideslip", "beta_deg"]) < 1e-9 < -trim.loc["jsbsim", "beta_deg"]
+    assert trim.loc["zero sideslip", "rdot_rad_s2"] == pytest.approx(0.0, abs=1e-9)
+    assert trim.loc["zero sideslip", "beta_deg"] == cases[0][0]["beta_deg"].iloc[0]
     drawn = []
     save_figure = gtm_damage.save_figure
 
