@@ -2,8 +2,10 @@
 
 ``probing gtm-damage`` flies the cases (:func:`probing.experiment.gtm_damage.run_example6`);
 this module reads the Parquet files back, writes ``summary.csv`` (one row per case, case 0
-the undamaged flight) and draws ``figures/gtm_damage_case<k>.png`` with the panels of NASA's
-Example 6: alpha and beta, flight-path angle and EAS, body rates, Euler angles.
+the undamaged flight) and ``trim.csv`` (the turn trim every case starts from: JSBSim's turn
+trim, sideslip free, and the zero-sideslip one flown) and draws
+``figures/gtm_damage_case<k>.png`` with the panels of NASA's Example 6: alpha and beta,
+flight-path angle and EAS, body rates, Euler angles.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from analysis.figures import RC, save_figure
 from probing.experiment.gtm_damage import case_file
 from probing.sim.flight import DAMAGE_CASES
 
-__all__ = ["SUMMARY_VARIABLES", "UNWRAPPED", "draw", "load", "summary"]
+__all__ = ["SUMMARY_VARIABLES", "UNWRAPPED", "draw", "load", "summary", "trim_table"]
 
 #: Euler angles read back unwrapped (continuous through +-180 deg), for plots and summary.
 UNWRAPPED = ("phi_deg", "psi_deg")
@@ -55,6 +57,7 @@ def load(folder: Path) -> dict[int, tuple[pd.DataFrame, dict[str, Any]]]:
             if k.startswith(b"probing.")
         }
         meta["example6"] = json.loads(meta["example6"])
+        meta["turn_trim"] = json.loads(meta["turn_trim"])
         frame = table.to_pandas()
         for angle in UNWRAPPED:  # a roll or turn through +-180 deg stays continuous
             frame[angle] = np.degrees(np.unwrap(np.radians(frame[angle].to_numpy())))
@@ -77,6 +80,27 @@ def summary(cases: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> pd.DataFra
             row[f"{var}_min"] = float(after[var].min())
             row[f"{var}_max"] = float(after[var].max())
         rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def trim_table(cases: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> pd.DataFrame:
+    """The turn trim the flights start from, one row per trim: ``jsbsim`` (JSBSim's turn
+    trim, sideslip free: where the trim starts) and ``zero sideslip`` (NASA's, flown), each
+    with its attitude (deg), turn rate (deg/s), controls (deg; throttle 0..1) and the six
+    accelerations left (ft/s^2, rad/s^2).
+
+    Raises
+    ------
+    ValueError
+        If the cases were not all flown from the same trim.
+    """
+    trims = [meta["turn_trim"] for _, meta in cases.values()]
+    if any(t != trims[0] for t in trims):
+        raise ValueError("the cases were flown from different trims")
+    rows = []
+    for label, key in (("jsbsim", "jsbsim"), ("zero sideslip", "trimmed")):
+        state = dict(trims[0][key])
+        rows.append({"trim": label, **state.pop("accelerations"), **state})
     return pd.DataFrame(rows)
 
 
@@ -122,8 +146,8 @@ def figure(case: int, cases: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> 
         setup = meta["example6"]
         fig.suptitle(
             f"GTM T2, damage case {case}: {meta['case_name']} at {onset:g} s\n"
-            f"open loop from a trimmed {setup['bank_deg']:g} deg bank climbing turn, "
-            f"{setup['speed_keas']:g} kt EAS, gamma {setup['gamma_deg']:g} deg "
+            f"open loop from a {setup['bank_deg']:g} deg bank climbing turn trimmed at zero "
+            f"sideslip, {setup['speed_keas']:g} kt EAS, gamma {setup['gamma_deg']:g} deg "
             "(NASA's Example 6); dotted: undamaged",
             fontsize=8,
         )

@@ -210,24 +210,92 @@ and on the rudder read on the sideslip.
 `make gtm-damage` (`probing gtm-damage`) repeats NASA's `example6.m`: trim the undamaged
 aircraft in a 45 deg bank climbing turn at 95 kt EAS and 3 deg flight-path angle, hold every
 control and the throttle at trim (open loop), switch one damage case on at 10 s, fly to 15 s.
-The trim is JSBSim's turn trim (`Plant.trim(..., gamma_deg=3, bank_deg=45)`, FGTrim mode
-`tTurn`): bank, climb and EAS as asked, turn rate g tan(phi)/(V cos(gamma)) = 0.198 rad/s, and
-a sideslip of -0.33 deg that JSBSim's turn trim leaves free (NASA's trim holds beta at 0).
-Outputs: `figures/gtm_damage_case<k>.png` (NASA's panels: alpha and beta, flight-path angle
-and EAS, body rates, Euler angles; dotted: undamaged), `results/gtm_damage/summary.csv` (one
-row per case, case 0 undamaged: each variable at onset, at 15 s, and its least and greatest
-after onset) and a Parquet time history per case.
+Every case starts from the same trim (NASA trims once, undamaged). Outputs:
+`figures/gtm_damage_case<k>.png` (NASA's panels: alpha and beta, flight-path angle and EAS,
+body rates, Euler angles; dotted: undamaged), `results/gtm_damage/summary.csv` (one row per
+case, case 0 undamaged: each variable at onset, at 15 s, and its least and greatest after
+onset), `results/gtm_damage/trim.csv` (the trim, below) and a Parquet time history per case
+(with the trim in its metadata).
 
-What the five seconds after onset show, against NASA's description of each case
-(`gtm_design_DamageDescriptions`; bank unwrapped, so -464 deg is more than a full roll):
+### The trim: zero sideslip, as NASA trims
+
+NASA's `trimgtm.m` is called with `eas 95, gamma 3, roll 45, yawrate []`. Its defaults hold
+beta = 0 and roll and pitch rate (d/dt phi, d/dt theta) = 0; the empty `yawrate` frees the
+turn rate. It varies nine body states (u, v, w, p, q, r, phi, theta, psi) and elevator,
+aileron, rudder and throttle, with d/dt (u, v, w, p, q, r) = 0 as equality constraints, and
+minimises the largest miss of the targets (`simcnstr`, convergence 1e-7). JSBSim's turn trim
+(FGTrim `tTurn`) trims a different turn: it fixes the turn rate at g tan(phi) / V and zeroes the
+side acceleration with the sideslip, which it leaves free (-0.325 deg here).
+`Plant.trim(..., gamma_deg=3, bank_deg=45)` therefore starts from JSBSim's turn trim and then
+solves NASA's problem on JSBSim's own equations (`Plant._trim_zero_sideslip`): with bank,
+climb, EAS and beta = 0 held and the body rates those of a turn at constant bank and pitch,
+`scipy.optimize.least_squares` moves alpha, the turn rate, pitch trim, aileron, rudder and
+throttle until JSBSim's six body-axis accelerations are zero (each guess set through JSBSim's
+initial conditions and evaluated by `run_ic`, as FGTrim evaluates its own; 8 evaluations).
+Straight trims are untouched (JSBSim's full trim, tested equal to the bit).
+
+| | JSBSim's turn trim (before) | zero sideslip (flown now) | NASA's plots |
+|---|---:|---:|---:|
+| beta (deg) | -0.325 | 0 (3e-14) | 0 |
+| alpha (deg) | 4.73 | 4.70 | about 4.6 |
+| pitch (deg) | 6.12 | 6.33 | about 6 |
+| turn rate (deg/s) | 11.37 | 11.21 | about 11 |
+| p, q, r (deg/s) | -1.21, 7.99, 7.99 | -1.23, 7.86, 7.87 | about -1.2, 8, 8 |
+| elevator (deg) | -0.23 | -0.14 | not shown |
+| aileron (deg, right; positive rolls left) | 0.74 | 0.28 | not shown |
+| rudder (deg, positive nose left) | -0.81 | -0.37 | not shown |
+| throttle (of 2 x 17 lbf) | 0.3135 | 0.3131 | not shown |
+| largest acceleration | 1.0e-4 ft/s^2 (vdot) | 7e-13 ft/s^2 (wdot) | |
+
+At zero sideslip the side force comes only from the rudder and the rate terms, so the turn
+rate comes out 1.4 % below g tan(phi) / V; rudder and aileron need less than half of what
+JSBSim's trim needed against its sideslip. NASA's files give no trimmed control
+values (`example6.m` prints none, and its plots show only the states); the states agree with
+NASA's plots within what can be read off them. The same trim works on the damaged aircraft
+where a rudder is left: with the left outboard flap already gone (case 3) it holds beta = 0
+with -0.98 deg of rudder and -10.0 deg of aileron, where JSBSim's turn trim needed
+-0.61 deg of sideslip; without a rudder (cases 1, 2) there is no such trim.
+
+### Against NASA's plots
+
+NASA's plots of Example 6 are in its release, `gtm_design/docs/example_plots.pdf` (pages
+"Example-6: DamageCase-01" to "-06"; not part of the files copied here). Read off them, and
+from `results/gtm_damage/summary.csv` here (bank unwrapped, so -466 deg is more than a full
+roll; NASA's bank wraps at +-180 deg and is unwrapped here for the comparison):
 
 {damage_table}
 
-Cases 1-5 behave as NASA's descriptions say. Case 6 pitches down hard, as its loss of pitch
-stability and control suggests, but its roll goes right, with the turn, not left: the
-airframe's left-wing-down bias (Cl -0.001 at this alpha) is small against the rolling moment
-of the spiral that the nose-down pitch starts in a 45 deg bank. NASA's example has no
-published numbers to compare with, only its plots.
+* **Rudder off (1)** agrees closely now. With JSBSim's turn trim the rudder lost was -0.81 deg
+  against a sideslip of -0.325 deg, and the aircraft rolled out to 13 deg bank and climbed to
+  11 deg; at zero sideslip the rudder lost is -0.37 deg and bank, sideslip, rates and
+  flight-path angle follow NASA's curves. EAS is the exception: NASA's falls to 93.6 kt by
+  15 s, here it rises to 95.3 kt and is back to 94.6 kt.
+* **Vertical tail off (2)** departs as NASA's does, from about 11 s: the same peaks (alpha to
+  45-47 deg, beta to -35..-43 deg, roll rate to 500-650 deg/s, EAS down to 65-70 kt). A
+  departure is sensitive to everything before it, so the timing of the later swings is not
+  expected to match.
+* **Left outboard flap off (3)** matches NASA's plot nearly value for value: roll rate
+  -118 deg/s at 15 s, bank through -180 deg at 12.4 s (NASA about 12.3 s) and -466 deg
+  (NASA about -470) at 15 s, gamma +7.7 then -33 deg, EAS 115 kt at 15 s.
+* **Left wing tip off (4)** goes the same way but more slowly: bank through -180 deg at
+  12.7 s (NASA 12.1 s) and -408 deg at 15 s (NASA about -510), alpha peaks at 5.7 deg
+  (NASA 7.2), beta at -1.9 deg (NASA -3), EAS 121 kt (NASA 115). Not traced yet. This case
+  has the largest mass change (-0.81 lb, Ixx -21 %, CG 0.63 in to the right), and its CG is
+  where the model knowingly differs from NASA's simulation: NASA's block diagram divides the
+  undamaged weight moment by the damaged weight, the model applies dCG as NASA states it
+  (`aircraft/gtm_t2/README.md`, "Damage cases").
+* **Left elevator off (5)**: the lateral response agrees (roll rate -16 deg/s at first and
+  -10 deg/s at 15 s, bank -7.6 deg at 15 s against NASA's about -8, beta peaks at 0.74 deg);
+  the longitudinal one is weaker: alpha drops 0.8 deg (NASA 0.3), so gamma reaches 8 deg
+  (NASA 12) and EAS stays at 95 kt (NASA falls to 91). Not traced yet; the trim elevator the
+  lost panels take with them (NASA's is not published) and the stand-in thrust (no thrust
+  pitching moment here) are candidates.
+* **Left stabilizer off (6)** pitches down and steepens its bank to the right, as NASA's plot
+  does: theta -40 deg (NASA -38), gamma -40 deg (NASA -38), EAS 131 kt (NASA 127), bank
+  101 deg (NASA about 120), roll rate 17 deg/s at 15 s (NASA 25). NASA's description says
+  "roll left"; its own plot rolls right, with the turn, as here: the airframe's
+  left-wing-down bias is small against the rolling moment of the spiral that the nose-down
+  pitch starts in a 45 deg bank.
 
 ![case 1](../figures/gtm_damage_case1.png)
 ![case 2](../figures/gtm_damage_case2.png)
@@ -238,45 +306,61 @@ published numbers to compare with, only its plots.
 """
 
 
-#: Example 6 after onset, case by case: NASA's description, what ``make gtm-damage`` shows.
+#: Example 6 after onset, case by case: NASA's description (``gtm_design_DamageDescriptions``),
+#: NASA's plot (``gtm_design/docs/example_plots.pdf``, read off), what ``make gtm-damage``
+#: shows.
 EXAMPLE6_ROWS = (
     (
         "1 rudder off",
         "less directional stability; no rudder",
-        "mild: bank 45 -> 13 deg, beta up to +0.5 deg, climbing (gamma 11 deg at 15 s)",
+        "bank 45 -> about 33 deg, beta up to 0.3 deg, p to -5 deg/s, gamma 2.6 then 5.8 deg, "
+        "EAS 93.6 kt at 15 s",
+        "bank 45 -> 31 deg, beta up to 0.34 deg, p to -5.8 deg/s, gamma 2.4 then 5.3 deg, "
+        "EAS 94.6 kt at 15 s",
     ),
     (
         "2 vertical tail off",
         "directional stability lost, unstable",
-        "departs: beta -44..+34 deg, yaw rate to +-250 deg/s, alpha to 48 deg",
+        "departs from 11 s: alpha to 45 deg, beta to -35 deg, p to +-500 deg/s, EAS to 65 kt",
+        "departs from 11 s: alpha to 47 deg, beta -43..+32 deg, p -590..+650 deg/s, EAS to 69 kt",
     ),
     (
         "3 left outboard flap off",
         "roll bias left wing down",
-        "rolls left through more than a full turn (bank -464 deg at 15 s), p to -118 deg/s",
+        "rolls left: p -118 deg/s, bank about -470 deg at 15 s; gamma +7 then -33 deg; EAS 115 kt",
+        "rolls left: p -118 deg/s, bank -466 deg at 15 s; gamma +7.7 then -32.7 deg; EAS 115.5 kt",
     ),
     (
         "4 left wing tip off",
         "roll bias left wing down, left aileron lost",
-        "rolls left (bank -395 deg at 15 s), p to -111 deg/s, dives",
+        "rolls left: p to -125 deg/s, bank about -510 deg at 15 s; alpha to 7.2 deg, "
+        "beta to -3 deg; EAS 115 kt",
+        "rolls left: p to -113 deg/s, bank -408 deg at 15 s; alpha to 5.7 deg, beta to "
+        "-1.9 deg; EAS 121 kt",
     ),
     (
         "5 left elevator off",
         "less pitch stability and control, roll left",
-        "mild: rolls left to -9 deg bank",
+        "bank 45 -> about -8 deg, p to -15 deg/s; alpha dips 0.3 deg; gamma 12 deg, EAS 91 kt "
+        "at 15 s",
+        "bank 45 -> -7.6 deg, p to -16 deg/s; alpha dips 0.8 deg; gamma 8 deg, EAS 95 kt at 15 s",
     ),
     (
         "6 left stabilizer off",
         "less pitch stability and control, roll left",
-        "pitches down (theta -41 deg, gamma -40 deg, EAS 132 kt), bank steepens to 98 deg",
+        "pitches down (theta -38 deg, gamma -38 deg, EAS 127 kt); bank steepens to about 120 deg",
+        "pitches down (theta -40 deg, gamma -40 deg, EAS 131 kt); bank steepens to 101 deg",
     ),
 )
 
 
 def example6_table() -> str:
     """The markdown table of :data:`EXAMPLE6_ROWS`."""
-    lines = ["| case | NASA: primary effects | here, 10-15 s |", "|---|---|---|"]
-    lines += [f"| {case} | {nasa} | {here} |" for case, nasa, here in EXAMPLE6_ROWS]
+    lines = [
+        "| case | NASA: primary effects | NASA's plot, 10-15 s | here, 10-15 s |",
+        "|---|---|---|---|",
+    ]
+    lines += [f"| {case} | {said} | {plot} | {here} |" for case, said, plot, here in EXAMPLE6_ROWS]
     return "\n".join(lines)
 
 

@@ -533,12 +533,15 @@ def _cmd_gtm_damage(args: argparse.Namespace) -> int:
         cases = gtm_damage.load(args.out)
         table = gtm_damage.summary(cases)
         table.to_csv(args.out / "summary.csv", index=False)
+        trim = gtm_damage.trim_table(cases)
+        trim.to_csv(args.out / "trim.csv", index=False)
         paths = gtm_damage.draw(cases, args.figures)
+        print(trim.set_index("trim").T.to_string())
         cols = ["case", "name", "phi_deg_end", "beta_deg_min", "beta_deg_max", "r_deg_s_end"]
         print(table[cols].to_string(index=False))
         for path in paths:
             print(f"figure -> {path}")
-        print(f"summary -> {args.out / 'summary.csv'}")
+        print(f"summary -> {args.out / 'summary.csv'}, trim -> {args.out / 'trim.csv'}")
         return 0
 
     return _simulating(job, "gtm_t2")

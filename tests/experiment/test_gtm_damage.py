@@ -21,23 +21,72 @@ SHORT = dataclasses.replace(EXAMPLE6, onset_s=0.5, end_s=1.0)
 G_FT_S2 = 32.174
 
 
-def test_turn_trim_is_the_asked_steady_climbing_turn(new_plant) -> None:
-    """JSBSim's turn trim at NASA's Example 6 condition: the bank, climb and EAS asked for,
-    the coordinated-turn rate g tan(phi) / (V cos(gamma)), and a state that holds."""
+#: JSBSim's six body-axis accelerations (ft/s^2, rad/s^2), read straight from its properties.
+ACCELERATION_PROPERTIES = tuple(
+    f"accelerations/{axis}dot-{unit}"
+    for axis, unit in zip("uvwpqr", ["ft_sec2"] * 3 + ["rad_sec2"] * 3, strict=True)
+)
+
+
+def _assert_zero_sideslip_turn(fdm, bank_deg: float = 45.0, gamma_deg: float = 3.0) -> None:
+    """The state is NASA's trimmed turn: beta 0, bank, climb and EAS as asked, and every one of
+    JSBSim's six accelerations (read here from its properties) zero to 1e-9."""
+    assert abs(fdm["aero/beta-deg"]) < 1e-9
+    assert fdm["attitude/phi-deg"] == pytest.approx(bank_deg, abs=1e-9)
+    assert fdm["flight-path/gamma-deg"] == pytest.approx(gamma_deg, abs=1e-9)
+    assert fdm["velocities/ve-kts"] == pytest.approx(95.0, abs=1e-6)
+    for prop in ACCELERATION_PROPERTIES:
+        assert abs(fdm[prop]) < 1e-9, (prop, fdm[prop])
+
+
+def test_turn_trim_holds_zero_sideslip_as_nasa_does(new_plant) -> None:
+    """NASA's Example 6 trim (``trimgtm.m``: beta 0 by default, yaw rate free): the bank,
+    climb and EAS asked for at zero sideslip with all six accelerations zero, where JSBSim's
+    own turn trim (its start) leaves beta at -0.3 deg; the turn rate is the side-force
+    balance's, 1.4 % below the coordinated g tan(phi) / (V cos(gamma)); and the open-loop
+    aircraft holds the turn for 2 s (beta within 0.001 deg)."""
     plant = new_plant("gtm_t2", EXAMPLE6.dt_s)
-    plant.trim(800.0, speed_keas=95.0, gamma_deg=3.0, bank_deg=45.0)
+    trim = plant.trim(800.0, speed_keas=95.0, gamma_deg=3.0, bank_deg=45.0)
     fdm = plant.fdm
-    assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=1e-3)
-    assert fdm["flight-path/gamma-deg"] == pytest.approx(3.0, abs=1e-3)
-    assert fdm["velocities/ve-kts"] == pytest.approx(95.0, abs=1e-3)
+    _assert_zero_sideslip_turn(fdm)
+    assert trim.mode == "turn" and trim.alpha_deg == fdm["aero/alpha-deg"]
+    start, trimmed = plant.turn_trim.jsbsim, plant.turn_trim.trimmed
+    assert start.beta_deg < -0.3 and start.worst_acceleration > 1e-5  # JSBSim's, beta free
+    assert trimmed.beta_deg == fdm["aero/beta-deg"]
+    assert trimmed.accelerations["rdot_rad_s2"] == fdm["accelerations/rdot-rad_sec2"]
     v = fdm["velocities/vt-fps"]
-    turn = G_FT_S2 * math.tan(math.radians(45.0)) / (v * math.cos(math.radians(3.0)))
-    assert fdm["velocities/psidot-rad_sec"] == pytest.approx(turn, rel=0.01)
-    assert abs(fdm["aero/beta-deg"]) < 1.0  # JSBSim leaves the sideslip free; nearly 0
+    coordinated = G_FT_S2 * math.tan(math.radians(45.0)) / (v * math.cos(math.radians(3.0)))
+    assert fdm["velocities/psidot-rad_sec"] == pytest.approx(0.986 * coordinated, rel=0.003)
+    assert -0.6 < trimmed.rudder_deg < -0.2  # trailing edge right, nose right: into the turn
     for _ in range(400):  # 2 s
         fdm.run()
-    assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=0.2)
-    assert fdm["flight-path/gamma-deg"] == pytest.approx(3.0, abs=0.2)
+    assert abs(fdm["aero/beta-deg"]) < 1e-3
+    assert fdm["attitude/phi-deg"] == pytest.approx(45.0, abs=0.01)
+    assert fdm["flight-path/gamma-deg"] == pytest.approx(3.0, abs=0.01)
+
+
+def test_the_rudder_holds_zero_sideslip_in_a_damaged_turn() -> None:
+    """Trimmed in the turn with the left outboard flap already gone (case 3), the aircraft
+    still flies it at zero sideslip with every acceleration zero: the aileron holds the roll
+    bias, and the rudder, more than twice the undamaged turn's, the yaw; JSBSim's turn trim
+    needed 0.6 deg of sideslip instead.  Without a rudder (case 1) there is no such trim."""
+    from probing.sim.errors import TrimError
+    from probing.sim.plant import make_plant
+
+    turn = Flight("gtm_t2", 800.0, "speed_keas", 95.0, EXAMPLE6.dt_s, gamma_deg=3.0, bank_deg=45.0)
+    undamaged = make_plant(turn).turn_trim.trimmed
+    plant = make_plant(dataclasses.replace(turn, damage_case=3))
+    _assert_zero_sideslip_turn(plant.fdm)
+    trimmed = plant.turn_trim.trimmed
+    assert plant.turn_trim.jsbsim.beta_deg < -0.5
+    assert trimmed.rudder_deg < 2.0 * undamaged.rudder_deg < -0.5
+    assert trimmed.aileron_deg < -5.0 < undamaged.aileron_deg
+    nudged = plant.fdm
+    nudged["fcs/rudder-cmd-norm"] += 0.5 / 30.0  # half a degree more rudder: yaw no longer
+    nudged.run_ic()
+    assert abs(nudged["accelerations/rdot-rad_sec2"]) > 1e-3
+    with pytest.raises(TrimError, match="rdot"):
+        make_plant(dataclasses.replace(turn, damage_case=1))
 
 
 def test_the_damage_acts_from_the_step_after_onset() -> None:
@@ -129,6 +178,11 @@ def test_files_summary_and_figures(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert table.loc[2, "beta_deg_end"] == ts["beta_deg"].iloc[-1]
     after = ts[ts["time_s"] >= SHORT.onset_s - 1e-12]
     assert table.loc[2, "beta_deg_max"] == after["beta_deg"].max()
+    trim = gtm_damage.trim_table(cases).set_index("trim")
+    assert list(trim.index) == ["jsbsim", "zero sideslip"]
+    assert abs(trim.loc["zero sideslip", "beta_deg"]) < 1e-9 < -trim.loc["jsbsim", "beta_deg"]
+    assert trim.loc["zero sideslip", "rdot_rad_s2"] == pytest.approx(0.0, abs=1e-9)
+    assert trim.loc["zero sideslip", "beta_deg"] == cases[0][0]["beta_deg"].iloc[0]
     drawn = []
     save_figure = gtm_damage.save_figure
 

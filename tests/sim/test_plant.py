@@ -66,6 +66,59 @@ def test_trim_failure_names_the_condition(new_plant) -> None:
         plant.trim(15000, speed_kcas=40)
 
 
+#: The trimmed state compared bit for bit: attitude, body velocity and rates, controls.
+TRIM_STATE = (
+    "aero/alpha-rad",
+    "aero/beta-rad",
+    "attitude/phi-rad",
+    "attitude/theta-rad",
+    "attitude/psi-rad",
+    "velocities/u-fps",
+    "velocities/v-fps",
+    "velocities/w-fps",
+    "velocities/p-rad_sec",
+    "velocities/q-rad_sec",
+    "velocities/r-rad_sec",
+    "fcs/pitch-trim-cmd-norm",
+    "fcs/aileron-cmd-norm",
+    "fcs/rudder-cmd-norm",
+    "fcs/throttle-cmd-norm[0]",
+    "fcs/throttle-cmd-norm[1]",
+    "fcs/elevator-pos-deg",
+    "accelerations/vdot-ft_sec2",
+    "accelerations/rdot-rad_sec2",
+)
+
+
+@pytest.mark.parametrize(("case", "gamma_deg"), [(0, 0.0), (0, 3.0), (4, 0.0)])
+def test_a_straight_trim_is_jsbsims_own_full_trim_to_the_bit(
+    new_plant, case: int, gamma_deg: float
+) -> None:
+    """Straight flight (level, climbing, damaged) is trimmed by JSBSim's full trim and nothing
+    else: the same bits as FGTrim run by hand on a bare FGFDMExec, and no zero-sideslip turn
+    solve (that one is for turns only, ``test_gtm_damage``)."""
+    plant = new_plant("gtm_t2", 1.0 / 200.0)
+    plant.damage(case)
+    plant.trim(800.0, speed_keas=75.0, gamma_deg=gamma_deg)
+    assert plant.turn_trim is None
+    bare = new_plant("gtm_t2", 1.0 / 200.0).fdm
+    bare["damage/case"] = case
+    for prop, value in (
+        ("ic/h-sl-ft", 800.0),
+        ("ic/ve-kts", 75.0),
+        ("ic/gamma-deg", gamma_deg),
+        ("ic/beta-deg", 0.0),
+        ("ic/phi-deg", 0.0),
+        ("gear/gear-cmd-norm", 0.0),
+        ("propulsion/set-running", -1),
+    ):
+        bare[prop] = value
+    assert bare.run_ic()
+    bare.do_trim(1)  # FGTrim's tFull
+    for prop in TRIM_STATE:
+        assert plant.fdm[prop] == bare[prop], prop
+
+
 def _inet_sockets_of(code: str) -> list[tuple[str, str]]:
     """Run ``code`` in a child process and list the TCP/UDP sockets it holds open."""
     code += "\nimport os, sys\nprint(os.getpid()); sys.stdout.flush(); sys.stdin.read()\n"
