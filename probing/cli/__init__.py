@@ -282,6 +282,7 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
     _check_fig4_outputs(results, args)
+    _out_file(results / "manifest.json", "--out")
     _check_fig4_runs(scen_dir, results, args.force)
     print(f"probing fig4: {scen_dir} -> {results}")
 
@@ -294,6 +295,8 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
 
 def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
     _out_folder(results, option)
+    for name in ("summary.csv", "summary.md"):
+        _out_file(results / name, option)
     _out_folder(args.figures, "--figures")
     if args.copy_summary is not None:
         _out_file(args.copy_summary, "--copy-summary")
@@ -558,6 +561,7 @@ def _cmd_modes(args: argparse.Namespace) -> int:
 
 def _cmd_gtm_damage(args: argparse.Namespace) -> int:
     _out_folder(args.out, "--out")
+    _out_file(args.out / "summary.csv", "--out")
     _out_folder(args.figures, "--figures")
 
     def job() -> int:

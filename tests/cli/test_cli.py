@@ -598,3 +598,22 @@ def test_a_sweep_points_record_with_nan_is_strict_json_and_reads_back(tmp_path: 
     (row,) = summarise(sweep, tmp_path / "out" / "mon").itertuples()
     assert row.status == "done" and math.isnan(row.first_alarm_s)
     assert math.isnan(row.alpha_per_period)
+
+
+@pytest.mark.parametrize(
+    ("argv", "inside"),
+    [
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.md"),
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.csv"),
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "manifest.json"),
+        (["plot", "fig4", "{dir}/o", "--figures", "{dir}/f"], "summary.md"),
+        (["gtm-damage", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.csv"),
+    ],
+    ids=lambda v: " ".join(v[:2]) if isinstance(v, list) else v,
+)
+def test_a_file_written_into_an_output_folder_that_is_a_folder(
+    argv: list[str], inside: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_work: None
+) -> None:
+    (tmp_path / "o" / inside).mkdir(parents=True)
+    path = tmp_path / "o" / inside
+    refused([a.format(dir=tmp_path) for a in argv], tmp_path, capsys, str(path), "is a folder")
