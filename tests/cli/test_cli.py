@@ -537,6 +537,9 @@ def test_help_states_each_default_once_and_never_none() -> None:
             assert line.count("(default:") <= 1, (name, line)
     sweep = " ".join(_subcommands()["sweep"].format_help().split())
     assert "(default: one per core)" in sweep and "(default: OUT/<name>/figures)" in sweep
+    design = " ".join(_subcommands()["design"].format_help().split())
+    assert "(1 sigma) (default: 0.0)" in design  # a zero is stated, a flag's False is not
+    assert "print one JSON object (default" not in design
 
 
 def test_top_level_help_lists_every_command_once() -> None:
