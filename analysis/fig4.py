@@ -30,7 +30,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
 from probing.core.correlator import StreamingCorrelator
 from probing.core.metrics import gain_and_shape, predicted_apparent
@@ -38,7 +37,7 @@ from probing.core.nonlinearities import NoApparentFormError, RateLimit, compensa
 from probing.core.prbs import Probe
 from probing.experiment.fig4 import BASELINE, CHANNEL, OFFSET_TWIN, PANELS
 from probing.experiment.scenario import Scenario, parse_scenario
-from probing.experiment.storage import read_settled
+from probing.experiment.storage import read_schema, read_settled
 
 __all__ = [
     "Fig4Data",
@@ -69,7 +68,7 @@ class RunData:
 def read_run(folder: Path, channel: str = CHANNEL) -> RunData:
     """Read ``probing.parquet`` of a run: z and h_est of the settled periods of one channel."""
     path = folder / "probing.parquet"
-    scn = parse_scenario(json.loads(pq.read_schema(path).metadata[b"probing.scenario"]))
+    scn = parse_scenario(json.loads(read_schema(path).metadata[b"probing.scenario"]))
     settled = read_settled(path, channel, scn.settle_periods, scn.bits_per_period)
     return RunData(scn, settled.lag_s, settled.z, settled.h)
 

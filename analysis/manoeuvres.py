@@ -17,9 +17,9 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
+from probing.experiment.storage import read_schema
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 
@@ -35,7 +35,7 @@ def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
     """
     runs = []
     for path in sorted(Path(results).glob("*/manoeuvre.parquet")):
-        meta = pq.read_schema(path).metadata or {}
+        meta = read_schema(path).metadata or {}
         scenario = json.loads(meta[b"probing.scenario"])
         runs.append((path.parent.name, pd.read_parquet(path), scenario))
     if not runs:

@@ -15,9 +15,9 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
+from probing.experiment.storage import read_schema
 
 __all__ = ["draw", "figure", "load_runs", "summary_markdown"]
 
@@ -35,7 +35,7 @@ def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
     for path in sorted(Path(results).glob("*/responses.parquet")):
         meta = {
             k.decode().removeprefix("probing."): v.decode()
-            for k, v in (pq.read_schema(path).metadata or {}).items()
+            for k, v in (read_schema(path).metadata or {}).items()
             if k.startswith(b"probing.")
         }
         info = {k: json.loads(meta[k]) for k in ("scenario", "design", "crosstalk")}

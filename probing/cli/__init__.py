@@ -1,38 +1,31 @@
-"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes.
+"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes, gtm-damage.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
-folder that cannot be written, a Dask scheduler that does not answer), with one line on
-stderr and nothing written; 1 a run that failed (trim failure, divergence), a sweep with
-failed points or a sweep folder in use by another process; 130 interrupted.
+folder or file that cannot be written, a Dask scheduler that does not answer), with one line
+on stderr (argparse's own errors too) and nothing written: every output folder and file is
+checked before any work (:func:`probing.experiment.storage.check_output_folder` and
+:func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
+divergence), a sweep with failed points or a sweep folder in use by another process; 130
+interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 __all__ = ["build_parser", "main"]
 
-DESCRIPTION = """\
-Pulse-compression probing of aircraft dynamics through hard input nonlinearities, on JSBSim.
-
-commands:
-  run      simulate a scenario and write its Parquet files
-  truth    ground truth of a scenario (single pulse, linearisation, prediction)
-  monitor  fly a scenario probing continuously, with change detection after every period
-  sweep    run a sweep file's points in parallel, resumably
-  fig4     reproduce the paper's Fig. 4 (runs, figures, summary)
-  plot     redraw the figures of fig4 or of a sweep from stored Parquet
-  design   recommend order, bit duration and amplitude for an experiment
-  modes    trim and linearise the GTM across airspeed (docs/gtm.md)
-"""
+#: The top-level help's text; the commands are listed by argparse, from the parser itself.
+DESCRIPTION = (
+    "Pulse-compression probing of aircraft dynamics through hard input nonlinearities, on JSBSim."
+)
 EPILOG = """\
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
 failed (trim failure, divergence) or a sweep folder in use; 130 interrupted.
@@ -50,12 +43,28 @@ def _error(message: str, code: int) -> int:
 
 def _out_folder(path: Path, option: str) -> Path:
     """``path`` after :func:`probing.experiment.storage.check_output_folder` (UsageError)."""
-    from probing.experiment.storage import OutputFolderError, check_output_folder
+    from probing.experiment.storage import OutputPathError, check_output_folder
 
     try:
         return check_output_folder(path, option)
-    except OutputFolderError as exc:
+    except OutputPathError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _out_file(path: Path, option: str) -> Path:
+    """``path`` after :func:`probing.experiment.storage.check_output_file` (UsageError)."""
+    from probing.experiment.storage import OutputPathError, check_output_file
+
+    try:
+        return check_output_file(path, option)
+    except OutputPathError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _run_folder(out: Path, scn: Any) -> None:
+    """``--out`` and the run's own folder in it, ``OUT/<scenario name>`` (UsageError)."""
+    _out_folder(out, "--out")
+    _out_folder(out / scn.name, "--out")
 
 
 def _load_scenario(path: Path) -> Any:
@@ -80,7 +89,7 @@ def _simulating(job: Callable[[], int], where: str) -> int:
 # ------------------------------------------------------------------ run, truth
 def _cmd_run(args: argparse.Namespace) -> int:
     scn = _load_scenario(args.scenario)
-    _out_folder(args.out, "--out")
+    _run_folder(args.out, scn)
     if scn.simultaneous is not None:
         return _run_simultaneous(scn, args)
     if scn.manoeuvre is not None:
@@ -166,7 +175,7 @@ def _one_surface(scn: Any, path: Path, command: str) -> Any:
 
 def _cmd_truth(args: argparse.Namespace) -> int:
     scn = _one_surface(_load_scenario(args.scenario), args.scenario, "truth")
-    _out_folder(args.out, "--out")
+    _run_folder(args.out, scn)
 
     def job() -> int:
         _print_truth(scn, args.out)
@@ -183,7 +192,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         scn.monitor_settings()
     except ScenarioError as exc:
         raise UsageError(f"{args.scenario}: {exc}") from None
-    _out_folder(args.out, "--out")
+    _run_folder(args.out, scn)
 
     def job() -> int:
         from probing.experiment.monitor import monitor_scenario
@@ -211,6 +220,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         raise UsageError(str(exc)) from None
     _out_folder(args.out, "--out")
+    _out_folder(args.out / sweep.name, "--out")
     figures = args.figures if args.figures is not None else args.out / sweep.name / "figures"
     if args.plot:
         _out_folder(figures, "--figures")
@@ -272,6 +282,8 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
     _check_fig4_outputs(results, args)
+    _out_file(results / "manifest.json", "--out")
+    _check_fig4_runs(scen_dir, results, args.force)
     print(f"probing fig4: {scen_dir} -> {results}")
 
     def job() -> int:
@@ -283,17 +295,40 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
 
 def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
     _out_folder(results, option)
+    for name in ("summary.csv", "summary.md"):
+        _out_file(results / name, option)
     _out_folder(args.figures, "--figures")
     if args.copy_summary is not None:
-        _out_folder(args.copy_summary.parent, "--copy-summary")
+        _out_file(args.copy_summary, "--copy-summary")
+
+
+def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
+    """Every run folder of the set can be written, and (without ``--force``) every stored
+    run that would be reused can be read."""
+    from probing.experiment.fig4 import is_stored, planned_runs
+    from probing.experiment.scenario import ScenarioError
+    from probing.experiment.storage import StoredFileError
+
+    try:
+        runs = planned_runs(scen_dir, results)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    for scn, folder in runs:
+        _out_folder(folder, "--out")
+        if not force:
+            try:
+                is_stored(folder, scn)
+            except StoredFileError as exc:
+                raise UsageError(f"{exc}; delete it, or rerun with --force") from None
 
 
 def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
     from analysis import fig4, fig4_plots
+    from probing.experiment.storage import StoredFileError
 
     try:
         data = fig4.collect(results)
-    except fig4.NotAFig4FolderError as exc:
+    except (fig4.NotAFig4FolderError, StoredFileError) as exc:
         raise UsageError(str(exc)) from None
     paths = fig4_plots.draw(data, args.figures, data.set_name)
     text = fig4.write_summary(data, results)
@@ -360,10 +395,12 @@ def _plot_study(
     figures = args.figures if args.figures is not None else args.results / "figures"
     summary = args.summary if args.summary is not None else args.results / "summary.md"
     _out_folder(figures, "--figures")
-    _out_folder(summary.parent, "--summary")
+    _out_file(summary, "--summary")
+    from probing.experiment.storage import StoredFileError
+
     try:
         study = load(args.results)
-    except FileNotFoundError as exc:
+    except (FileNotFoundError, StoredFileError) as exc:
         raise UsageError(str(exc)) from None
     text = summarise(study)
     summary.write_text(text)
@@ -388,6 +425,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         DesignRequest,
         recommend,
     )
+    from probing.experiment.storage import strict_json
 
     request = DesignRequest(
         aircraft=args.aircraft,
@@ -419,11 +457,11 @@ def _cmd_design(args: argparse.Namespace) -> int:
             raise UsageError(str(exc)) from None
         except DesignError as exc:
             if args.json:
-                print(json.dumps({"feasible": False, "reason": str(exc)}))
+                print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return _error(f"infeasible: {exc}", 2)
         if args.json:
             payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
-            print(json.dumps(payload, indent=2))
+            print(strict_json(payload, indent=2, sort_keys=False))
             return 0
         print(
             f"{args.aircraft} at {args.altitude_ft:g} ft, {args.speed_kcas:g} kcas: short period "
@@ -498,8 +536,8 @@ def _design_table(d: Any) -> str:
 
 # ------------------------------------------------------------------ modes
 def _cmd_modes(args: argparse.Namespace) -> int:
-    _out_folder(args.docs.parent, "--docs")
-    _out_folder(args.figure.parent, "--figure")
+    _out_file(args.docs, "--docs")
+    _out_file(args.figure.with_name(f"{args.figure.name}.png"), "--figure")
 
     def job() -> int:
         from analysis import gtm_modes
@@ -523,6 +561,7 @@ def _cmd_modes(args: argparse.Namespace) -> int:
 
 def _cmd_gtm_damage(args: argparse.Namespace) -> int:
     _out_folder(args.out, "--out")
+    _out_file(args.out / "summary.csv", "--out")
     _out_folder(args.figures, "--figures")
 
     def job() -> int:
@@ -548,23 +587,51 @@ def _cmd_gtm_damage(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------ parser
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, ``probing: error: ...``, exit code 2
+    (argparse prints the whole usage first); its subcommands' parsers are of this class."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``message`` as the command's one-line error and exit with code 2."""
+        self.exit(2, f"probing: error: {' '.join(message.split())}\n")
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """States an option's default after its help, unless the help states it already, the
+    default is None (nothing to say) or False (a flag that is off)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            "(default" in text
+            or default is None
+            or default is False
+            or default == argparse.SUPPRESS
+        ):
+            return text
+        return super()._get_help_string(action)
+
+
+def _path(text: str) -> Path:
+    """A path argument; an empty one (``--out ""``, the current folder) is refused."""
+    if not text:
+        raise argparse.ArgumentTypeError("empty path")
+    return Path(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for documentation and tests)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="probing",
         description=DESCRIPTION,
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="command")
+    sub = parser.add_subparsers(title="commands", dest="command", required=True, metavar="command")
 
     def command(name: str, text: str) -> argparse.ArgumentParser:
-        return sub.add_parser(
-            name,
-            help=text,
-            description=text,
-            formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-        )
+        return sub.add_parser(name, help=text, description=text, formatter_class=_HelpFormatter)
 
     run = command("run", "simulate a scenario and write probing.parquet and timeseries.parquet")
     _scenario_arguments(run)
@@ -593,9 +660,9 @@ def build_parser() -> argparse.ArgumentParser:
     monitor.set_defaults(func=_cmd_monitor)
 
     sweep = command("sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)")
-    sweep.add_argument("sweep", type=Path, help="sweep TOML file (scenarios/sweeps/*.toml)")
+    sweep.add_argument("sweep", type=_path, help="sweep TOML file (scenarios/sweeps/*.toml)")
     sweep.add_argument(
-        "--out", type=Path, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
+        "--out", type=_path, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
     )
     sweep.add_argument(
         "-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)"
@@ -621,7 +688,7 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--plot", action="store_true", help="draw the sweep's figure afterwards")
     sweep.add_argument(
         "--figures",
-        type=Path,
+        type=_path,
         default=None,
         help="figure folder (default: OUT/<name>/figures)",
     )
@@ -629,19 +696,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     fig4 = command("fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
     fig4.add_argument(
-        "--scenarios", type=Path, default=Path("scenarios/fig4"), help="scenario set folder"
+        "--scenarios", type=_path, default=Path("scenarios/fig4"), help="scenario set folder"
     )
     fig4.add_argument(
-        "--out", type=Path, default=None, help="results folder (default: results/<set folder>)"
+        "--out", type=_path, default=None, help="results folder (default: results/<set folder>)"
     )
-    fig4.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    fig4.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
     fig4.add_argument("--force", action="store_true", help="simulate even if results are stored")
     fig4.add_argument(
-        "--copy-summary", type=Path, default=None, help="also copy summary.md to this file"
+        "--copy-summary", type=_path, default=None, help="also copy summary.md to this file"
     )
     fig4.set_defaults(func=_cmd_fig4)
 
-    plot = command("plot", "redraw figures from stored Parquet (no simulation)")
+    plot = command(
+        "plot",
+        "redraw the figures and tables of fig4, a sweep, or the monitor, simultaneous or "
+        "manoeuvre study from stored Parquet (no simulation)",
+    )
     plot.add_argument(
         "target",
         choices=["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"],
@@ -649,25 +720,26 @@ def build_parser() -> argparse.ArgumentParser:
     )
     plot.add_argument(
         "results",
-        type=Path,
+        type=_path,
         help="results folder written by `probing fig4`, a sweep folder (results/sweeps/NAME), "
-        "or the monitor study's folder (results/monitor, make monitor)",
+        "or a study's folder (results/monitor, results/simultaneous, results/manoeuvres: "
+        "make monitor, make simultaneous, make manoeuvres)",
     )
     plot.add_argument(
         "--figures",
-        type=Path,
+        type=_path,
         default=None,
-        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep or the "
-        "monitor study)",
+        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep or a study)",
     )
     plot.add_argument(
         "--summary",
-        type=Path,
+        type=_path,
         default=None,
-        help="monitor: write the study's tables here (default: RESULTS/summary.md)",
+        help="monitor, simultaneous, manoeuvres: write the study's tables to this file "
+        "(default: RESULTS/summary.md)",
     )
     plot.add_argument(
-        "--copy-summary", type=Path, default=None, help="fig4: also copy summary.md to this file"
+        "--copy-summary", type=_path, default=None, help="fig4: also copy summary.md to this file"
     )
     plot.set_defaults(func=_cmd_plot)
 
@@ -679,9 +751,9 @@ def build_parser() -> argparse.ArgumentParser:
         "modes",
         "trim and linearise the GTM at 800 ft, 60..130 KEAS; write the mode table and figure",
     )
-    modes.add_argument("--docs", type=Path, default=Path("docs/gtm.md"), help="page written whole")
+    modes.add_argument("--docs", type=_path, default=Path("docs/gtm.md"), help="page written whole")
     modes.add_argument(
-        "--figure", type=Path, default=Path("figures/gtm_modes"), help="figure (without .png)"
+        "--figure", type=_path, default=Path("figures/gtm_modes"), help="figure (without .png)"
     )
     modes.set_defaults(func=_cmd_modes)
 
@@ -690,18 +762,18 @@ def build_parser() -> argparse.ArgumentParser:
         "NASA's Example 6: each GTM damage case at 10 s of a 45 deg bank climbing turn",
     )
     damage.add_argument(
-        "--out", type=Path, default=Path("results/gtm_damage"), help="time histories, summary"
+        "--out", type=_path, default=Path("results/gtm_damage"), help="time histories, summary"
     )
-    damage.add_argument("--figures", type=Path, default=Path("figures"), help="figure folder")
+    damage.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
     damage.set_defaults(func=_cmd_gtm_damage)
     return parser
 
 
 def _scenario_arguments(parser: argparse.ArgumentParser) -> None:
     """The scenario file and the results folder, as run, truth and monitor take them."""
-    parser.add_argument("scenario", type=Path, help="scenario TOML file (docs/scenarios.md)")
+    parser.add_argument("scenario", type=_path, help="scenario TOML file (docs/scenarios.md)")
     parser.add_argument(
-        "--out", type=Path, default=Path("results"), help="results go to OUT/<scenario name>/"
+        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
     )
 
 
@@ -712,7 +784,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument(
         "--simultaneous",
-        type=Path,
+        type=_path,
         default=None,
         metavar="SCENARIO",
         help="check a scenario's [simultaneous] design from the linearisation (exit 2 if "

@@ -18,13 +18,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-import pyarrow.parquet as pq
 
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, ScenarioError, load_scenario
-from probing.experiment.storage import write_json_atomic
+from probing.experiment.storage import read_schema, write_json_atomic
 from probing.sim.fork import TrimmedAircraft, trim_spec
 
 __all__ = [
@@ -35,6 +34,7 @@ __all__ = [
     "is_stored",
     "load_set",
     "offset_twin",
+    "planned_runs",
     "run_set",
     "stored_digest",
     "sweep_scenarios",
@@ -84,7 +84,7 @@ def _stored_metadata(folder: Path) -> dict[bytes, bytes]:
     path = folder / "probing.parquet"
     if not path.exists() or not (folder / "timeseries.parquet").exists():
         return {}
-    return pq.read_schema(path).metadata or {}
+    return read_schema(path).metadata or {}
 
 
 def offset_twin(sat: Scenario) -> Scenario:
@@ -155,6 +155,40 @@ def load_set(scen_dir: Path) -> dict[str, Scenario]:
     return scenarios
 
 
+def _plan(
+    scen_dir: Path, out: Path, sweep_rate_limit: bool
+) -> tuple[
+    dict[str, Scenario],
+    list[tuple[float, float, Scenario]],
+    list[tuple[str | None, Scenario, Path]],
+]:
+    """The set's scenarios (with the offset twin), the rate-limit sweep's (t0, ratio,
+    scenario) and every run as (panel key or None, scenario, parent folder)."""
+    scenarios = load_set(scen_dir)
+    scenarios[OFFSET_TWIN] = offset_twin(scenarios["b_saturation"])
+    todo = sweep_scenarios(scenarios["f_rate_limit"]) if sweep_rate_limit else []
+    runs: list[tuple[str | None, Scenario, Path]] = [
+        (key, scn, out) for key, scn in scenarios.items()
+    ]
+    runs += [(None, scn, out / "rate_limit_sweep") for _, _, scn in todo]
+    return scenarios, todo, runs
+
+
+def planned_runs(
+    scen_dir: Path, out: Path, *, sweep_rate_limit: bool = True
+) -> list[tuple[Scenario, Path]]:
+    """Every run :func:`run_set` makes, as (scenario, its folder), for checks before it.
+
+    Raises
+    ------
+    ScenarioError
+        As :func:`load_set`.
+    """
+    return [
+        (scn, folder / scn.name) for _, scn, folder in _plan(scen_dir, out, sweep_rate_limit)[2]
+    ]
+
+
 def run_set(
     scen_dir: Path,
     out: Path,
@@ -170,14 +204,12 @@ def run_set(
     to do share one load and trim per flight condition and run ``jobs`` at a time (default:
     one per core) in children forked from the trimmed aircraft
     (:mod:`probing.experiment.batch`); the results are the same bytes as run one by one.
+    A stored ``probing.parquet`` that cannot be read raises
+    :class:`probing.experiment.storage.StoredFileError` before anything runs (unless
+    ``force``).
     """
-    scenarios = load_set(scen_dir)
-    scenarios[OFFSET_TWIN] = offset_twin(scenarios["b_saturation"])
+    scenarios, todo, runs = _plan(scen_dir, out, sweep_rate_limit)
     out.mkdir(parents=True, exist_ok=True)
-    sweep_dir = out / "rate_limit_sweep"
-    todo = sweep_scenarios(scenarios["f_rate_limit"]) if sweep_rate_limit else []
-    runs = [(key, scn, out) for key, scn in scenarios.items()]
-    runs += [(None, scn, sweep_dir) for _, _, scn in todo]
     walls = _run_missing(runs, force, jobs or os.cpu_count() or 1)
     for key, scn, _ in runs[: len(scenarios)]:
         wall = walls.get(scn.name)

@@ -1,5 +1,6 @@
 """Parquet output: the files' layouts with units, atomic files written in large row groups,
-provenance metadata, output-folder checks, and the one reader of settled estimates.
+provenance metadata, the checks of output folders and files, the one JSON writer (strict
+JSON: NaN and infinities become null), and the readers of stored files.
 
 Every column carries field metadata ``unit`` and ``description``; a unit written
 ``<channel>`` (or ``<channel>/deg``) is the unit of the row's channel (per deg of probe), and
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import platform
 import shutil
@@ -40,9 +42,13 @@ __all__ = [
     "ROW_GROUP_ROWS",
     "TRUTH_SCHEMA",
     "AtomicParquetWriter",
+    "OutputFileError",
     "OutputFolder",
     "OutputFolderError",
+    "OutputPathError",
     "Settled",
+    "StoredFileError",
+    "check_output_file",
     "check_output_folder",
     "field",
     "git_revision",
@@ -50,7 +56,9 @@ __all__ = [
     "output_folder",
     "probing_block",
     "provenance",
+    "read_schema",
     "read_settled",
+    "strict_json",
     "timeseries_schema",
     "units",
     "versions",
@@ -144,8 +152,44 @@ def provenance(**items: Any) -> dict[bytes, bytes]:
 ROW_GROUP_ROWS = 65536
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinite float (in dicts, lists, tuples) replaced by None."""
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
+def strict_json(payload: Any, indent: int | None = None, sort_keys: bool = True) -> str:
+    """``payload`` as strict JSON text: NaN and infinities are written ``null`` (JSON has
+    neither; Python's bare ``NaN`` is refused by strict parsers), anything
+    JSON cannot hold written as its ``str``.
+
+    Parameters
+    ----------
+    payload : object
+        Dicts, lists, tuples, strings, numbers, booleans and None.
+    indent : int, optional
+        Indentation; None writes one line.
+    sort_keys : bool
+        Keys in sorted order (else in the dicts' order).
+
+    Returns
+    -------
+    str
+        The JSON text (no trailing newline).
+    """
+    return json.dumps(
+        _finite(payload), indent=indent, sort_keys=sort_keys, default=str, allow_nan=False
+    )
+
+
 def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
-    """Write ``payload`` as JSON under a temporary name, then rename it into place.
+    """Write ``payload`` as strict JSON (:func:`strict_json`: NaN is null) under a temporary
+    name, then rename it into place.
 
     A reader sees the old file or the whole new one, never a part (parents are created).
     ``compact``: one line, no indentation (Python's C encoder then writes it, about twice
@@ -154,8 +198,7 @@ def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    indent = None if compact else 1
-    tmp.write_text(json.dumps(payload, indent=indent, sort_keys=True, default=str) + "\n")
+    tmp.write_text(strict_json(payload, indent=None if compact else 1) + "\n")
     os.replace(tmp, path)
 
 
@@ -439,6 +482,34 @@ def probing_block(
 
 
 # ------------------------------------------------------------------ reading
+class StoredFileError(ValueError):
+    """A stored file that cannot be read (not Parquet, damaged, unreadable); the message
+    names it."""
+
+
+@contextmanager
+def _reading(path: Path) -> Iterator[None]:
+    """Turn pyarrow's and the system's errors while reading ``path`` into
+    :class:`StoredFileError` naming the file."""
+    try:
+        yield
+    except (pa.ArrowException, OSError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc).split(". ")[0].strip() or "?"
+        raise StoredFileError(f"{path}: cannot be read as Parquet ({reason})") from None
+
+
+def read_schema(path: Path) -> pa.Schema:
+    """The schema (with its key-value metadata) of a stored Parquet file.
+
+    Raises
+    ------
+    StoredFileError
+        When ``path`` is missing, unreadable or not a Parquet file.
+    """
+    with _reading(path):
+        return pq.read_schema(path)
+
+
 @dataclass(frozen=True)
 class Settled:
     """The settled periods of one channel of a ``probing.parquet`` file.
@@ -478,12 +549,18 @@ def read_settled(path: Path, channel: str, settle_periods: int, m: int) -> Settl
     Returns
     -------
     Settled
+
+    Raises
+    ------
+    StoredFileError
+        When ``path`` is missing, unreadable or not a Parquet file of this layout.
     """
-    table = pq.read_table(
-        path,
-        columns=["period", "tap", "lag_s", "z", "h_est"],
-        filters=[("channel", "==", channel), ("period", ">=", settle_periods)],
-    )
+    with _reading(path):
+        table = pq.read_table(
+            path,
+            columns=["period", "tap", "lag_s", "z", "h_est"],
+            filters=[("channel", "==", channel), ("period", ">=", settle_periods)],
+        )
     order = np.lexsort((table.column("tap").to_numpy(), table.column("period").to_numpy()))
     z, h = (table.column(c).to_numpy()[order].reshape(-1, m) for c in ("z", "h_est"))
     periods = table.column("period").to_numpy()[order].reshape(-1, m)[:, 0]
@@ -492,9 +569,43 @@ def read_settled(path: Path, channel: str, settle_periods: int, m: int) -> Settl
     return Settled(periods[keep], lag_s, z[keep], h[keep])
 
 
-# ------------------------------------------------------------------ output folders
-class OutputFolderError(ValueError):
-    """An output path that cannot be a folder we write into; the message says why."""
+# ------------------------------------------------------------------ output paths
+class OutputPathError(ValueError):
+    """An output path that cannot be written; the message names the option and says why."""
+
+
+class OutputFolderError(OutputPathError):
+    """An output path that cannot be a folder we write into."""
+
+
+class OutputFileError(OutputPathError):
+    """An output path that cannot be a file we write."""
+
+
+def _not_empty(path: str | Path, option: str, error: type[OutputPathError]) -> Path:
+    """``Path(path)``; an empty string (which ``Path`` would make the current folder) is
+    refused."""
+    if isinstance(path, str) and not path:
+        raise error(f"{option}: empty path")
+    return Path(path)
+
+
+def _writable_ancestor(path: Path, start: Path, option: str, error: type[OutputPathError]) -> Path:
+    """The nearest existing of ``start`` and its ancestors, which must be a folder we can
+    create something in (a probe folder is created there and removed at once); ``path`` is
+    the output path the message names."""
+    existing = start
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise error(f"{option} {path}: is below a file ({existing})")
+    try:
+        probe = Path(tempfile.mkdtemp(prefix=".probing-write-test-", dir=existing))
+    except OSError as exc:
+        reason = exc.strerror or exc.__class__.__name__
+        raise error(f"{option} {path}: cannot write in {existing} ({reason})") from None
+    probe.rmdir()
+    return existing
 
 
 def check_output_folder(path: str | Path, option: str) -> Path:
@@ -518,20 +629,46 @@ def check_output_folder(path: str | Path, option: str) -> Path:
     Raises
     ------
     OutputFolderError
-        When ``path`` or an ancestor is a file, or the nearest existing ancestor does not
-        let us create a folder in it.
+        When ``path`` is empty, ``path`` or an ancestor is a file, or the nearest existing
+        ancestor does not let us create a folder in it.
     """
-    path = Path(path)
-    existing = path
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        what = "is a file" if existing == path else f"is below a file ({existing})"
-        raise OutputFolderError(f"{option} {path}: {what}, not a folder")
-    try:
-        probe = Path(tempfile.mkdtemp(prefix=".probing-write-test-", dir=existing))
-    except OSError as exc:
-        reason = exc.strerror or exc.__class__.__name__
-        raise OutputFolderError(f"{option} {path}: cannot write in {existing} ({reason})") from None
-    probe.rmdir()
+    path = _not_empty(path, option, OutputFolderError)
+    if path.exists() and not path.is_dir():
+        raise OutputFolderError(f"{option} {path}: is a file, not a folder")
+    _writable_ancestor(path, path, option, OutputFolderError)
+    return path
+
+
+def check_output_file(path: str | Path, option: str) -> Path:
+    """Refuse, before any work, an output file that cannot be written (the folder
+    :func:`check_output_folder`'s counterpart: one rule for every output file).
+
+    Nothing is left behind: the file is not created; a probe folder is created in the
+    nearest existing ancestor of its folder and removed at once.
+
+    Parameters
+    ----------
+    path : path
+        The file (it may not exist yet; an existing file is replaced).
+    option : str
+        The command-line option that named it, for the message (``"--copy-summary"``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    OutputFileError
+        When ``path`` is empty or a folder, an ancestor is a file, the nearest existing
+        ancestor does not let us create anything in it, or ``path`` is a file we may not
+        write.
+    """
+    path = _not_empty(path, option, OutputFileError)
+    if path.is_dir():
+        raise OutputFileError(f"{option} {path}: is a folder, not a file")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise OutputFileError(f"{option} {path}: cannot write it (permission denied)")
+    _writable_ancestor(path, path.parent, option, OutputFileError)
     return path

@@ -120,7 +120,7 @@ def predictions(scn: Scenario) -> dict[str, Any]:
 
 
 def _number(value: Any) -> float:
-    """A JSON number, or NaN for null (JSON has no NaN)."""
+    """A JSON number, or NaN for null (JSON has no NaN: the JSON writer stores null)."""
     return math.nan if value is None else float(value)
 
 
@@ -263,7 +263,7 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
                 if found["first_alarm_period"] is None
                 else found["first_alarm_period"],
                 verdict=found["verdict"],
-                alpha_per_period=found["alpha_per_period"],
+                alpha_per_period=_number(found["alpha_per_period"]),
                 ended=found.get("ended") or "",
             )
         elif failed_file.exists():

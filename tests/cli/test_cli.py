@@ -6,13 +6,18 @@ Each test here stands for a defect found by trying the project from a fresh clon
 
 from __future__ import annotations
 
+import json
+import math
 import os
+import re
 import socket
 import subprocess
 import sys
 import tomllib
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 from probing.cli import build_parser
@@ -316,3 +321,302 @@ def test_license_is_an_spdx_expression() -> None:
     assert project["license"] == "MIT"
     build = tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]
     assert any(r.startswith("setuptools>=77") for r in build["requires"])
+
+
+# ------------------------------------------------------------------ 12. refused before any work
+MONITORED = ROOT / "scenarios" / "monitor" / "base.toml"  # name gtm-monitored, has [monitor]
+
+
+@pytest.fixture
+def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every command's work fails the test: a refusal must come before any of it."""
+    import analysis.fig4
+    import probing.experiment.fig4
+    import probing.experiment.gtm_damage
+    import probing.experiment.modes
+    import probing.experiment.monitor
+    import probing.experiment.run
+    import probing.experiment.truth
+    import probing.sweep
+
+    def work(*args: object, **kwargs: object) -> None:
+        raise AssertionError("work started before the output paths were checked")
+
+    for module, name in [
+        (probing.experiment.run, "run_scenario"),
+        (probing.experiment.truth, "compute_truth"),
+        (probing.experiment.monitor, "monitor_scenario"),
+        (probing.experiment.fig4, "run_set"),
+        (probing.experiment.modes, "mode_table"),
+        (probing.experiment.gtm_damage, "run_example6"),
+        (probing.sweep, "run_sweep"),
+        (analysis.fig4, "collect"),
+    ]:
+        monkeypatch.setattr(module, name, work)
+
+
+def refused(argv: list[str], root: Path, capsys: pytest.CaptureFixture[str], *needles: str) -> str:
+    """``probing ARGV`` in this process: exit 2, one line on stderr naming ``needles``,
+    nothing on stdout, nothing created, changed or removed under ``root``."""
+    before = {p: (p.stat().st_mtime_ns if p.is_file() else None) for p in root.rglob("*")}
+    assert cli_main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith("probing: error: "), err
+    for needle in needles:
+        assert needle in err, (needle, err)
+    assert {p: (p.stat().st_mtime_ns if p.is_file() else None) for p in root.rglob("*")} == before
+    return err
+
+
+def test_a_corrupt_stored_run_is_one_line_naming_the_file(tmp_path: Path) -> None:
+    """A probing.parquet of garbage bytes: ``plot fig4`` and ``fig4`` (which would reuse the
+    stored run) say which file cannot be read; nothing is simulated or drawn."""
+    results = tmp_path / "results"
+    run = results / "fig4-baseline"
+    run.mkdir(parents=True)
+    for name in ("probing.parquet", "timeseries.parquet"):
+        (run / name).write_bytes(b"not a parquet file at all" * 10)
+    panels = {"baseline": "fig4-baseline", **{k: "fig4-baseline" for k in ("a_deadband",)}}
+    (results / "manifest.json").write_text(json.dumps({"set": "fig4", "panels": panels}))
+    before = tree(tmp_path)
+    figures = str(tmp_path / "figures")
+    res = probing("plot", "fig4", str(results), "--figures", figures)
+    assert_one_line_error(res, 2, str(run / "probing.parquet"))
+    assert res.stdout == "" and tree(tmp_path) == before
+    res = probing("fig4", "--out", str(results), "--figures", figures, timeout=60)
+    assert_one_line_error(res, 2, str(run / "probing.parquet"), "--force")
+    assert res.stdout == "" and tree(tmp_path) == before
+
+
+@pytest.mark.parametrize(
+    ("argv", "name"),
+    [
+        (["run", str(BASELINE)], "baseline-737"),
+        (["truth", str(BASELINE)], "baseline-737"),
+        (["monitor", str(MONITORED)], "gtm-monitored"),
+        (["sweep", str(SMALL_SWEEP)], "backlash-small"),
+    ],
+    ids=lambda v: v[0] if isinstance(v, list) else None,
+)
+def test_out_whose_run_folder_is_a_file(
+    argv: list[str], name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_work: None
+) -> None:
+    (tmp_path / name).write_text("mine")
+    refused([*argv, "--out", str(tmp_path)], tmp_path, capsys, str(tmp_path / name), "is a file")
+    assert (tmp_path / name).read_text() == "mine"
+
+
+def test_run_out_whose_run_folder_is_a_file_in_a_fresh_process(tmp_path: Path) -> None:
+    (tmp_path / "baseline-737").write_text("mine")
+    res = probing("run", str(BASELINE), "--out", str(tmp_path))
+    assert_one_line_error(res, 2, "--out", str(tmp_path / "baseline-737"), "is a file")
+    assert res.stdout == "" and tree(tmp_path) == ["baseline-737"]
+
+
+OUTPUT_FILES = [
+    ["fig4", "--out", "{dir}/o", "--copy-summary", "{target}"],
+    ["plot", "fig4", "{dir}/r", "--copy-summary", "{target}"],
+    ["plot", "monitor", "{dir}/r", "--summary", "{target}"],
+    ["plot", "simultaneous", "{dir}/r", "--summary", "{target}"],
+    ["plot", "manoeuvres", "{dir}/r", "--summary", "{target}"],
+    ["modes", "--docs", "{target}", "--figure", "{dir}/f/gtm_modes"],
+    ["modes", "--figure", "{target}", "--docs", "{dir}/d/gtm.md"],
+]
+OUTPUT_FOLDERS = [
+    ["run", str(BASELINE), "--out", "{target}"],
+    ["truth", str(BASELINE), "--out", "{target}"],
+    ["monitor", str(MONITORED), "--out", "{target}"],
+    ["sweep", str(SMALL_SWEEP), "--out", "{target}"],
+    ["sweep", str(SMALL_SWEEP), "--out", "{dir}/o", "--plot", "--figures", "{target}"],
+    ["fig4", "--out", "{target}"],
+    ["fig4", "--out", "{dir}/o", "--figures", "{target}"],
+    ["plot", "sweep", "{dir}/r", "--figures", "{target}"],
+    ["plot", "monitor", "{dir}/r", "--figures", "{target}"],
+    ["gtm-damage", "--out", "{target}", "--figures", "{dir}/f"],
+    ["gtm-damage", "--out", "{dir}/o", "--figures", "{target}"],
+]
+
+
+def _ids(argv: list[str]) -> str:
+    return " ".join(a for a in argv if not a.startswith(("{", str(ROOT))))
+
+
+def _option(argv: list[str]) -> str:
+    return argv[argv.index("{target}") - 1]
+
+
+@pytest.mark.parametrize("argv", OUTPUT_FILES, ids=_ids)
+def test_every_output_file_option_refuses_a_folder_below_a_file_and_unwritable(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str], no_work: None
+) -> None:
+    (tmp_path / "r").mkdir()  # the stored results a plot reads
+    option = _option(argv)
+    folder = tmp_path / "a-folder"
+    (folder / "gtm_modes.png").mkdir(parents=True)  # --figure is the name without .png
+    target = folder / "gtm_modes" if option == "--figure" else folder
+    cases = [
+        (target, ("is a folder, not a file",)),
+        (tmp_path / "a-file" / "summary.md", ("below a file",)),
+        (unwritable(tmp_path) / "summary.md", ("cannot write",)),
+    ]
+    (tmp_path / "a-file").write_text("mine")
+    for path, needles in cases:
+        args = [a.format(dir=tmp_path, target=path) for a in argv]
+        refused(args, tmp_path, capsys, f"{option} {path}", *needles)
+
+
+@pytest.mark.parametrize("argv", OUTPUT_FOLDERS + OUTPUT_FILES, ids=_ids)
+def test_every_output_path_option_refuses_an_empty_path(
+    argv: list[str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    no_work: None,
+) -> None:
+    """``--out ""`` would be the current folder."""
+    (tmp_path / "r").mkdir()
+    monkeypatch.chdir(tmp_path)
+    option = _option(argv)
+    with pytest.raises(SystemExit) as exc:
+        cli_main([a.format(dir=tmp_path, target="") for a in argv])
+    assert exc.value.code == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == f"probing: error: argument {option}: empty path\n"
+    assert tree(tmp_path) == ["r"]
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["run", ""], ["sweep", ""], ["plot", "fig4", ""], ["design", "--simultaneous", ""]],
+    ids=" ".join,
+)
+def test_an_empty_input_path_is_refused(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli_main(argv)
+    assert exc.value.code == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.endswith(": empty path\n"), err
+
+
+# ------------------------------------------------------------------ 13. argparse in one line
+@pytest.mark.parametrize(
+    ("argv", "line"),
+    [
+        (
+            ["design", "--altitude-ft", "abc"],
+            "argument --altitude-ft: invalid float value: 'abc'",
+        ),
+        (["run"], "the following arguments are required: scenario"),
+        ([], "the following arguments are required: command"),
+        (["fly"], "argument command: invalid choice: 'fly'"),
+        (["run", str(BASELINE), "--bogus"], "unrecognized arguments: --bogus"),
+        (["plot", "nothing", "r"], "argument target: invalid choice: 'nothing'"),
+        (["sweep", str(SMALL_SWEEP), "-j", "two"], "argument -j/--jobs: invalid int value"),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else None,
+)
+def test_argument_errors_are_one_line(argv: list[str], line: str) -> None:
+    res = probing(*argv)
+    assert_one_line_error(res, 2, line)
+    assert res.stdout == ""
+
+
+# ------------------------------------------------------------------ 14. help
+def _subcommands() -> dict[str, Any]:
+    return build_parser()._subparsers._group_actions[0].choices
+
+
+def test_help_states_each_default_once_and_never_none() -> None:
+    for name, sub in _subcommands().items():
+        text = " ".join(sub.format_help().split())  # the wrapping may split "(default:"
+        assert "(default: None)" not in text, name
+        for line in text.split("--"):
+            assert line.count("(default:") <= 1, (name, line)
+    sweep = " ".join(_subcommands()["sweep"].format_help().split())
+    assert "(default: one per core)" in sweep and "(default: OUT/<name>/figures)" in sweep
+    design = " ".join(_subcommands()["design"].format_help().split())
+    assert "(1 sigma) (default: 0.0)" in design  # a zero is stated, a flag's False is not
+    assert "print one JSON object (default" not in design
+
+
+def test_top_level_help_lists_every_command_once() -> None:
+    text = build_parser().format_help()
+    names = list(_subcommands())
+    assert "gtm-damage" in names and len(names) == 9
+    listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ")]
+    listed = [word for word in listed if word in names]
+    assert listed == names, text
+    for name in names:  # not a second, hand-written list
+        assert len(re.findall(rf"^\s+{re.escape(name)}\b", text, re.MULTILINE)) == 1, name
+    flat = " ".join(text.split())
+    assert "fig4 or a sweep" not in flat
+    plot = flat[flat.index(" plot ") : flat.index(" design ")]
+    for target in ("fig4", "sweep", "monitor", "simultaneous", "manoeuvre"):
+        assert target in plot, plot
+
+
+# ------------------------------------------------------------------ 15. strict JSON
+def test_json_files_are_strict_json_with_null_for_nan(tmp_path: Path) -> None:
+    from probing.experiment.storage import write_json_atomic
+
+    def refuse(name: str) -> None:
+        raise ValueError(f"not JSON: {name}")
+
+    payload = {"a": math.nan, "b": [1.0, math.inf, -math.inf], "c": {"d": (np.float64("nan"),)}}
+    for compact in (False, True):
+        write_json_atomic(tmp_path / "x.json", payload, compact=compact)
+        found = json.loads((tmp_path / "x.json").read_text(), parse_constant=refuse)
+        assert found == {"a": None, "b": [1.0, None, None], "c": {"d": [None]}}
+
+
+def test_a_sweep_points_record_with_nan_is_strict_json_and_reads_back(tmp_path: Path) -> None:
+    """A monitor point that never alarmed (first_alarm_s, alpha NaN) and a prediction that
+    is NaN: point.json holds null, and the summary reads them back as NaN."""
+    from probing.experiment.storage import write_json_atomic
+    from probing.sweep import load_sweep
+    from probing.sweep.summary import summarise
+
+    sweep_file = tmp_path / "mon.toml"
+    sweep_file.write_text(
+        f'name = "mon"\nbase = "{MONITORED}"\nkind = "monitor"\n[grid]\n"disturbance.seed" = [1]\n'
+    )
+    sweep = load_sweep(sweep_file)
+    (point,) = sweep.points
+    folder = tmp_path / "out" / "mon" / "points" / f"point_id={point.point_id}"
+    facts = {
+        "first_alarm_s": math.nan,
+        "first_alarm_period": None,
+        "verdict": "none",
+        "alpha_per_period": math.nan,
+        "ended": "",
+    }
+    info = {"wall_s": 1.0, "steps_simulated": 10, "monitor": facts, "predicted": math.nan}
+    write_json_atomic(folder / "point.json", info, compact=True)
+    text = (folder / "point.json").read_text()
+    assert "NaN" not in text
+    json.loads(text, parse_constant=lambda name: pytest.fail(f"bare {name}"))
+    (row,) = summarise(sweep, tmp_path / "out" / "mon").itertuples()
+    assert row.status == "done" and math.isnan(row.first_alarm_s)
+    assert math.isnan(row.alpha_per_period)
+
+
+@pytest.mark.parametrize(
+    ("argv", "inside"),
+    [
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.md"),
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.csv"),
+        (["fig4", "--out", "{dir}/o", "--figures", "{dir}/f"], "manifest.json"),
+        (["plot", "fig4", "{dir}/o", "--figures", "{dir}/f"], "summary.md"),
+        (["gtm-damage", "--out", "{dir}/o", "--figures", "{dir}/f"], "summary.csv"),
+    ],
+    ids=lambda v: " ".join(v[:2]) if isinstance(v, list) else v,
+)
+def test_a_file_written_into_an_output_folder_that_is_a_folder(
+    argv: list[str], inside: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_work: None
+) -> None:
+    (tmp_path / "o" / inside).mkdir(parents=True)
+    path = tmp_path / "o" / inside
+    refused([a.format(dir=tmp_path) for a in argv], tmp_path, capsys, str(path), "is a folder")

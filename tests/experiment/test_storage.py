@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -173,3 +174,34 @@ def test_a_row_group_is_written_once_it_is_full(
     AtomicParquetWriter(tmp_path / "g.parquet", MONITOR_SCHEMA, {}, row_group_rows=1).abort()
     with pytest.raises(ValueError, match="row_group_rows"):
         AtomicParquetWriter(tmp_path / "h.parquet", MONITOR_SCHEMA, {}, row_group_rows=0)
+
+
+def test_check_output_file_refuses_what_cannot_be_a_written_file(tmp_path: Path) -> None:
+    from probing.experiment.storage import OutputFileError, check_output_file
+
+    (tmp_path / "a-file").write_text("mine")
+    (tmp_path / "a-folder").mkdir()
+    assert check_output_file(tmp_path / "a-file", "--x") == tmp_path / "a-file"  # replaced
+    assert check_output_file(tmp_path / "new" / "deeper.md", "--x") == (
+        tmp_path / "new" / "deeper.md"
+    )
+    for path, reason in [
+        ("", "--x: empty path"),
+        (tmp_path / "a-folder", "is a folder, not a file"),
+        (tmp_path / "a-file" / "s.md", "is below a file"),
+    ]:
+        with pytest.raises(OutputFileError, match=reason):
+            check_output_file(path, "--x")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "a-folder"]
+
+
+def test_a_stored_file_that_is_not_parquet_is_named(tmp_path: Path) -> None:
+    from probing.experiment.storage import StoredFileError, read_schema, read_settled
+
+    bad = tmp_path / "probing.parquet"
+    bad.write_bytes(b"garbage" * 20)
+    for read in (lambda: read_schema(bad), lambda: read_settled(bad, "theta_rad", 0, 4)):
+        with pytest.raises(StoredFileError, match=re.escape(str(bad))):
+            read()
+    with pytest.raises(StoredFileError, match=r"missing\.parquet"):
+        read_schema(tmp_path / "missing.parquet")
