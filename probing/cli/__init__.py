@@ -88,14 +88,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     def job() -> int:
         from probing.experiment.run import run_scenario
+        from probing.experiment.truth import TruthFiles
 
-        result = run_scenario(scn, args.out, progress=None)
+        truth = TruthFiles(scn) if args.truth else None  # one run's files: run and truth
+        result = run_scenario(scn, args.out, progress=None, observer=truth)
         print(
             f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
             f"{result.wall_s:.2f} s -> {result.out_dir}"
         )
         if args.truth:
-            _print_truth(scn, args.out)
+            print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
         return 0
 
     return _simulating(job, str(args.scenario))
