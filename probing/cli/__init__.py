@@ -3,7 +3,8 @@
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
 folder that cannot be written, a Dask scheduler that does not answer), with one line on
 stderr and nothing written; 1 a run that failed (trim failure, divergence), a sweep with
-failed points or a sweep folder in use by another process; 130 interrupted.
+failed points or a sweep folder in use by another process; 130 interrupted (Ctrl-C), 143
+terminated (SIGTERM), after the same clean-up.
 """
 
 from __future__ import annotations
@@ -11,7 +12,9 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict
@@ -35,7 +38,8 @@ commands:
 """
 EPILOG = """\
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
-failed (trim failure, divergence) or a sweep folder in use; 130 interrupted.
+failed (trim failure, divergence) or a sweep folder in use; 130 interrupted; 143
+terminated (SIGTERM).
 See README.md and docs/ for the formats and the method."""
 
 
@@ -796,13 +800,29 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, so it cleans up as after Ctrl-C: partial files
+    and twins are dropped, child processes ended (exit code 143)."""
+
+
+def _terminate(signum: int, frame: Any) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``probing`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main else None
     try:
         return int(args.func(args))
     except UsageError as exc:
         return _error(str(exc), 2)
+    except Terminated:
+        return _error("terminated", 143)
     except KeyboardInterrupt:
         return _error("interrupted", 130)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

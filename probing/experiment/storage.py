@@ -30,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.sim.channels import unit_of
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -155,7 +156,7 @@ def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp = path.with_name(f".{path.name}.{writer_tag()}.{uuid.uuid4().hex[:8]}.tmp")
     indent = None if compact else 1
     tmp.write_text(json.dumps(payload, indent=indent, sort_keys=True, default=str) + "\n")
     os.replace(tmp, path)
@@ -198,7 +199,7 @@ class AtomicParquetWriter:
             twice = sorted({n for n in names if names.count(n) > 1})
             raise ValueError(f"{Path(path).name}: column names given twice: {twice}")
         self.path = Path(path)
-        self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        self.tmp = self.path.with_name(f".{self.path.name}.{writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
         self.row_group_rows = int(row_group_rows)
         self._pending: list[pa.Table] = []
@@ -347,13 +348,16 @@ def output_folder(
     renamed into place, in that order: the folder then holds this run's files only, and
     one line on ``stream`` (default stderr) names what was removed.  ``adds``: the files
     are added to the run of the same scenario (``probing truth``), whose files stay; those
-    of another scenario go.
+    of another scenario go.  Temporaries a killed writer left in the folder are removed
+    on entry (:func:`probing.core.tempfiles.remove_dead_writers_files`).
 
     On any exception every partial file is dropped and the folders this call created are
     removed, so a failed run leaves nothing behind, and an earlier run's files stay whole.
     """
     path = Path(path)
     created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    if not created:
+        remove_dead_writers_files(path, ".tmp")
     path.mkdir(parents=True, exist_ok=True)
     folder = OutputFolder(path, metadata)
     try:

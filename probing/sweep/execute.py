@@ -244,10 +244,12 @@ class _Local:
 
 
 def _die_on_ctrl_c() -> None:
-    """Initializer of the local workers: Ctrl-C ends a worker at once, like the runs it
-    forks.  Otherwise the pool would catch the KeyboardInterrupt in the middle of a chunk
-    and go on with the next one queued."""
+    """Initializer of the local workers: Ctrl-C (and SIGTERM) ends a worker at once, like
+    the runs it forks.  Otherwise the pool would catch the KeyboardInterrupt (or the
+    exception the command line turns SIGTERM into) in the middle of a chunk and go on with
+    the next one queued."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 class _Dask:

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import io
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pyarrow as pa
@@ -158,3 +160,63 @@ def test_a_second_run_of_the_same_name_leaves_one_runs_files(tmp_path: Path) -> 
     assert res.returncode == 0, res.stderr
     assert sorted(p.name for p in folder.iterdir()) == ["prediction.parquet", "truth.parquet"]
     assert "earlier run" in res.stdout + res.stderr
+
+
+# ------------------------------------------------------------------ killed runs
+def start_long_run(out: Path, cache: Path, tmp_path: Path) -> subprocess.Popen:
+    """``probing run`` of a long scenario, once its temporaries exist in the output folder
+    and in the twin cache."""
+    path = tmp_path / "long.toml"
+    path.write_text(SCENARIO.format(amplitude=0.01, periods=20000))
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "PROBING_TWIN_CACHE": str(cache)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "probing", "run", str(path), "--out", str(out)],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (
+        list((out / "again").glob(".probing.parquet.*.tmp")) and list(cache.glob(".*.tmp.npy"))
+    ):
+        time.sleep(0.02)
+    time.sleep(0.5)  # a few chunks into the run
+    assert proc.poll() is None, proc.communicate()
+    return proc
+
+
+def temporaries(*folders: Path) -> list[Path]:
+    return [p for folder in folders if folder.exists() for p in folder.rglob("*.tmp*")]
+
+
+@pytest.mark.jsbsim
+def test_sigterm_cleans_up_like_an_exception(tmp_path: Path) -> None:
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    proc = start_long_run(out, cache, tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143, stderr
+    assert stderr.splitlines() == ["probing: error: terminated"] and stdout == ""
+    assert temporaries(out, cache) == []
+    assert not (out / "again").exists()  # the run created it: nothing is left
+
+
+@pytest.mark.jsbsim
+def test_a_rerun_removes_what_a_killed_run_left(tmp_path: Path) -> None:
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    proc = start_long_run(out, cache, tmp_path)
+    proc.kill()
+    proc.communicate(timeout=60)
+    left = temporaries(out, cache)
+    assert len(left) == 3, left  # probing.parquet, timeseries.parquet, the twin
+    short = tmp_path / "short.toml"
+    short.write_text(SCENARIO.format(amplitude=0.01, periods=3))
+    res = probing("run", str(short), "--out", str(out), cache=cache)
+    assert res.returncode == 0, res.stderr
+    assert temporaries(out, cache) == []
+    assert sorted(p.name for p in (out / "again").iterdir()) == [
+        "probing.parquet",
+        "timeseries.parquet",
+    ]
