@@ -232,8 +232,12 @@ class _Local:
                 for fut in as_completed(futures):
                     yield fut.result()
             except BaseException:
-                for fut in futures:
-                    fut.cancel()
+                # The queued chunks are cancelled by the pool's own manager thread, which
+                # also drops them from its work items.  Cancelling them from here raced
+                # with that thread: when it found the workers dead (Ctrl-C ends them too)
+                # it set BrokenProcessPool on every work item, a cancelled future among
+                # them, and its InvalidStateError printed a thread's traceback.
+                pool.shutdown(wait=False, cancel_futures=True)
                 # A worker would finish its chunk, and the chunk queued behind it, before
                 # the pool shut down: up to 2 x 64 runs after a Ctrl-C.  What they finished
                 # is complete on disk; what they were running is left as .tmp-* folders,
