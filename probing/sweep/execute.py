@@ -491,13 +491,17 @@ def _execute(
     intro = f"{len(todo)} runs to do"
     if result.skipped or result.failed:
         intro += f"; {result.skipped} points already done, {result.failed} recorded as failed"
-    with progress_bar(len(todo), name, "runs", stream, progress, lines=True, intro=intro) as bar:
-        if not todo:
+    if not todo:
+        with progress_bar(0, name, "runs", stream, progress, lines=True, intro=intro):
             return
-        from probing.experiment.batch import chunked_groups
+    from probing.experiment.batch import chunked_groups
 
+    chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
+    workers = min(pool.jobs, len(chunks))  # the ETA: runs' wall time over the workers
+    with progress_bar(
+        len(todo), name, "runs", stream, progress, lines=True, intro=intro, workers=workers
+    ) as bar:
         failed = 0
-        chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
         records = (r for c in pool.run([[todo[i] for i in c] for c in chunks]) for r in c)
         for rec in records:
             if rec["status"] in ("failed", "error"):
@@ -511,7 +515,7 @@ def _execute(
             what = f"{rec['kind']} {rec['run_id']} {rec['status']}"
             if math.isfinite(rec["wall_s"]):
                 what += f" in {rec['wall_s']:.1f} s"
-            bar.advance(1, what, f"{failed} failed")
+            bar.advance(1, what, f"{failed} failed", wall_s=rec["wall_s"])
 
 
 def _task(
