@@ -6,14 +6,16 @@ on stderr (argparse's own errors too) and nothing written: every output folder a
 checked before any work (:func:`probing.experiment.storage.check_output_folder` and
 :func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
 divergence), a sweep with failed points or a sweep folder in use by another process; 130
-interrupted.
+interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up.
 """
 
 from __future__ import annotations
 
 import argparse
 import shutil
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict
@@ -28,7 +30,8 @@ DESCRIPTION = (
 )
 EPILOG = """\
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
-failed (trim failure, divergence) or a sweep folder in use; 130 interrupted.
+failed (trim failure, divergence) or a sweep folder in use; 130 interrupted; 143
+terminated (SIGTERM).
 See README.md and docs/ for the formats and the method."""
 
 
@@ -97,14 +100,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     def job() -> int:
         from probing.experiment.run import run_scenario
+        from probing.experiment.truth import TruthFiles
 
-        result = run_scenario(scn, args.out, progress=None)
+        truth = TruthFiles(scn) if args.truth else None  # one run's files: run and truth
+        result = run_scenario(scn, args.out, progress=None, observer=truth)
         print(
             f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
             f"{result.wall_s:.2f} s -> {result.out_dir}"
         )
         if args.truth:
-            _print_truth(scn, args.out)
+            print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
         return 0
 
     return _simulating(job, str(args.scenario))
@@ -869,13 +874,29 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, so it cleans up as after Ctrl-C: partial files
+    and twins are dropped, child processes ended (exit code 143)."""
+
+
+def _terminate(signum: int, frame: Any) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``probing`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main else None
     try:
         return int(args.func(args))
     except UsageError as exc:
         return _error(str(exc), 2)
+    except Terminated:
+        return _error("terminated", 143)
     except KeyboardInterrupt:
         return _error("interrupted", 130)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -123,19 +123,21 @@ class _Interrupts:
 def _start(fn: Callable[[Any], Any], arg: Any) -> tuple[int, int]:
     """Fork a child running ``fn(arg)``; (pid, read end of its pipe).
 
-    SIGINT is blocked in this thread across the fork, so the child cannot take one before
-    it has set the default action (die at once, no traceback); one that arrived meanwhile
+    SIGINT and SIGTERM are blocked in this thread across the fork, so the child cannot take
+    one before it has set the default action (die at once, no traceback; the parent may
+    turn SIGTERM into an exception, as the command line does); one that arrived meanwhile
     is delivered when the child unblocks it, and to this process after the fork.
     """
     read, write = os.pipe()
     sys.stdout.flush()  # what the parent buffered must not be written twice
     sys.stderr.flush()
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     gc.freeze()  # the child's collector then leaves the parent's objects (and pages) alone
     pid = os.fork()
     if pid == 0:  # the child
         os.close(read)
         signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, if any
         signal.pthread_sigmask(signal.SIG_SETMASK, held)
         _child(fn, arg, write)
     gc.unfreeze()

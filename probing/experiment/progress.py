@@ -7,6 +7,7 @@ log or under ``nohup`` shows where it is.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Iterator
@@ -15,11 +16,42 @@ from typing import TextIO
 
 from tqdm import tqdm
 
-__all__ = ["Progress", "progress_bar"]
+__all__ = ["Progress", "eta_from_walls", "progress_bar"]
 
 BAR_FORMAT = (
     "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} {unit}, ETA {remaining}{postfix}"
 )
+#: The bar of items timed one by one on several workers: the ETA is ours, in the postfix.
+BAR_FORMAT_WORKERS = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} {unit}{postfix}"
+
+
+def eta_from_walls(
+    total: int, done: int, wall_sum_s: float, timed: int, workers: int
+) -> float | None:
+    """Seconds left for items that run ``workers`` at a time, from the items finished so far.
+
+    Parameters
+    ----------
+    total, done : int
+        Items in all, and finished.
+    wall_sum_s : float
+        Sum of the wall times of the ``timed`` finished items whose time is known, s.
+    timed : int
+        Finished items with a wall time.
+    workers : int
+        Items running at once.
+
+    Returns
+    -------
+    float or None
+        The mean wall time of an item times the items left, over the workers; None before
+        an item was timed.
+    """
+    if done >= total:
+        return 0.0
+    if timed < 1:
+        return None
+    return wall_sum_s / timed * (total - done) / max(1, workers)
 
 
 class Progress:
@@ -41,6 +73,12 @@ class Progress:
         When the bar is off, write one line per :meth:`advance` with a message.
     intro : str
         With ``lines``, the first line (default: ``0/<total> <unit>``).
+    workers : int, optional
+        Items run this many at a time, each timed (:meth:`advance`'s ``wall_s``): the ETA
+        is :func:`eta_from_walls`.  Without it, the ETA is the time elapsed per item so
+        far, which is right only for items finishing one after another (a run's periods);
+        a sweep's runs come back a chunk at a time, and the time to the first chunk over
+        one run overstated what was left by the chunk's length (64 runs).
     """
 
     def __init__(
@@ -53,8 +91,11 @@ class Progress:
         *,
         lines: bool = False,
         intro: str = "",
+        workers: int | None = None,
     ) -> None:
         self.stream = stream or sys.stderr
+        self.workers = workers
+        self.wall_sum_s, self.timed = 0.0, 0
         self.total, self.label, self.unit = total, label, unit
         self.enabled = self.stream.isatty() if enabled is None else enabled
         self.lines = lines and not self.enabled
@@ -68,7 +109,7 @@ class Progress:
                 desc=label,
                 unit=unit,
                 file=self.stream,
-                bar_format=BAR_FORMAT,
+                bar_format=BAR_FORMAT if workers is None else BAR_FORMAT_WORKERS,
                 leave=True,
                 dynamic_ncols=True,
             )
@@ -77,17 +118,30 @@ class Progress:
             print(f"{label}: {intro or f'0/{total} {unit}'}", file=self.stream, flush=True)
 
     def eta_s(self) -> float | None:
-        """Seconds left at the mean rate so far, or None before the first item."""
+        """Seconds left, or None before the first item (with ``workers``: the first timed
+        one)."""
+        if self.workers is not None:
+            return eta_from_walls(self.total, self.done, self.wall_sum_s, self.timed, self.workers)
         if not self.done:
             return None
         elapsed = time.perf_counter() - self.start
         return elapsed / self.done * (self.total - self.done)
 
-    def advance(self, n: int = 1, message: str = "", status: str = "") -> None:
+    def advance(
+        self, n: int = 1, message: str = "", status: str = "", wall_s: float | None = None
+    ) -> None:
         """``n`` more items finished; ``status`` is shown after the count (``"1 failed"``),
-        ``message`` (what finished) goes into the line written when there is no bar."""
+        ``message`` (what finished) goes into the line written when there is no bar;
+        ``wall_s``: the wall time of each of them (s; NaN or None: not known)."""
         self.done += n
+        if wall_s is not None and math.isfinite(wall_s):
+            self.wall_sum_s += n * wall_s
+            self.timed += n
         if self.bar is not None:
+            if self.workers is not None:
+                eta = self.eta_s()
+                shown = [f"ETA {self.bar.format_interval(eta)}" if eta is not None else ""]
+                status = ", ".join(x for x in (*shown, status) if x)
             if status:
                 self.bar.set_postfix_str(status, refresh=False)
             self.bar.update(n)
@@ -117,9 +171,10 @@ def progress_bar(
     *,
     lines: bool = False,
     intro: str = "",
+    workers: int | None = None,
 ) -> Iterator[Progress]:
     """A :class:`Progress` that is closed on leaving the block."""
-    bar = Progress(total, label, unit, stream, enabled, lines=lines, intro=intro)
+    bar = Progress(total, label, unit, stream, enabled, lines=lines, intro=intro, workers=workers)
     try:
         yield bar
     finally:

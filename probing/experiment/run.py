@@ -167,8 +167,13 @@ class _Rig:
             twin = open_twin(twin_flight, scn.channels, scn.total_steps, use_cache=twin_cache)
         follower = follower_nodes = None
         if scn.follows:
-            second = aircraft.second_for(flight) if aircraft else None
-            second = second or make_plant(flight.nominal)
+            try:
+                second = aircraft.second_for(flight) if aircraft else None
+                second = second or make_plant(flight.nominal)
+            except BaseException:
+                if twin is not None:
+                    twin.close(success=False)  # its temporary file goes
+                raise
             follower = ClosedLoop(second, Control())  # healthy, its loops open: it replays
             follower_nodes = second.channel_nodes(list(scn.channels))
         return cls(
@@ -565,45 +570,46 @@ def run_scenario(
         raise ValueError("a [simultaneous] or [manoeuvre] scenario has its own runner")
     t_start = time.perf_counter()
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
-    rig.stop_on_divergence = stop_on_divergence
-    probe, channels = rig.probe, list(scn.channels)
-    m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
-    drift = _drift_correction(scn, probe, rig.chunk_periods * m)
-    settled = SettledMean(channels, m, scn.settle_periods, keep_first=keep_settled)
-    lag_s = np.arange(m) * probe.bit_duration_s
-    folder = Path(folder) if folder is not None else Path(out) / scn.name
-    x_period = probe.samples(scn.dt_s, 1)
-    with_reference = rig.twin is not None or rig.follower is not None
-    ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
-    with rig.twin or nullcontext(), output_folder(folder, rig.metadata()) as outputs:
-        per = scn.surface_unit
-        w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels, per)
-        w_ts = (
-            outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels, per)
-            if timeseries
-            else None
-        )
-        if observer is not None:
-            observer.open(outputs)
-        with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
-            for c in _chunks(rig):
-                baseline = c.reference if c.reference is not None else rig.y_trim
-                est = drift.estimates((c.measured - baseline)[spb - 1 :: spb], c.first)
-                if est.periods.size:
-                    w_probe.write(
-                        probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
-                    )
-                settled.add(est.periods, est.h, est.z)
-                if observer is not None:
-                    observer.update(est.periods, est.h, est.z)
-                if w_ts is not None:
-                    w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
-                bar.advance(c.count)
-        if rig.ended:
-            for writer in outputs.writers:
-                writer.add_metadata(metadata(ended=rig.ended))
-        if observer is not None:
-            observer.finish()
+    with rig.twin or nullcontext():  # a simulated twin is stored, or dropped
+        rig.stop_on_divergence = stop_on_divergence
+        probe, channels = rig.probe, list(scn.channels)
+        m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
+        drift = _drift_correction(scn, probe, rig.chunk_periods * m)
+        settled = SettledMean(channels, m, scn.settle_periods, keep_first=keep_settled)
+        lag_s = np.arange(m) * probe.bit_duration_s
+        folder = Path(folder) if folder is not None else Path(out) / scn.name
+        x_period = probe.samples(scn.dt_s, 1)
+        with_reference = rig.twin is not None or rig.follower is not None
+        ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
+        with output_folder(folder, rig.metadata()) as outputs:
+            per = scn.surface_unit
+            w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels, per)
+            w_ts = (
+                outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels, per)
+                if timeseries
+                else None
+            )
+            if observer is not None:
+                observer.open(outputs)
+            with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
+                for c in _chunks(rig):
+                    baseline = c.reference if c.reference is not None else rig.y_trim
+                    est = drift.estimates((c.measured - baseline)[spb - 1 :: spb], c.first)
+                    if est.periods.size:
+                        w_probe.write(
+                            probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
+                        )
+                    settled.add(est.periods, est.h, est.z)
+                    if observer is not None:
+                        observer.update(est.periods, est.h, est.z)
+                    if w_ts is not None:
+                        w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
+                    bar.advance(c.count)
+            if rig.ended:
+                for writer in outputs.writers:
+                    writer.add_metadata(metadata(ended=rig.ended))
+            if observer is not None:
+                observer.finish()
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,

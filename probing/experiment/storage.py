@@ -18,6 +18,7 @@ import os
 import platform
 import shutil
 import subprocess
+import sys
 import tempfile
 import uuid
 from collections.abc import Iterator, Sequence
@@ -25,12 +26,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.sim.channels import unit_of
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -40,6 +42,7 @@ __all__ = [
     "PER_DEG",
     "PROBING_SCHEMA",
     "ROW_GROUP_ROWS",
+    "RUN_FILES",
     "TRUTH_SCHEMA",
     "AtomicParquetWriter",
     "OutputFileError",
@@ -197,7 +200,7 @@ def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp = path.with_name(f".{path.name}.{writer_tag()}.{uuid.uuid4().hex[:8]}.tmp")
     tmp.write_text(strict_json(payload, indent=None if compact else 1) + "\n")
     os.replace(tmp, path)
 
@@ -239,7 +242,7 @@ class AtomicParquetWriter:
             twice = sorted({n for n in names if names.count(n) > 1})
             raise ValueError(f"{Path(path).name}: column names given twice: {twice}")
         self.path = Path(path)
-        self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        self.tmp = self.path.with_name(f".{self.path.name}.{writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
         self.row_group_rows = int(row_group_rows)
         self._pending: list[pa.Table] = []
@@ -281,8 +284,16 @@ class AtomicParquetWriter:
 
     def close(self) -> None:
         """Write the buffered rows, finish the file and move it to its final name."""
+        self.finish()
+        self.commit()
+
+    def finish(self) -> None:
+        """Write the buffered rows and finish the file, still under its temporary name."""
         self._flush()
         self._writer.close()
+
+    def commit(self) -> None:
+        """Move the finished file to its final name."""
         os.replace(self.tmp, self.path)
 
     def abort(self) -> None:
@@ -325,28 +336,95 @@ class OutputFolder:
         return w
 
 
+#: The files the project writes into a run's folder.  A run that completes into a folder
+#: removes those of them it did not write (an earlier run's), so the folder holds the files
+#: of one run only.
+RUN_FILES = (
+    "probing.parquet",
+    "timeseries.parquet",
+    "truth.parquet",
+    "prediction.parquet",
+    "monitor.parquet",
+    "responses.parquet",
+    "manoeuvre.parquet",
+)
+_DIGEST_KEY = b"probing.scenario_digest"
+
+
+def _scenario_digest(path: Path) -> bytes | None:
+    """The scenario digest a Parquet file of the project carries (None: none, unreadable)."""
+    try:
+        return (pq.read_schema(path).metadata or {}).get(_DIGEST_KEY)
+    except (OSError, pa.ArrowException):
+        return None
+
+
+def _earlier_files(folder: OutputFolder, adds: bool) -> list[Path]:
+    """The files of an earlier run in ``folder`` that the files being written replace:
+    those of :data:`RUN_FILES` not written now (with ``adds``, only those of another
+    scenario than the folder's metadata names)."""
+    written = {w.path.name for w in folder.writers}
+    digest = folder.metadata.get(_DIGEST_KEY)
+    earlier = []
+    for name in RUN_FILES:
+        path = folder.path / name
+        if name in written or not path.is_file():
+            continue
+        if adds and digest is not None and _scenario_digest(path) == digest:
+            continue  # the run these files are added to
+        earlier.append(path)
+    return earlier
+
+
 @contextmanager
-def output_folder(path: Path, metadata: dict[bytes, bytes]) -> Iterator[OutputFolder]:
+def output_folder(
+    path: Path,
+    metadata: dict[bytes, bytes],
+    *,
+    adds: bool = False,
+    stream: TextIO | None = None,
+) -> Iterator[OutputFolder]:
     """Create ``path`` (and parents) and hand out writers; all files appear together at the end.
 
-    On success every writer is closed (its file renamed into place).  On any
-    exception every partial file is dropped and the folders this call created
-    are removed, so a failed run leaves nothing behind.
+    On success every writer's file is finished, then the files an earlier run left in the
+    folder (those of :data:`RUN_FILES` not written now) are removed and the new files
+    renamed into place, in that order: the folder then holds this run's files only, and
+    one line on ``stream`` (default stderr) names what was removed.  ``adds``: the files
+    are added to the run of the same scenario (``probing truth``), whose files stay; those
+    of another scenario go.  Temporaries a killed writer left in the folder are removed
+    on entry (:func:`probing.core.tempfiles.remove_dead_writers_files`).
+
+    On any exception every partial file is dropped and the folders this call created are
+    removed, so a failed run leaves nothing behind, and an earlier run's files stay whole.
     """
     path = Path(path)
     created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    if not created:
+        remove_dead_writers_files(path, ".tmp")
     path.mkdir(parents=True, exist_ok=True)
     folder = OutputFolder(path, metadata)
     try:
         yield folder
         for w in folder.writers:
-            w.close()
+            w.finish()
+        earlier = _earlier_files(folder, adds)
+        for stale in earlier:
+            stale.unlink(missing_ok=True)
+        for w in folder.writers:
+            w.commit()
     except BaseException:
         for w in folder.writers:
             w.abort()
         for p in reversed(created):
             shutil.rmtree(p, ignore_errors=True)
         raise
+    if earlier:
+        names = ", ".join(p.name for p in earlier)
+        print(
+            f"{path}: removed the files of an earlier run: {names}",
+            file=stream or sys.stderr,
+            flush=True,
+        )
 
 
 # ------------------------------------------------------------------ layouts with units

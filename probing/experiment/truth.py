@@ -21,13 +21,21 @@ from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PROBING_SCHEMA,
     TRUTH_SCHEMA,
+    OutputFolder,
     output_folder,
     probing_block,
     provenance,
 )
 from probing.sim.truth import linear_pulse_response, single_pulse_response
 
-__all__ = ["PREDICTION_TEXT", "TRUTH_TEXT", "compute_truth", "predicted_probing"]
+__all__ = [
+    "PREDICTION_TEXT",
+    "TRUTH_TEXT",
+    "TruthFiles",
+    "compute_truth",
+    "predicted_probing",
+    "write_truth",
+]
 
 TRUTH_TEXT = (
     "ground truth: h_pulse, one-bit pulse of amplitude a on a trimmed twin minus an unprobed "
@@ -61,8 +69,20 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
     """Write ``truth.parquet`` and ``prediction.parquet`` into ``out/<name>/``.
 
     ``truth.parquet``: channel, tap, lag_s, h_pulse, h_lin (NaN where the linear model has
-    no such output), over the whole run length.  Returns the path of ``truth.parquet``.
+    no such output), over the whole run length.  They are added to the run of the same
+    scenario in that folder; the files of a run of another scenario there are removed
+    (:func:`probing.experiment.storage.output_folder`).  Returns the path of
+    ``truth.parquet``.
     """
+    folder = Path(out) / scn.name
+    meta = provenance(scenario_toml=scn.text, scenario=scn.to_dict(), scenario_digest=scn.digest())
+    with output_folder(folder, meta, adds=True) as outputs:
+        write_truth(scn, outputs)
+    return folder / "truth.parquet"
+
+
+def write_truth(scn: Scenario, outputs: OutputFolder) -> None:
+    """Compute the ground truth of ``scn`` and write its two files into an open folder."""
     probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
     m = probe.length
     n_bits = scn.periods * m
@@ -70,24 +90,47 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
     h_pulse = single_pulse_response(scn.flight, scn.channels, scn.amplitude_deg, spb, n_bits)
     h_lin = linear_pulse_response(scn.flight, scn.channels, scn.bit_duration_s, n_bits)
     pred = predicted_probing(scn, h_pulse)
-    folder = Path(out) / scn.name
-    meta = provenance(scenario_toml=scn.text, scenario=scn.to_dict(), scenario_digest=scn.digest())
     channels = list(scn.channels)
-    with output_folder(folder, meta) as outputs:
-        w_truth = outputs.writer("truth.parquet", TRUTH_SCHEMA, TRUTH_TEXT, channels)
-        w_pred = outputs.writer("prediction.parquet", PROBING_SCHEMA, PREDICTION_TEXT, channels)
-        taps = np.arange(n_bits, dtype=np.int32)
-        lag_s = np.arange(m) * probe.bit_duration_s
-        for channel in channels:
-            w_truth.write(
-                {
-                    "channel": [channel] * n_bits,
-                    "tap": taps,
-                    "lag_s": taps * probe.bit_duration_s,
-                    "h_pulse": h_pulse[channel],
-                    "h_lin": h_lin.get(channel, np.full(n_bits, np.nan)),
-                }
-            )
-            z, zeta, h = (pred[channel][:, None, k] for k in range(3))
-            w_pred.write(probing_block([channel], np.arange(len(z)), lag_s, z, zeta, h))
-    return folder / "truth.parquet"
+    w_truth = outputs.writer("truth.parquet", TRUTH_SCHEMA, TRUTH_TEXT, channels)
+    w_pred = outputs.writer("prediction.parquet", PROBING_SCHEMA, PREDICTION_TEXT, channels)
+    taps = np.arange(n_bits, dtype=np.int32)
+    lag_s = np.arange(m) * probe.bit_duration_s
+    for channel in channels:
+        w_truth.write(
+            {
+                "channel": [channel] * n_bits,
+                "tap": taps,
+                "lag_s": taps * probe.bit_duration_s,
+                "h_pulse": h_pulse[channel],
+                "h_lin": h_lin.get(channel, np.full(n_bits, np.nan)),
+            }
+        )
+        z, zeta, h = (pred[channel][:, None, k] for k in range(3))
+        w_pred.write(probing_block([channel], np.arange(len(z)), lag_s, z, zeta, h))
+
+
+class TruthFiles:
+    """A run's observer that writes the scenario's ground truth into the run's folder, so
+    ``probing run --truth`` writes one run's files: they appear together, or none does.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The scenario being run.
+    """
+
+    def __init__(self, scn: Scenario) -> None:
+        self.scn = scn
+        self.outputs: OutputFolder | None = None
+
+    def open(self, outputs: OutputFolder) -> None:
+        """Keep the run's folder."""
+        self.outputs = outputs
+
+    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
+        """Nothing to follow period by period."""
+
+    def finish(self) -> None:
+        """Write ``truth.parquet`` and ``prediction.parquet`` beside the run's files."""
+        assert self.outputs is not None
+        write_truth(self.scn, self.outputs)

@@ -13,7 +13,9 @@ is :func:`twin_key`, the SHA-256 of :func:`twin_spec`.  A simulated twin is writ
 progressively to a temporary file unique to the process and thread and renamed into place
 only after the last step succeeded, so a failed or diverged run leaves no entry, and
 processes computing the same twin concurrently each write their own file; the last rename
-wins, with identical content.  Entries are read back one period at a time.
+wins, with identical content.  The temporary's name carries its writer's process id and
+host (:mod:`probing.core.tempfiles`): one a killed run left is removed by the next run that
+simulates a twin, once that process no longer exists.  Entries are read back one period at a time.
 Nothing is ever evicted: delete the folder to reclaim the space.
 """
 
@@ -32,6 +34,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.sim import aircraft as _aircraft_module
 from probing.sim import channels as _channels_module
 from probing.sim import control as _control_module
@@ -221,7 +224,7 @@ class ReferenceTwin:
 
     def _open_temporary(self) -> None:
         """Start a new entry under a name unique to this process and thread (if writable)."""
-        token = f"{os.getpid()}.{threading.get_ident()}.{uuid.uuid4().hex[:8]}"
+        token = f"{writer_tag()}.{threading.get_ident()}.{uuid.uuid4().hex[:8]}"
         tmp = self.path.with_name(f".{self.key}.{token}.tmp.npy")
         header = {
             "descr": np.lib.format.dtype_to_descr(_DTYPE),
@@ -230,6 +233,7 @@ class ReferenceTwin:
         }
         try:
             tmp.parent.mkdir(parents=True, exist_ok=True)
+            remove_dead_writers_files(tmp.parent, ".tmp.npy")  # left by killed runs
             fp = open(tmp, "wb")  # closed in close()
         except OSError:  # a read-only cache: simulate without storing
             return

@@ -232,8 +232,12 @@ class _Local:
                 for fut in as_completed(futures):
                     yield fut.result()
             except BaseException:
-                for fut in futures:
-                    fut.cancel()
+                # The queued chunks are cancelled by the pool's own manager thread, which
+                # also drops them from its work items.  Cancelling them from here raced
+                # with that thread: when it found the workers dead (Ctrl-C ends them too)
+                # it set BrokenProcessPool on every work item, a cancelled future among
+                # them, and its InvalidStateError printed a thread's traceback.
+                pool.shutdown(wait=False, cancel_futures=True)
                 # A worker would finish its chunk, and the chunk queued behind it, before
                 # the pool shut down: up to 2 x 64 runs after a Ctrl-C.  What they finished
                 # is complete on disk; what they were running is left as .tmp-* folders,
@@ -244,10 +248,12 @@ class _Local:
 
 
 def _die_on_ctrl_c() -> None:
-    """Initializer of the local workers: Ctrl-C ends a worker at once, like the runs it
-    forks.  Otherwise the pool would catch the KeyboardInterrupt in the middle of a chunk
-    and go on with the next one queued."""
+    """Initializer of the local workers: Ctrl-C (and SIGTERM) ends a worker at once, like
+    the runs it forks.  Otherwise the pool would catch the KeyboardInterrupt (or the
+    exception the command line turns SIGTERM into) in the middle of a chunk and go on with
+    the next one queued."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 class _Dask:
@@ -485,13 +491,17 @@ def _execute(
     intro = f"{len(todo)} runs to do"
     if result.skipped or result.failed:
         intro += f"; {result.skipped} points already done, {result.failed} recorded as failed"
-    with progress_bar(len(todo), name, "runs", stream, progress, lines=True, intro=intro) as bar:
-        if not todo:
+    if not todo:
+        with progress_bar(0, name, "runs", stream, progress, lines=True, intro=intro):
             return
-        from probing.experiment.batch import chunked_groups
+    from probing.experiment.batch import chunked_groups
 
+    chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
+    workers = min(pool.jobs, len(chunks))  # the ETA: runs' wall time over the workers
+    with progress_bar(
+        len(todo), name, "runs", stream, progress, lines=True, intro=intro, workers=workers
+    ) as bar:
         failed = 0
-        chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
         records = (r for c in pool.run([[todo[i] for i in c] for c in chunks]) for r in c)
         for rec in records:
             if rec["status"] in ("failed", "error"):
@@ -505,7 +515,7 @@ def _execute(
             what = f"{rec['kind']} {rec['run_id']} {rec['status']}"
             if math.isfinite(rec["wall_s"]):
                 what += f" in {rec['wall_s']:.1f} s"
-            bar.advance(1, what, f"{failed} failed")
+            bar.advance(1, what, f"{failed} failed", wall_s=rec["wall_s"])
 
 
 def _task(

@@ -1,0 +1,98 @@
+"""Temporary files named after their writer, and the removal of those a dead writer left.
+
+A file written under a temporary name and renamed into place once complete stays behind
+when its writer is killed (``kill -9``, the machine stops): nothing else knows it is
+garbage.  Its name therefore carries :func:`writer_tag`, the writer's process id and host
+(``.probing.parquet.4242@node1.tmp``), and :func:`remove_dead_writers_files` removes the
+temporaries of a folder whose writer is a process of this host that no longer exists.  A
+live process's temporaries, this process's and another host's (a folder on a shared file
+system) are never touched, so two runs at once cannot delete each other's files.
+
+Standard library only.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import socket
+from pathlib import Path
+
+__all__ = ["pid_alive", "remove_dead_writers_files", "writer_tag"]
+
+_TAG = re.compile(r"^(\d+)(?:@([A-Za-z0-9-]+))?$")
+
+
+def _host() -> str:
+    """This host's name as it goes into a file name: letters, digits and ``-`` only."""
+    return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname()) or "host"
+
+
+def writer_tag() -> str:
+    """``<pid>@<host>``: this process's mark in the name of a temporary file it writes."""
+    return f"{os.getpid()}@{_host()}"
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this host (one of another user counts)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _writer(name: str) -> tuple[int, str | None] | None:
+    """(pid, host) of a temporary file's name: the first dot-separated part after the
+    file's own first part that reads ``<pid>@<host>`` (or a bare ``<pid>``, as written
+    before the host was part of the name); None when there is none."""
+    for part in name.split(".")[2:]:
+        found = _TAG.match(part)
+        if found:
+            return int(found.group(1)), found.group(2)
+    return None
+
+
+def remove_dead_writers_files(folder: Path, suffix: str) -> list[Path]:
+    """Remove the temporaries in ``folder`` whose writer is dead.
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+        The folder (a missing one holds nothing).
+    suffix : str
+        How the temporaries' names end (``".tmp"``, ``".tmp.npy"``); only hidden files
+        (a leading dot) with a writer's tag are considered.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files removed: those written on this host by a process other than this one
+        that no longer exists.
+    """
+    host, me = _host(), os.getpid()
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not (entry.name.startswith(".") and entry.name.endswith(suffix)):
+            continue
+        writer = _writer(entry.name)
+        if writer is None:
+            continue
+        pid, where = writer
+        if (where is not None and where != host) or pid == me or pid_alive(pid):
+            continue
+        try:
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            pass  # gone already (another process cleaned up), or not ours to remove
+    return removed

@@ -1,0 +1,68 @@
+"""Temporaries of a dead writer are removed; a live process's, this process's and another
+host's are never touched."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from probing.core.tempfiles import pid_alive, remove_dead_writers_files, writer_tag
+
+
+def dead_pid() -> int:
+    """The id of a process that has ended and been reaped."""
+    proc = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    pid = int(proc.stdout)
+    assert not pid_alive(pid)
+    return pid
+
+
+def test_only_a_dead_writers_temporaries_go(tmp_path: Path) -> None:
+    host = writer_tag().split("@")[1]
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        dead = dead_pid()
+        names = {
+            "dead": f".probing.parquet.{dead}@{host}.tmp",
+            "dead_json": f".point.json.{dead}@{host}.0123abcd.tmp",
+            "dead_old_style": f".probing.parquet.{dead}.tmp",
+            "live": f".probing.parquet.{live.pid}@{host}.tmp",
+            "mine": f".timeseries.parquet.{writer_tag()}.tmp",
+            "other_host": f".probing.parquet.{dead}@elsewhere.tmp",
+            "not_hidden": f"probing.parquet.{dead}@{host}.tmp",
+            "no_writer": ".probing.parquet.tmp",
+            "finished": "probing.parquet",
+        }
+        for name in names.values():
+            (tmp_path / name).write_bytes(b"x")
+        removed = remove_dead_writers_files(tmp_path, ".tmp")
+        gone = {"dead", "dead_json", "dead_old_style"}
+        assert sorted(p.name for p in removed) == sorted(names[k] for k in gone)
+        assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+            v for k, v in names.items() if k not in gone
+        )
+    finally:
+        live.kill()
+        live.wait()
+
+
+def test_twin_temporaries_by_their_suffix(tmp_path: Path) -> None:
+    host = writer_tag().split("@")[1]
+    dead = dead_pid()
+    key = "ab" * 32
+    twin = tmp_path / f".{key}.{dead}@{host}.140234.0123abcd.tmp.npy"
+    twin.write_bytes(b"x")
+    assert remove_dead_writers_files(tmp_path, ".tmp") == []  # another suffix
+    assert remove_dead_writers_files(tmp_path, ".tmp.npy") == [twin]
+    assert remove_dead_writers_files(tmp_path / "missing", ".tmp") == []
+
+
+def test_a_live_pid_is_alive() -> None:
+    assert pid_alive(os.getpid()) and not pid_alive(0)

@@ -1,0 +1,51 @@
+"""The sweep's ETA against the closed form: runs of a known length finishing in chunks."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from probing.experiment import progress
+
+
+def test_eta_of_chunks_finishing_together_is_the_time_left(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """1930 runs of 1 s on 2 workers, reported 64 at a time as each worker ends a chunk (a
+    chunk's runs come back together).  The sweep takes 965 s; after r rounds (128 r runs)
+    965 - 64 r s are left.  The ETA measured as time elapsed per run reported said
+    64 x 1929 = 123,456 s after the first run of the first chunk, and twice the time left
+    once that chunk was in."""
+    n, wall, workers, chunk = 1930, 1.0, 2, 64
+    clock = [0.0]
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: clock[0])
+    out = io.StringIO()
+    bar = progress.Progress(n, "s", "runs", out, enabled=False, lines=True, workers=workers)
+    assert bar.eta_s() is None  # nothing finished: no estimate
+    done = 0
+    for r in range(1, n // (workers * chunk) + 1):
+        clock[0] = r * chunk * wall  # both workers end a chunk
+        for _ in range(workers * chunk):
+            bar.advance(1, "point", wall_s=wall)
+            done += 1
+            left = (n - done) * wall / workers
+            assert bar.eta_s() == pytest.approx(left)
+        assert bar.eta_s() == pytest.approx(n * wall / workers - clock[0])
+    first = out.getvalue().splitlines()[1]
+    assert first.startswith("s: 1/1930 runs, ETA 964 s"), first
+
+
+def test_runs_without_a_time_do_not_count(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Skipped and broken runs (no wall time) count as done but not in the mean."""
+    bar = progress.Progress(10, "s", "runs", io.StringIO(), enabled=False, workers=2)
+    bar.advance(1, wall_s=float("nan"))
+    assert bar.eta_s() is None
+    bar.advance(1, wall_s=4.0)
+    assert bar.eta_s() == pytest.approx(8 * 4.0 / 2)
+
+
+def test_eta_closed_form() -> None:
+    assert progress.eta_from_walls(10, 4, 12.0, 3, 2) == pytest.approx(12.0 / 3 * 6 / 2)
+    assert progress.eta_from_walls(10, 4, 0.0, 0, 2) is None
+    assert progress.eta_from_walls(10, 10, 5.0, 10, 2) == 0.0
