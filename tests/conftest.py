@@ -38,6 +38,31 @@ def installed_version(name: str) -> str | None:
         return None
 
 
+#: OpenBLAS's x86-64 kernels and the CPU flag each needs (forcing one the CPU lacks crashes).
+BLAS_KERNELS = {"Sandybridge": "avx", "Haswell": "avx2", "Zen": "avx2", "SkylakeX": "avx512f"}
+
+
+def run_with_blas_kernel(kernel: str, args: list[str]) -> str:
+    """Run ``python ARGS`` with OpenBLAS forced to ``kernel`` and return its stdout; skip the
+    test where the CPU cannot run that kernel, fail if OpenBLAS ran another or the run fails."""
+    import subprocess
+    import sys
+
+    try:
+        cpuinfo = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        cpuinfo = ""
+    flags = {f for line in cpuinfo.splitlines() if line.startswith("flags") for f in line.split()}
+    if BLAS_KERNELS[kernel] not in flags:
+        pytest.skip(f"this CPU has no {BLAS_KERNELS[kernel]} for OpenBLAS's {kernel} kernel")
+    env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "OPENBLAS_VERBOSE": "2"}
+    run = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    runs = "Haswell" if kernel == "Zen" else kernel  # OpenBLAS runs Zen on Haswell's kernels
+    assert f"Core: {runs}" in run.stdout + run.stderr  # the kernel OpenBLAS says it ran
+    return run.stdout
+
+
 def pytest_report_header(config: pytest.Config) -> list[str]:
     """The session header names the pinned versions it runs with (and any that differ)."""
     pins = locked_versions()

@@ -558,10 +558,15 @@ class Plant:
         upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
         lower = -upper
         lower[-1] = 0.0  # throttle 0..1
+        # Levenberg-Marquardt (MINPACK) rather than the bounded trust-region method: MINPACK
+        # does its own linear algebra, so the trim is the same bytes whatever BLAS kernel
+        # the processor gets (the bounded method's solves differed in the last digits).  It
+        # takes no bounds: the start lies within them and the checks below refuse a
+        # solution outside the asked state.
         solution = least_squares(
             accelerations_at,
             np.clip(x0, lower, upper),
-            bounds=(lower, upper),
+            method="lm",
             x_scale=0.01,
             xtol=1e-15,
             ftol=1e-15,

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import BLAS_KERNELS, run_with_blas_kernel
 
 from probing.sim.linear import LongitudinalModes, longitudinal_matrix
 
@@ -542,40 +543,15 @@ def test_converter_regenerates_committed_model_byte_for_byte(tmp_path: Path) -> 
         assert path.read_bytes() == (MODEL_DIR / rel).read_bytes(), rel
 
 
-#: OpenBLAS kernels and the CPU flag each needs (forcing a kernel the CPU lacks would crash).
-BLAS_KERNELS = {"Sandybridge": "avx", "Haswell": "avx2", "Zen": "avx2", "SkylakeX": "avx512f"}
-
-
-def _cpu_flags() -> set[str]:
-    try:
-        text = Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return set()
-    return {f for line in text.splitlines() if line.startswith("flags") for f in line.split()}
-
-
 @pytest.mark.skipif(not MAT.exists(), reason=NO_MAT)
 @pytest.mark.parametrize("kernel", sorted(BLAS_KERNELS))
 def test_converter_output_does_not_depend_on_the_blas_kernel(kernel: str, tmp_path: Path) -> None:
     """The converter in a process with OpenBLAS forced to each x86-64 kernel writes the
     committed files byte for byte (its one linear solve is exact, so no kernel's rounding
     reaches the written digits; numpy's own solve differed in the last digit on SkylakeX)."""
-    import os
-    import subprocess
-    import sys
-
-    if BLAS_KERNELS[kernel] not in _cpu_flags():
-        pytest.skip(f"this CPU has no {BLAS_KERNELS[kernel]} for OpenBLAS's {kernel} kernel")
-    env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "OPENBLAS_VERBOSE": "2"}
-    run = subprocess.run(
-        [sys.executable, str(AIRCRAFT / "convert_gtm.py"), str(MAT), "--out", str(tmp_path)],
-        env=env,
-        capture_output=True,
-        text=True,
+    run_with_blas_kernel(
+        kernel, [str(AIRCRAFT / "convert_gtm.py"), str(MAT), "--out", str(tmp_path)]
     )
-    assert run.returncode == 0, run.stderr
-    runs = "Haswell" if kernel == "Zen" else kernel  # OpenBLAS runs Zen on Haswell's kernels
-    assert f"Core: {runs}" in run.stdout + run.stderr  # the kernel OpenBLAS says it ran
     for rel in ("gtm_t2.xml", "Engines/gtm_jet.xml", "Engines/gtm_direct.xml"):
         assert (tmp_path / rel).read_bytes() == (MODEL_DIR / rel).read_bytes(), rel
 
