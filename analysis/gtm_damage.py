@@ -17,10 +17,10 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
 from analysis.figures import RC, save_figure
 from probing.experiment.gtm_damage import case_file
+from probing.experiment.storage import read_table
 from probing.sim.flight import DAMAGE_CASES
 
 __all__ = ["SUMMARY_VARIABLES", "UNWRAPPED", "draw", "load", "summary", "trim_table"]
@@ -50,7 +50,7 @@ def load(folder: Path) -> dict[int, tuple[pd.DataFrame, dict[str, Any]]]:
         path = case_file(folder, case)
         if not path.exists():
             continue
-        table = pq.read_table(path)
+        table = read_table(path)
         meta = {
             k.decode().removeprefix("probing."): v.decode()
             for k, v in (table.schema.metadata or {}).items()

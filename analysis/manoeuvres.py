@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import RC, save_figure
-from probing.experiment.storage import read_schema
+from probing.experiment.storage import read_table
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 
@@ -35,9 +35,9 @@ def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
     """
     runs = []
     for path in sorted(Path(results).glob("*/manoeuvre.parquet")):
-        meta = read_schema(path).metadata or {}
-        scenario = json.loads(meta[b"probing.scenario"])
-        runs.append((path.parent.name, pd.read_parquet(path), scenario))
+        table = read_table(path)
+        scenario = json.loads((table.schema.metadata or {})[b"probing.scenario"])
+        runs.append((path.parent.name, table.to_pandas(), scenario))
     if not runs:
         raise FileNotFoundError(f"{results}: no manoeuvre run (manoeuvre.parquet)")
     runs.sort(key=lambda r: _rate(r[2]))

@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
+
+from probing.experiment.storage import read_table
 
 __all__ = [
     "FAULTS",
@@ -116,7 +117,7 @@ def load_study(results: str | Path) -> pd.DataFrame:
     results = Path(results)
     frames = []
     for summary in sorted(results.glob("monitor-*/summary.parquet")):
-        df = pd.read_parquet(summary)
+        df = read_table(summary).to_pandas()
         df = df[df.status == "done"].copy()
         sweep = summary.parent.name
         df["fault"] = [_fault_key(sweep, r) for _, r in df.iterrows()]
@@ -146,8 +147,8 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for _, f in study.iterrows():
-        mon = pd.read_parquet(Path(f.folder) / "monitor.parquet")
-        meta = pq.read_metadata(Path(f.folder) / "monitor.parquet").metadata
+        table = read_table(Path(f.folder) / "monitor.parquet")
+        mon, meta = table.to_pandas(), table.schema.metadata
         first_alarm = json.loads(meta[b"probing.first_alarm_s"])
         onset = f.fault_onset_s if math.isfinite(f.fault_onset_s) else math.inf
         tested = mon[mon.statistic.notna()]

@@ -11,6 +11,7 @@ import pandas as pd
 
 from analysis.figures import RC, save_figure
 from analysis.monitoring import FAULTS, roc
+from probing.experiment.storage import read_table
 
 __all__ = ["detection_figure", "draw_all", "fault_figure", "roc_figure", "verdict_figure"]
 
@@ -106,9 +107,9 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     g = flights[(flights.fault == key) & (flights.drift == "reference")].sort_values("seed")
     f = g.iloc[0]
     folder = Path(f.folder)
-    mon = pd.read_parquet(folder / "monitor.parquet")
+    mon = read_table(folder / "monitor.parquet").to_pandas()
     channel = mon.channel.iloc[0]  # the monitored output (not the surface, an instrument)
-    pr = pd.read_parquet(folder / "probing.parquet")
+    pr = read_table(folder / "probing.parquet").to_pandas()
     pr = pr[pr.channel == channel]
     window = 4
     onset_period = math.floor(f.fault_onset_s / f.period_s)

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import RC, save_figure
-from probing.experiment.storage import read_schema
+from probing.experiment.storage import read_schema, read_table
 
 __all__ = ["draw", "figure", "load_runs", "summary_markdown"]
 
@@ -41,7 +41,7 @@ def load_runs(results: Path) -> dict[str, tuple[pd.DataFrame, dict]]:
         info = {k: json.loads(meta[k]) for k in ("scenario", "design", "crosstalk")}
         if info["crosstalk"] is None:
             continue
-        runs[path.parent.name] = (pd.read_parquet(path), info)
+        runs[path.parent.name] = (read_table(path).to_pandas(), info)
     if not runs:
         raise FileNotFoundError(f"{results}: no simultaneous run flown with --truth")
     return runs

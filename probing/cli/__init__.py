@@ -893,6 +893,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args))
     except UsageError as exc:
         return _error(str(exc), 2)
+    except ValueError as exc:  # a stored file that cannot be read, wherever it is read
+        from probing.experiment.storage import StoredFileError
+
+        if isinstance(exc, StoredFileError):
+            return _error(str(exc), 2)
+        raise
     except Terminated:
         return _error("terminated", 143)
     except KeyboardInterrupt:

@@ -61,6 +61,7 @@ __all__ = [
     "provenance",
     "read_schema",
     "read_settled",
+    "read_table",
     "strict_json",
     "timeseries_schema",
     "units",
@@ -574,6 +575,21 @@ def _reading(path: Path) -> Iterator[None]:
     except (pa.ArrowException, OSError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc).split(". ")[0].strip() or "?"
         raise StoredFileError(f"{path}: cannot be read as Parquet ({reason})") from None
+
+
+def read_table(path: Path, columns: Sequence[str] | None = None) -> pa.Table:
+    """A stored Parquet file (these ``columns``, or all), with its key-value metadata.
+
+    ``read_table(path).to_pandas()`` for a DataFrame: every reader of stored results goes
+    through here or :func:`read_schema`, so a damaged file is one error naming it.
+
+    Raises
+    ------
+    StoredFileError
+        When ``path`` is missing, unreadable or not a Parquet file.
+    """
+    with _reading(path):
+        return pq.read_table(path, columns=None if columns is None else list(columns))
 
 
 def read_schema(path: Path) -> pa.Schema:

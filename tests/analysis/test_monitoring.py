@@ -297,3 +297,20 @@ def test_an_alarm_in_the_first_tested_period_is_an_event(tmp_path: Path):
     pd.DataFrame([flight]).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
     f1 = evaluate(load_study(tmp_path)).iloc[0]
     assert f1.false_alarms == 1 and f1.healthy_h == pytest.approx(28 * T / 3600)
+
+
+def test_a_damaged_flight_file_is_one_line_naming_it_and_nothing_written(study, tmp_path, capsys):
+    """probing plot monitor on a study with one damaged monitor.parquet: exit 2, one line on
+    stderr naming the file, no summary and no figure written (it was pyarrow's traceback)."""
+    from probing.cli import main
+
+    damaged = tmp_path / "monitor-none" / "points" / "point_id=h2" / "monitor.parquet"
+    damaged.write_bytes(b"not a parquet file")
+    summary, figures = tmp_path / "out" / "summary.md", tmp_path / "figs"
+    code = main(
+        ["plot", "monitor", str(tmp_path), "--figures", str(figures), "--summary", str(summary)]
+    )
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("probing: error: ") and str(damaged) in err
+    assert not summary.exists() and not figures.exists()
