@@ -16,6 +16,7 @@ import numpy as np
 
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import RateLimit
+from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PER_DEG,
@@ -297,7 +298,8 @@ def write_summary(df: Any, path: Path, sweep: Sweep) -> None:
             units=units(schema, channels),
         )
     )
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    remove_dead_writers_files(path.parent, ".tmp")  # a killed sweep's half-written summary
+    tmp = path.with_name(f".{path.name}.{writer_tag()}.tmp")
     pq.write_table(table.cast(schema).replace_schema_metadata(meta), tmp)
     os.replace(tmp, path)
 

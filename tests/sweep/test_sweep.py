@@ -628,3 +628,27 @@ def test_an_interrupted_local_pool_sets_nothing_on_a_cancelled_future(
     with pytest.raises(KeyboardInterrupt):
         chunks.throw(KeyboardInterrupt)
     assert errors == []
+
+
+def test_writing_the_summary_removes_a_killed_writers_half_summary(tmp_path: Path) -> None:
+    """A sweep killed while writing summary.parquet left its temporary; the next summary
+    written there removes it, and keeps a temporary of a writer that is still alive."""
+    from probing.core.tempfiles import writer_tag
+    from probing.sweep.summary import write_summary
+
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        text=True,
+        capture_output=True,
+        check=True,
+    ).stdout.strip()
+    host = writer_tag().split("@", 1)[1]
+    stale = tmp_path / f".summary.parquet.{dead}@{host}.tmp"
+    live = tmp_path / f".summary.parquet.{os.getppid()}@{host}.tmp"
+    stale.write_bytes(b"half")
+    live.write_bytes(b"being written")
+    write_summary(
+        pd.DataFrame({"point_id": ["a"]}), tmp_path / "summary.parquet", load_sweep(SMALL)
+    )
+    assert not stale.exists() and live.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, "summary.parquet"])
