@@ -421,32 +421,31 @@ def turbulence_residual(scn: Scenario, seeds: int) -> dict[str, np.ndarray]:
     dict
         Channel -> array (seeds, periods x M), the channel's unit.
     """
+    from probing.experiment.batch import run_grouped
+
+    base = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "reference"})
+    runs = [base.replace({"disturbance.turbulence": "none", "name": "calm"})]
+    runs += [base.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}) for k in range(seeds)]
+    deviations: list[np.ndarray] = [np.empty(0)] * len(runs)
+    for i, outcome in run_grouped(runs, lambda s: s, _deviation):  # one load and trim
+        deviations[i] = outcome.get()
+    calm, gusts = deviations[0], np.array(deviations[1:])
+    bits = (gusts - calm)[:, scn.steps_per_bit - 1 :: scn.steps_per_bit]
+    return {channel: bits[:, :, j] for j, channel in enumerate(scn.channels)}
+
+
+def _deviation(scn: Scenario, aircraft: Any) -> np.ndarray:
+    """Measured minus reference of a run, every step, (steps, channels)."""
     import tempfile
 
     import pandas as pd
 
     from probing.experiment.run import run_scenario
 
-    short = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "reference"})
-    spb = short.steps_per_bit
-
-    def deviation(s: Scenario, folder: str) -> pd.DataFrame:
-        result = run_scenario(s, folder, progress=False, twin_cache=False)
-        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
-        return pd.DataFrame({c: ts[c] - ts[f"{c}_reference"] for c in s.channels})
-
     with tempfile.TemporaryDirectory(prefix="probing-turbulence-") as tmp:
-        calm = deviation(short.replace({"disturbance.turbulence": "none", "name": "calm"}), tmp)
-        runs = [
-            deviation(short.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}), tmp)
-            for k in range(seeds)
-        ]
-    return {
-        channel: np.array([(run[channel] - calm[channel]).to_numpy() for run in runs])[
-            :, spb - 1 :: spb
-        ]
-        for channel in scn.channels
-    }
+        result = run_scenario(scn, tmp, progress=False, aircraft=aircraft)  # twin: stored first
+        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
+    return np.stack([ts[c] - ts[f"{c}_reference"] for c in scn.channels], axis=1)
 
 
 def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenario]:
