@@ -831,7 +831,10 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
         help="turbulence level; what the reference twin does not cancel is measured",
     )
     parser.add_argument(
-        "--calibration-seeds", type=int, default=8, help="turbulence runs to measure it on"
+        "--calibration-seeds",
+        type=int,
+        default=32,
+        help="noise-free turbulence runs to measure it on (a std from K of them: 1/sqrt(2(K-1)))",
     )
     parser.add_argument(
         "--estimator",

@@ -12,6 +12,13 @@ where c_i is the autocorrelation of tap i's weight row and d the distance betwee
 periods in periods (windows that overlap, or noise correlated across periods, both count).
 White sensor noise of standard deviation sigma is r = [sigma^2].
 
+Noise that is not stationary, or not additive (turbulence the reference twin does not cancel:
+the gusts perturb the aircraft's response to the probe, a random change of h itself), has no
+autocovariance that says what it does to one direction of h such as the gain's.  It is taken
+as realisations instead (``samples``: K noise-free runs' residual bit samples from the run's
+start): the estimator's weights applied to each realisation's own settled periods, the
+variance over the K realisations (sampling error 1/sqrt(2 (K - 1)) on a standard deviation).
+
 ============  ==============================================================================
 estimator     what it computes (reference sigma, amplitude a, M = 2^n - 1)
 ============  ==============================================================================
@@ -178,6 +185,37 @@ def sample_autocovariance(x: np.ndarray, max_lag: int | None = None) -> np.ndarr
     return acorr / np.arange(n, n - max_lag - 1, -1)
 
 
+def _sampled_variance(
+    rows: np.ndarray, samples: np.ndarray, m: int, first: int, periods: int
+) -> np.ndarray:
+    """Variance over realisations of the mean over periods ``first .. first + periods - 1`` of
+    ``rows @ u``, period p's window being the ``rows.shape[1]`` samples that end with period
+    p (the period itself, and the one before for streaming); ``samples`` (K, n) from the run's
+    first sample."""
+    rows = np.atleast_2d(rows)
+    samples = np.atleast_2d(samples)
+    k, n = samples.shape
+    back = rows.shape[1] // m  # periods a window reads: 1, or 2 for streaming
+    start = first - back + 1
+    if start < 0 or (first + periods) * m > n:
+        raise ValueError(
+            f"samples of {n // m} periods do not hold the windows of periods {first} to "
+            f"{first + periods - 1}"
+        )
+    if k < 2:
+        raise ValueError("samples need at least 2 realisations for a variance")
+    window_sum = np.concatenate(
+        [
+            samples[:, (start + j) * m : (start + j + periods) * m]
+            .reshape(k, periods, m)
+            .sum(axis=1)
+            for j in range(back)
+        ],
+        axis=1,
+    )
+    return np.var(window_sum @ rows.T / periods, axis=0, ddof=1)
+
+
 def _variance(rows: np.ndarray, acov: np.ndarray, m: int, periods: int) -> np.ndarray:
     """Variance of the mean over ``periods`` consecutive periods of ``rows @ u`` (module
     docstring), each row's weights shifted by ``m`` samples from one period to the next."""
@@ -213,7 +251,9 @@ class NoiseModel:
     """Seed-to-seed noise of the mean over P settled periods of one estimator's z and h.
 
     Build it with :func:`noise_model`.  Standard deviations are per tap, in the output's
-    unit (z) and per probe unit (h).
+    unit (z) and per probe unit (h).  The noise is the stationary part ``acov`` plus, when
+    given, realisations ``samples`` (K, n) of further noise on the bit samples from the run's
+    first sample, of which the settled periods ``first .. first + periods - 1`` are read.
     """
 
     estimator: str
@@ -222,23 +262,38 @@ class NoiseModel:
     m: int
     periods: int
     acov: np.ndarray
+    samples: np.ndarray | None = None
+    first: int = 0
 
-    def with_noise(self, acov: np.ndarray) -> NoiseModel:
-        """The same estimator under other noise (autocovariance ``acov`` of the bit samples)."""
-        return dataclasses.replace(self, acov=np.atleast_1d(np.asarray(acov, dtype=float)))
+    def with_noise(
+        self, acov: np.ndarray, samples: np.ndarray | None = None, first: int = 0
+    ) -> NoiseModel:
+        """The same estimator under other noise: autocovariance ``acov`` of the bit samples
+        (output units squared), plus realisations ``samples`` (K, n; output units) whose
+        settled periods start at period ``first``."""
+        acov = np.atleast_1d(np.asarray(acov, dtype=float))
+        if samples is not None:
+            samples = np.atleast_2d(np.asarray(samples, dtype=float))
+        return dataclasses.replace(self, acov=acov, samples=samples, first=int(first))
+
+    def _variance(self, rows: np.ndarray) -> np.ndarray:
+        out = _variance(rows, self.acov, self.m, self.periods)
+        if self.samples is not None:
+            out = out + _sampled_variance(rows, self.samples, self.m, self.first, self.periods)
+        return out
 
     def z_std(self) -> np.ndarray:
         """Standard deviation of each tap of the mean settled z, shape (M,)."""
-        return np.sqrt(_variance(self.z_rows, self.acov, self.m, self.periods))
+        return np.sqrt(self._variance(self.z_rows))
 
     def h_std(self) -> np.ndarray:
         """Standard deviation of each tap of the mean settled h, shape (M,)."""
-        return np.sqrt(_variance(self.h_rows, self.acov, self.m, self.periods))
+        return np.sqrt(self._variance(self.h_rows))
 
     def projection_std(self, v: np.ndarray) -> float:
         """Standard deviation of ``v @ h`` for the mean settled h."""
         row = np.asarray(v, dtype=float) @ self.h_rows
-        return float(np.sqrt(_variance(row[None, :], self.acov, self.m, self.periods)[0]))
+        return float(np.sqrt(self._variance(row[None, :])[0]))
 
     def gain_std(self, h_ref: np.ndarray) -> float:
         """Standard deviation of the least-squares gain <h, h_ref> / <h_ref, h_ref> of the

@@ -12,8 +12,9 @@ The rules, each printed with the value it produced:
 * **Estimator**: the one with the smallest predicted scatter of the target (the gain: ``ac``,
   which leaves out the DC direction the probe hardly excites; h: ``cyclic``), unless given.
 * **Periods**: the fewest whose predicted seed-to-seed scatter (the exact noise model of
-  :mod:`probing.experiment.noise`, sensor noise plus the turbulence the reference twin does
-  not cancel) meets the target, after the settling periods.
+  :mod:`probing.experiment.noise`: sensor noise, plus the turbulence the reference twin does
+  not cancel, taken from ``--calibration-seeds`` noise-free runs as long as the design
+  itself) meets the target, after the settling periods.
 
 The target is a standard error of the gain (``--target-gain-se``), a gain change to detect
 at a false-alarm and a detection probability (``--detect-gain-change``: the gain's standard
@@ -35,7 +36,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import norm
 
-from probing.core.noise import sample_autocovariance
+from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.noise import ChannelPrediction, predict, scatter_models
 from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError, parse_scenario
@@ -110,7 +111,7 @@ class DesignRequest:
     amplitude_deg: float = 0.005
     deadband_margin: float = 3.0
     settle_periods: int = 2
-    calibration_seeds: int = 8
+    calibration_seeds: int = 32
 
     def base(self) -> dict[str, Any]:
         """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
@@ -198,8 +199,8 @@ class DesignRequest:
             raise DesignInputError(
                 "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
             )
-        if not 1 <= self.calibration_seeds <= 100:
-            raise DesignInputError("--calibration-seeds", "must be from 1 to 100")
+        if not 2 <= self.calibration_seeds <= 100:
+            raise DesignInputError("--calibration-seeds", "must be from 2 to 100")
         return scn
 
     @property
@@ -405,46 +406,46 @@ def probe_shape(
     return shape
 
 
-def turbulence_residual(scn: Scenario, seeds: int, periods: int = 4) -> dict[str, np.ndarray]:
-    """The turbulence the reference twin does not cancel, as an autocovariance per channel.
+def turbulence_residual(scn: Scenario, seeds: int) -> dict[str, np.ndarray]:
+    """The turbulence the reference twin does not cancel, as realisations per channel.
 
-    The twin flies the same gusts, so measured - reference holds only the gusts' nonlinear
-    interaction with the probe.  It is measured: noise-free runs of the scenario (settling
-    plus ``periods`` periods) at ``seeds`` seeds in turbulence, minus the same run in calm
-    air, bit samples of the settled part, pooled autocovariance.
+    The twin flies the same gusts, so measured - reference holds only what the gusts do to
+    the aircraft's response to the probe: a random perturbation of h itself, growing as the
+    gusts move the aircraft away from its trim, so neither stationary nor additive, and no
+    autocovariance says what it does to one direction of h (the gain's).  It is measured:
+    noise-free runs of ``scn`` as long as it is, at ``seeds`` seeds (1000, 1001, ...) in its
+    turbulence, minus the same run in calm air, bit samples from the run's start.
+
+    Returns
+    -------
+    dict
+        Channel -> array (seeds, periods x M), the channel's unit.
     """
+    from probing.experiment.batch import run_grouped
+
+    base = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "reference"})
+    runs = [base.replace({"disturbance.turbulence": "none", "name": "calm"})]
+    runs += [base.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}) for k in range(seeds)]
+    deviations: list[np.ndarray] = [np.empty(0)] * len(runs)
+    for i, outcome in run_grouped(runs, lambda s: s, _deviation):  # one load and trim
+        deviations[i] = outcome.get()
+    calm, gusts = deviations[0], np.array(deviations[1:])
+    bits = (gusts - calm)[:, scn.steps_per_bit - 1 :: scn.steps_per_bit]
+    return {channel: bits[:, :, j] for j, channel in enumerate(scn.channels)}
+
+
+def _deviation(scn: Scenario, aircraft: Any) -> np.ndarray:
+    """Measured minus reference of a run, every step, (steps, channels)."""
     import tempfile
 
     import pandas as pd
 
     from probing.experiment.run import run_scenario
 
-    short = scn.replace(
-        {
-            "probe.periods": scn.settle_periods + periods,
-            "disturbance.sensor_noise": {},
-            "output.drift": "reference",
-        }
-    )
-    spb, first = short.steps_per_bit, short.settle_periods * short.bits_per_period
-
-    def deviation(s: Scenario, folder: str) -> pd.DataFrame:
-        result = run_scenario(s, folder, progress=False, twin_cache=False)
-        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
-        return pd.DataFrame({c: ts[c] - ts[f"{c}_reference"] for c in s.channels})
-
     with tempfile.TemporaryDirectory(prefix="probing-turbulence-") as tmp:
-        calm = deviation(short.replace({"disturbance.turbulence": "none", "name": "calm"}), tmp)
-        runs = [
-            deviation(short.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}), tmp)
-            for k in range(seeds)
-        ]
-    out = {}
-    for channel in scn.channels:
-        residual = np.array([(run[channel] - calm[channel]).to_numpy() for run in runs])
-        bits = residual[:, spb - 1 :: spb][:, first:]
-        out[channel] = sample_autocovariance(bits - bits.mean(), 4 * short.bits_per_period)
-    return out
+        result = run_scenario(scn, tmp, progress=False, aircraft=aircraft)  # twin: stored first
+        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
+    return np.stack([ts[c] - ts[f"{c}_reference"] for c in scn.channels], axis=1)
 
 
 def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenario]:
@@ -481,18 +482,18 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
         surface_room_deg=(trim - lo, hi - trim),
     )
     scn = _scenario(request, base, shape, request.estimator or "streaming", 1)
-    acov = turbulence_residual(scn, request.calibration_seeds) if scn.turbulence != "none" else {}
+    gusts = _Gusts(request.calibration_seeds, scn.turbulence != "none")
     target = request.target
-    estimator, scores = _estimator(request, scn, acov, target)
+    estimator, scores = _estimator(request, scn, gusts, target)
     scn = _scenario(request, base, shape, estimator, 4)
     reference = _noise_free_reference(scn)
-    pred = predict(scn, extra_acov=acov, reference=reference)[request.channel]
+    pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[request.channel]
     if target is not None:
-        scn, reference, pred = _meet(request, shape, scn, reference, acov, target)
+        scn, reference, pred = _meet(request, shape, scn, reference, gusts, target)
     periods = scn.settled_periods
     reasons = dict(shape.reasons)
     reasons["estimator"] = _estimator_reason(request, estimator, scores, target)
-    reasons["periods"] = _periods_reason(request, periods, pred, target, acov)
+    reasons["periods"] = _periods_reason(request, periods, pred, target, gusts.on)
     design = Design(
         order=shape.order,
         bits_per_period=shape.bits_per_period,
@@ -546,6 +547,30 @@ def _with_periods(scn: Scenario, periods: int) -> Scenario:
         raise DesignError(f"the design is no valid scenario: {exc.field}: {exc.message}") from None
 
 
+class _Gusts:
+    """The turbulence residual (:func:`turbulence_residual`) of a design, flown once per
+    length: a longer design reflies it as long (the seeds are fixed, so a shorter one is its
+    beginning)."""
+
+    def __init__(self, seeds: int, on: bool) -> None:
+        self.seeds, self.on = seeds, on
+        self.samples: dict[str, np.ndarray] = {}
+        self.periods = 0
+
+    def of(self, scn: Scenario, periods: int | None = None) -> dict[str, np.ndarray]:
+        """Realisations covering ``periods`` (default: all) of ``scn``'s periods."""
+        if not self.on:
+            return {}
+        periods = scn.periods if periods is None else periods
+        if periods > self.periods:
+            self.samples = turbulence_residual(
+                _with_periods(scn, periods - scn.settle_periods), self.seeds
+            )
+            self.periods = periods
+        m = scn.bits_per_period
+        return {c: x[:, : periods * m] for c, x in self.samples.items()}
+
+
 def _score(p: ChannelPrediction, kind: str) -> float:
     return p.gain_stderr if kind == "gain" else p.h_stderr
 
@@ -559,7 +584,7 @@ _CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming
 
 
 def _estimator(
-    request: DesignRequest, scn: Scenario, acov: dict, target: tuple[str, float] | None
+    request: DesignRequest, scn: Scenario, gusts: _Gusts, target: tuple[str, float] | None
 ) -> tuple[str, dict[str, float]]:
     """The estimator with the smallest predicted scatter of the target, one settled period
     each (``ac`` does not estimate h itself, so it is no candidate for an h target)."""
@@ -567,7 +592,8 @@ def _estimator(
     scores = {}
     for name in _CANDIDATES[kind]:
         candidate = replace(scn, estimator=name)
-        scores[name] = _score(predict(candidate, extra_acov=acov)[request.channel], kind)
+        found = predict(candidate, extra_samples=gusts.of(candidate))[request.channel]
+        scores[name] = _score(found, kind)
     if request.estimator is not None:
         return request.estimator, scores
     finite = [k for k in _CANDIDATES[kind] if math.isfinite(scores[k])]
@@ -581,20 +607,34 @@ def _meet(
     shape: ProbeShape,
     scn: Scenario,
     reference: dict[str, np.ndarray],
-    acov: dict,
+    gusts: _Gusts,
     target: tuple[str, float],
 ) -> tuple[Scenario, dict[str, np.ndarray], ChannelPrediction]:
-    """The fewest settled periods that meet the target, with the gain's reference flown as
-    long (its slow-mode bias, hence the direction the gain projects on, depends on the
-    length): search with the reference, fly the reference at the length found, search again,
-    until the length no longer moves; then lengthen until the prediction meets the target."""
+    """The fewest settled periods that meet the target, with the gain's reference and the
+    turbulence residual flown as long (the slow-mode bias, hence the direction the gain
+    projects on, and the turbulence residual, which grows as the gusts move the aircraft,
+    both depend on the length): search with them, fly them at the length found, search
+    again, until the length no longer moves; then lengthen until the prediction meets the
+    target.  Beyond the turbulence flown, the search takes its variance to fall as 1/P."""
     kind, goal = target
     channel = request.channel
     limit = MAX_PERIODS - request.settle_periods
 
+    def variance(model: NoiseModel, h_ref: np.ndarray) -> float:
+        if kind == "gain":
+            return model.gain_std(h_ref) ** 2
+        return float(np.mean(model.h_std() ** 2))
+
     def scatter(p: int, h_ref: np.ndarray) -> float:
-        model = scatter_models(_with_periods(scn, p), acov)[channel]
-        return model.gain_std(h_ref) if kind == "gain" else _rms(model.h_std())
+        flown = gusts.periods - scn.settle_periods  # settled periods the turbulence covers
+        if not gusts.on or p <= flown:
+            at_p = _with_periods(scn, p)
+            return math.sqrt(variance(scatter_models(at_p, None, gusts.of(at_p))[channel], h_ref))
+        at_flown = _with_periods(scn, flown)
+        total = variance(scatter_models(at_flown, None, gusts.of(at_flown))[channel], h_ref)
+        turbulence = max(total - variance(scatter_models(at_flown)[channel], h_ref), 0.0)
+        sensor = variance(scatter_models(_with_periods(scn, p))[channel], h_ref)
+        return math.sqrt(sensor + turbulence * flown / p)
 
     tried: set[int] = set()
     while True:
@@ -607,7 +647,7 @@ def _meet(
         tried.add(periods)
         scn = _with_periods(scn, periods)
         reference = _noise_free_reference(scn)
-        pred = predict(scn, extra_acov=acov, reference=reference)[channel]
+        pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
         if done or len(tried) >= 6:
             break
     while _score(pred, kind) > goal and scn.settled_periods < limit:
@@ -615,7 +655,7 @@ def _meet(
         periods = min(limit, max(scn.settled_periods + 1, math.ceil(scn.settled_periods * grow)))
         scn = _with_periods(scn, periods)
         reference = _noise_free_reference(scn)
-        pred = predict(scn, extra_acov=acov, reference=reference)[channel]
+        pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
     return scn, reference, pred
 
 
@@ -659,9 +699,9 @@ def _estimator_reason(
 
 
 def _periods_reason(
-    request: DesignRequest, periods: int, pred: ChannelPrediction, target: Any, acov: dict
+    request: DesignRequest, periods: int, pred: ChannelPrediction, target: Any, gusts: bool
 ) -> str:
-    sources = "sensor noise" + (" + turbulence the twin leaves" if acov else "")
+    sources = "sensor noise" + (" + turbulence the twin leaves" if gusts else "")
     if target is None:
         settle = request.settle_periods
         return f"no precision target: {periods} settled periods, plus {settle} settling"

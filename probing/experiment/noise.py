@@ -2,9 +2,11 @@
 
 Two things move an estimate away from the aircraft's pulse response, and they are kept apart:
 
-* **Scatter** (seed-to-seed): sensor noise, white per bit sample, and whatever a caller adds
-  as a measured autocovariance (turbulence: the part the reference twin does not cancel).
-  Exact for the estimator in use, from its own weights (:mod:`probing.core.noise`).
+* **Scatter** (seed-to-seed): sensor noise, white per bit sample, exact for the estimator in
+  use from its own weights (:mod:`probing.core.noise`); whatever a caller adds as a known
+  autocovariance; and turbulence, the part the reference twin does not cancel, as measured
+  realisations of it (noise-free runs in turbulence minus the calm run): the weights applied
+  to each realisation's own settled periods.
 * **Bias** (the same for every seed): the run starts from trim, so the slow modes' response
   to the probe (and to the offset b~ of a nonlinearity) is not yet periodic in the settled
   periods.  Computed on JSBSim's linearisation at the trim, with the model's own actuator
@@ -241,14 +243,20 @@ def _deterministic_of(scn: Scenario) -> tuple[dict, dict, dict]:
 
 
 def scatter_models(
-    scn: Scenario, extra_acov: Mapping[str, np.ndarray] | None = None
+    scn: Scenario,
+    extra_acov: Mapping[str, np.ndarray] | None = None,
+    extra_samples: Mapping[str, np.ndarray] | None = None,
 ) -> dict[str, NoiseModel]:
     """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
-    noise plus ``extra_acov`` through the scenario's estimator and drift mode."""
+    noise plus ``extra_acov`` (channel -> autocovariance of stationary noise on the bit
+    samples) plus ``extra_samples`` (channel -> realisations (K, n) of further noise on the bit
+    samples from the run's start, e.g. :func:`probing.experiment.design.turbulence_residual`)
+    through the scenario's estimator and drift mode."""
     detrend_order = scn.detrend_order if scn.detrends else None
     estimator = _estimator_model(
         scn.order, scn.amplitude_deg, scn.estimator, scn.settled_periods, detrend_order
     )
+    first = max(scn.settle_periods, scn.first_estimated_period)
     out: dict[str, NoiseModel] = {}
     for channel in scn.channels:
         acov = white(scn.sensor_noise.get(channel, 0.0))
@@ -256,7 +264,9 @@ def scatter_models(
             extra = np.asarray(extra_acov[channel], dtype=float)
             acov = np.pad(acov, (0, max(0, extra.size - acov.size)))
             acov[: extra.size] += extra
-        out[channel] = estimator.with_noise(acov)  # the weights are the same for every channel
+        samples = extra_samples.get(channel) if extra_samples else None
+        # the weights are the same for every channel
+        out[channel] = estimator.with_noise(acov, samples, first)
     return out
 
 
@@ -274,6 +284,7 @@ def predict(
     scn: Scenario,
     *,
     extra_acov: Mapping[str, np.ndarray] | None = None,
+    extra_samples: Mapping[str, np.ndarray] | None = None,
     linear: LinearResponse | None = None,
     reference: Mapping[str, np.ndarray] | None = None,
 ) -> dict[str, ChannelPrediction]:
@@ -284,9 +295,12 @@ def predict(
     scn : Scenario
         The scenario (its estimator, drift mode, probe, nonlinearity and sensor noise).
     extra_acov : mapping, optional
-        Channel -> autocovariance of further noise on the bit samples, added to the sensor
-        noise (e.g. turbulence the twin does not cancel, measured by
-        :func:`probing.experiment.design.turbulence_residual`).
+        Channel -> autocovariance of further stationary noise on the bit samples, added to
+        the sensor noise (output units squared).
+    extra_samples : mapping, optional
+        Channel -> realisations (K, n) of further noise on the bit samples from the run's
+        start, at least as long as the run (output units): turbulence the twin does not
+        cancel, measured by :func:`probing.experiment.design.turbulence_residual`.
     linear : LinearResponse, optional
         The linearisation to use (default: :func:`linear_model` of the scenario's flight).
     reference : mapping, optional
@@ -298,7 +312,7 @@ def predict(
     dict
         Channel -> :class:`ChannelPrediction`.
     """
-    models = scatter_models(scn, extra_acov)
+    models = scatter_models(scn, extra_acov, extra_samples)
     if linear is None:  # the same for every seed and noise level: remembered
         expected, steady, bare = _deterministic_of(scn)
     else:

@@ -202,3 +202,26 @@ def test_sample_autocovariance_averages_each_lag_over_the_products_it_has(max_la
     np.testing.assert_allclose(sample_autocovariance(x, max_lag), expected, rtol=1e-12)
     ones = sample_autocovariance(np.ones((1, 5)))  # every product is 1, at every lag
     np.testing.assert_allclose(ones, np.ones(5), rtol=1e-12)
+
+
+@pytest.mark.parametrize("estimator", ["streaming", "cyclic", "ac"])
+def test_sampled_noise_is_the_estimators_on_each_realisation(estimator: str) -> None:
+    """Noise given as realisations (turbulence the twin leaves: neither stationary nor
+    additive) is the variance over them of the estimators' own settled mean, to rounding,
+    for h and for the gain; a growing noise (its level doubling over the run) included, which
+    no stationary autocovariance describes."""
+    ref = mls(5)
+    m, settle, periods = ref.size, 2, 3
+    rng = np.random.default_rng(5)
+    growth = np.linspace(1.0, 2.0, (settle + periods) * m)
+    u = 0.05 * growth * ar1(rng, (40, (settle + periods) * m), 0.8)
+    h_ref = np.exp(-np.arange(m) / 6.0)
+    model = noise_model(ref, A, estimator, periods, white(0.0)).with_noise(
+        white(0.0), u, first=settle
+    )
+    h = estimates(u, ref, estimator, periods)  # the last `periods`: settle .. settle + 2
+    np.testing.assert_allclose(model.h_std(), h.std(axis=0, ddof=1), rtol=1e-9)
+    gains = h @ h_ref / (h_ref @ h_ref)
+    assert model.gain_std(h_ref) == pytest.approx(gains.std(ddof=1), rel=1e-9)
+    with pytest.raises(ValueError, match="do not hold"):
+        model.with_noise(white(0.0), u[:, : 4 * m], first=settle).h_std()
