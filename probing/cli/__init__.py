@@ -12,6 +12,7 @@ interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up.
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import signal
 import sys
@@ -21,6 +22,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, NoReturn
+
+from probing.core.forked import INTERRUPTS
 
 __all__ = ["build_parser", "main"]
 
@@ -886,14 +889,44 @@ def _terminate(signum: int, frame: Any) -> None:
     raise Terminated
 
 
+def _end_interrupted(code: int) -> NoReturn:
+    """End this process at once with ``code`` after an interrupt, its clean-up done.
+
+    Further Ctrl-C and SIGTERM are ignored, the streams flushed, and the interpreter's own
+    finalization skipped: it puts back the default action of SIGINT (die by the signal), and
+    one noted late there (a process pool's threads held it back) ended the process by SIGINT
+    instead of with ``code`` now and then.  What the run wrote or removed is settled by then:
+    the exception has passed through every writer's and pool's clean-up.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``probing`` console script."""
+    """Entry point of the ``probing`` console script.
+
+    ``argv`` None: this process's own command line, which exits with the returned code; once
+    interrupted it ends here (:func:`_end_interrupted`).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main else None
+    stopping = 0
     try:
-        return int(args.func(args))
+        with INTERRUPTS:  # no Ctrl-C is lost, wherever it lands (probing.core.forked)
+            try:
+                code = int(args.func(args))
+            except (UsageError, Terminated, KeyboardInterrupt):
+                raise
+            except Exception:
+                INTERRUPTS.check()  # an error the Ctrl-C caused (a pool's broken workers)
+                raise
+            INTERRUPTS.check()  # one Python dropped where it landed: the user asked to stop
+            return code
     except UsageError as exc:
         return _error(str(exc), 2)
     except ValueError as exc:  # a stored file that cannot be read, wherever it is read
@@ -903,9 +936,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _error(str(exc), 2)
         raise
     except Terminated:
-        return _error("terminated", 143)
+        stopping = 143
+        return _error("terminated", stopping)
     except KeyboardInterrupt:
-        return _error("interrupted", 130)
+        stopping = 130
+        return _error("interrupted", stopping)
     finally:
+        if stopping and argv is None:  # the process's own command line: it ends here
+            _end_interrupted(stopping)
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

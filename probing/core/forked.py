@@ -24,7 +24,15 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["ChildDiedError", "Outcome", "can_fork", "forked_map"]
+__all__ = [
+    "INTERRUPTS",
+    "STOPS",
+    "ChildDiedError",
+    "Interrupts",
+    "Outcome",
+    "can_fork",
+    "forked_map",
+]
 
 
 class ChildDiedError(RuntimeError):
@@ -76,48 +84,88 @@ def _child(fn: Callable[[Any], Any], arg: Any, fd: int) -> None:
         os._exit(code)  # no atexit handlers, no flushing of buffers copied from the parent
 
 
-class _Interrupts:
-    """Ctrl-C that arrives while a child is being forked, kept until the child is tracked.
+#: The signals that stop a run: Ctrl-C and SIGTERM.
+STOPS = frozenset({signal.SIGINT, signal.SIGTERM})
 
-    Python runs signal handlers at the next bytecode, and during ``os.fork`` that is inside
-    the library's after-fork hooks (``logging`` has one), which print and *discard* the
-    KeyboardInterrupt: the caller would go on forking as if nothing happened.  While this
-    is active (in the main thread, with Python's default SIGINT handler in place), the
-    handler notes the interrupt and raises it only outside a fork; :meth:`forked` raises a
-    noted one once the new child is registered, so it is killed with the others.
+
+class Interrupts:
+    """Ctrl-C noted for as long as this is active, so that none is lost: one per process,
+    :data:`INTERRUPTS`, entered by whatever needs it (the command line for a whole command,
+    :func:`forked_map`, a sweep's pool), nested freely.
+
+    Python runs signal handlers at the next bytecode, wherever that is: inside the
+    library's after-fork hooks (``logging`` has one), an import (a lock's weakref callback,
+    a class's ``__set_name__``) or any callback whose exceptions Python ignores, the
+    KeyboardInterrupt is printed and *discarded* or turned into another error, and the
+    caller would go on as if nothing happened.  While this is active (in the main thread,
+    with Python's default SIGINT handler in place when first entered) the handler notes
+    every Ctrl-C: it raises at once outside :meth:`forked` and imports; :meth:`check` and the end of
+    :meth:`forked` raise a noted one again wherever the first was lost, and
+    :attr:`noted` tells an error that the Ctrl-C caused from any other.
     """
 
     def __init__(self) -> None:
-        self.forking = False
+        self.depth = 0
+        self.forking = 0
         self.noted = False
         self.previous: Any = None
 
-    def __enter__(self) -> _Interrupts:
-        in_main = threading.current_thread() is threading.main_thread()
-        if in_main and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            self.previous = signal.signal(signal.SIGINT, self._handler)
+    def __enter__(self) -> Interrupts:
+        if self.depth == 0:
+            self.noted = False
+            in_main = threading.current_thread() is threading.main_thread()
+            if in_main and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                self.previous = signal.signal(signal.SIGINT, self._handler)
+        self.depth += 1
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self.previous is not None and threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, self.previous)
+        self.depth -= 1
+        if self.depth == 0 and self.previous is not None:
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, self.previous)
+            self.previous = None
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.noted = True
-        if not self.forking:
+        if not self.forking and not _importing(frame):
+            raise KeyboardInterrupt
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if a Ctrl-C was noted (and perhaps lost where it landed)."""
+        if self.noted:
             raise KeyboardInterrupt
 
     @contextlib.contextmanager
     def forked(self) -> Iterator[None]:
-        """Around forking a child and registering it; a Ctrl-C noted meanwhile is raised
-        when the block ends."""
-        self.forking = True
+        """Around forking processes and registering them: Ctrl-C and SIGTERM are blocked in
+        this thread, so a new process inherits the block (it lifts it once it has set its own
+        handlers), and a Ctrl-C noted before or meanwhile is raised when the block ends, also
+        in place of an error it caused there (a process pool whose workers it ended)."""
+        self.check()
+        self.forking += 1
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
         try:
             yield
         finally:
-            self.forking = False
-        if self.noted:
-            raise KeyboardInterrupt
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending one is noted here
+            self.forking -= 1
+            if self.noted and not self.forking:
+                raise KeyboardInterrupt
+
+
+def _importing(frame: Any) -> bool:
+    """Whether ``frame`` runs inside an import, where a KeyboardInterrupt would be printed
+    and dropped by one of the import system's callbacks, or turned into another error."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+#: The process's one :class:`Interrupts`.
+INTERRUPTS = Interrupts()
 
 
 def _start(fn: Callable[[Any], Any], arg: Any) -> tuple[int, int]:
@@ -131,14 +179,14 @@ def _start(fn: Callable[[Any], Any], arg: Any) -> tuple[int, int]:
     read, write = os.pipe()
     sys.stdout.flush()  # what the parent buffered must not be written twice
     sys.stderr.flush()
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
     gc.freeze()  # the child's collector then leaves the parent's objects (and pages) alone
     pid = os.fork()
     if pid == 0:  # the child
         os.close(read)
         signal.signal(signal.SIGINT, signal.SIG_DFL)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, if any
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)  # also if the parent held them
         _child(fn, arg, write)
     gc.unfreeze()
     os.close(write)
@@ -173,7 +221,7 @@ def forked_map(fn: Callable[[Any], Any], args: Iterable[Any], jobs: int = 1) -> 
     running: dict[int, tuple[int, int, bytearray]] = {}  # fd -> (index, pid, data)
     selector = selectors.DefaultSelector()
     exiting: list[int] = []  # children that answered and are still tearing down
-    with _Interrupts() as interrupts:
+    with INTERRUPTS as interrupts:
         try:
             while True:
                 while len(running) < max(1, jobs):
@@ -198,6 +246,7 @@ def forked_map(fn: Callable[[Any], Any], args: Iterable[Any], jobs: int = 1) -> 
                     os.close(fd)
                     outcome = _finish(index, pid, bytes(data), exiting)
                     _reap(exiting)
+                    interrupts.check()  # a child ended by the Ctrl-C is not its outcome
                     yield outcome
         finally:
             for pid in exiting:  # answered, and ending: wait for them

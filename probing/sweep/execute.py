@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from probing.core.forked import INTERRUPTS, STOPS
 from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import write_json_atomic
@@ -224,13 +225,22 @@ class _Local:
         _import_task_code()
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         workers = min(self.jobs, len(chunks))
-        with ProcessPoolExecutor(
-            max_workers=workers, mp_context=ctx, initializer=_die_on_ctrl_c
-        ) as pool:
-            futures = [pool.submit(execute_chunk, c) for c in chunks]
+        with (
+            INTERRUPTS as interrupts,
+            ProcessPoolExecutor(
+                max_workers=workers, mp_context=ctx, initializer=_die_on_ctrl_c
+            ) as pool,
+        ):
             try:
+                # The first submit forks the workers: Ctrl-C is held across it (the workers
+                # inherit the block and lift it in _die_on_ctrl_c), else it could land in
+                # the library's after-fork hooks, which print a traceback and drop it.
+                with interrupts.forked():
+                    futures = [pool.submit(execute_chunk, c) for c in chunks]
                 for fut in as_completed(futures):
-                    yield fut.result()
+                    records = fut.result()
+                    interrupts.check()  # a Ctrl-C that landed where Python drops it
+                    yield records
             except BaseException:
                 # The queued chunks are cancelled by the pool's own manager thread, which
                 # also drops them from its work items.  Cancelling them from here raced
@@ -244,6 +254,8 @@ class _Local:
                 # removed by the next invocation, as after a kill.
                 for proc in mp.active_children():
                     proc.kill()
+                if interrupts.noted:  # the workers' deaths were the Ctrl-C's
+                    raise KeyboardInterrupt from None
                 raise
 
 
@@ -254,6 +266,7 @@ def _die_on_ctrl_c() -> None:
     the next one queued."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)  # held across the fork (run)
 
 
 class _Dask:

@@ -10,6 +10,7 @@ import json
 import math
 import os
 import re
+import signal
 import socket
 import subprocess
 import sys
@@ -620,3 +621,49 @@ def test_a_file_written_into_an_output_folder_that_is_a_folder(
     (tmp_path / "o" / inside).mkdir(parents=True)
     path = tmp_path / "o" / inside
     refused([a.format(dir=tmp_path) for a in argv], tmp_path, capsys, str(path), "is a folder")
+
+
+def _importing_frame():
+    """A frame as a signal handler sees it inside an import (where Python drops a raise)."""
+
+    class Frame:
+        f_code = type("Code", (), {"co_filename": "<frozen importlib._bootstrap>"})()
+        f_back = None
+
+    return Frame()
+
+
+@pytest.mark.parametrize("then", ["breaks", "finishes"])
+def test_a_ctrl_c_lost_where_it_landed_still_ends_the_command(
+    then: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A Ctrl-C that landed where Python drops it (an import) and then broke the command
+    (a pool's workers ended: another error), or let it finish: one line, exit 130."""
+    import probing.cli as cli
+    from probing.core.forked import INTERRUPTS
+
+    def command(args):
+        INTERRUPTS._handler(signal.SIGINT, _importing_frame())  # as the signal would
+        if then == "breaks":
+            raise RuntimeError("A child process terminated abruptly")
+        return 0
+
+    monkeypatch.setattr(cli, "_cmd_plot", command)
+    assert cli.main(["plot", "fig4", "results"]) == 130
+    out, err = capsys.readouterr()
+    assert err == "probing: error: interrupted\n" and out == ""
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+
+
+def test_an_error_without_a_ctrl_c_is_not_called_an_interrupt(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The same error with no Ctrl-C noted propagates as itself."""
+    import probing.cli as cli
+
+    def command(args):
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(cli, "_cmd_plot", command)
+    with pytest.raises(RuntimeError, match="a bug"):
+        cli.main(["plot", "fig4", "results"])

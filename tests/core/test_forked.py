@@ -129,3 +129,49 @@ def test_ctrl_c_to_a_child_being_forked_ends_that_child(tmp_path) -> None:
     assert not (tmp_path / "ran-0").exists()
     assert len(list(tmp_path.glob("ran-*"))) == 19
     assert "Exception ignored" not in err
+
+
+class _Frame:
+    """A stand-in for the frame a signal handler is given: its file and its caller."""
+
+    def __init__(self, filename: str, back: _Frame | None = None) -> None:
+        self.f_code = type("Code", (), {"co_filename": filename})()
+        self.f_back = back
+
+
+def test_a_ctrl_c_inside_an_import_is_noted_and_raised_at_the_next_check() -> None:
+    """Python drops a KeyboardInterrupt raised in the import system's callbacks: inside an
+    import (anywhere up the stack) the handler only notes it, check() raises it; outside,
+    it raises at once; leaving the outermost block forgets it."""
+    from probing.core.forked import Interrupts
+
+    interrupts = Interrupts()
+    with interrupts:
+        in_import = _Frame("/x/module.py", _Frame("<frozen importlib._bootstrap>"))
+        interrupts._handler(signal.SIGINT, in_import)  # no raise
+        assert interrupts.noted
+        with pytest.raises(KeyboardInterrupt):
+            interrupts.check()
+        with pytest.raises(KeyboardInterrupt):
+            interrupts._handler(signal.SIGINT, _Frame("/x/module.py"))
+    with interrupts:
+        assert not interrupts.noted
+        interrupts.check()  # nothing noted: no raise
+
+
+def test_a_ctrl_c_noted_while_forking_replaces_the_error_it_caused() -> None:
+    """A Ctrl-C noted inside forked() (it ended a pool's workers) is raised at the end of the
+    block in place of the error it caused there (BrokenProcessPool); nested blocks raise it
+    only at the outermost end."""
+    from probing.core.forked import Interrupts
+
+    interrupts = Interrupts()
+    with interrupts, pytest.raises(KeyboardInterrupt):
+        with interrupts.forked():
+            with interrupts.forked():
+                interrupts._handler(signal.SIGINT, None)  # noted, not raised: forking
+            raise RuntimeError("the pool broke")
+    with interrupts:
+        interrupts._handler(signal.SIGINT, _Frame("<frozen importlib._bootstrap>"))
+        with pytest.raises(KeyboardInterrupt), interrupts.forked():  # noted before: no fork
+            raise AssertionError("forked although a Ctrl-C was noted")

@@ -588,7 +588,7 @@ def test_ctrl_c_on_two_workers_is_one_line_whenever_it_lands(delay_s: float, tmp
         '"condition.altitude_ft" = [14000, 15000, 16000, 17000, 18000, 19000]\n'
         '"nonlinearity.type" = ["backlash"]\n'
         '"nonlinearity.width_deg" = [0.0, 0.005]\n'
-        '[fixed]\n"probe.periods" = 60\n'
+        '[fixed]\n"probe.periods" = 1500\n'
     )
     cmd = [sys.executable, "-m", "probing", "sweep", str(sweep), "--out", str(tmp_path), "-j", "2"]
     proc = subprocess.Popen(
