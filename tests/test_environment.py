@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -35,8 +36,14 @@ def test_the_lock_pins_every_declared_dependency() -> None:
 
 def test_make_clean_removes_no_committed_file(tmp_path: Path) -> None:
     """make clean deletes generated outputs only: none of its paths is tracked by git."""
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MAKELEVEL", "MFLAGS")}
     recipe = subprocess.run(
-        ["make", "-n", "clean"], cwd=ROOT, capture_output=True, text=True, check=True
+        ["make", "--no-print-directory", "-n", "clean"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
     ).stdout.split()
     assert recipe[:2] == ["rm", "-rf"], recipe
     tracked = subprocess.run(
