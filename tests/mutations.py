@@ -1,0 +1,149 @@
+"""The one-line bugs a mutation probe once let through the suite, each with the test that
+now catches it.
+
+Run from the repository root (``make setup`` first)::
+
+    .venv/bin/python tests/mutations.py
+
+For each mutation it edits the line, runs the tests named for it (``pytest -x``), restores
+the file and prints ``killed`` (a test failed, as it must) or ``SURVIVED``; the exit code is
+the number that survived.  The files are restored even when interrupted.  Not collected by
+pytest (no ``test_`` prefix): each mutation runs part of the suite.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: (file, text, mutated text, tests that must fail): the issue's 15 survivors.
+MUTATIONS = [
+    (
+        "probing/core/monitor.py",
+        "len(self._since_alarm) < self.isolation_periods",
+        "len(self._since_alarm) <= self.isolation_periods",
+        "tests/core/test_detector.py::test_isolation_rests_on_exactly_the_periods_after_the_first_alarm",
+    ),
+    (
+        "probing/core/monitor.py",
+        "1.0 - self.shape_alpha / 2",
+        "1.0 - self.shape_alpha",
+        "tests/core/test_detector.py::test_a_surface_is_lost_inside_the_two_sided_t_interval_of_zero",
+    ),
+    (
+        "probing/core/noise.py",
+        "return acorr / np.arange(n, n - max_lag - 1, -1)",
+        "return acorr / n",
+        "tests/core/test_noise.py::test_sample_autocovariance_averages_each_lag_over_the_products_it_has",
+    ),
+    (
+        "probing/sim/control.py",
+        "if step >= onset >= 0:",
+        "if step > onset >= 0:",
+        "tests/sim/test_control.py::test_an_actuator_fault_acts_from_the_exact_step_of_its_onset",
+    ),
+    (
+        "probing/sim/surfaces.py",
+        '"fcs/right-aileron-pos-deg",',
+        '"fcs/left-aileron-pos-deg",',
+        "tests/experiment/test_surfaces.py::test_the_aileron_driven_and_measured_is_the_right_panel",
+    ),
+    (
+        "probing/sim/plant.py",
+        "round(flight.damage_onset_s / self.dt_s))",
+        "round(flight.damage_onset_s / self.dt_s) + 1)",
+        "tests/sim/test_plant.py::test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset",
+    ),
+    (
+        "probing/experiment/monitor.py",
+        "settings.alpha(self.period_s, len(self.monitored))",
+        "settings.alpha(self.period_s, len(channels))",
+        "tests/experiment/test_monitor.py::test_the_false_alarm_rate_is_shared_by_the_monitored_channels_only",
+    ),
+    (
+        "probing/experiment/monitor.py",
+        '("time_s", (p + 1) * self.period_s)',
+        '("time_s", p * self.period_s)',
+        "tests/experiment/test_monitor.py::test_the_first_alarms_row_ends_at_the_reported_first_alarm",
+    ),
+    (
+        "probing/experiment/design.py",
+        "while (2**order - 1) * t0 < short_period_settling_s:",
+        "while (2**order) * t0 < short_period_settling_s:",
+        "tests/experiment/test_design.py::test_the_order_is_the_smallest_whose_period_covers_the_short_period",
+    ),
+    (
+        "probing/experiment/noise.py",
+        "acov[: extra.size] += extra",
+        "acov[: extra.size] = extra",
+        "tests/experiment/test_prediction.py::test_extra_noise_adds_to_the_sensor_noise",
+    ),
+    (
+        "probing/experiment/scenario.py",
+        "    if value >= duration_s:",
+        "    if value > duration_s:",
+        "tests/experiment/test_scenario.py::test_a_fault_onset_must_come_before_the_run_ends",
+    ),
+    (
+        "probing/experiment/storage.py",
+        "            w.abort()",
+        "            pass",
+        "tests/experiment/test_storage.py::test_a_failed_run_leaves_nothing_half_written",
+    ),
+    (
+        "probing/sweep/execute.py",
+        "Path(task.failed_file).unlink(missing_ok=True)",
+        "pass",
+        "tests/sweep/test_sweep.py::test_a_retry_that_succeeds_removes_the_old_failure_record",
+    ),
+    (
+        "analysis/monitoring.py",
+        "healthy = tested[tested.time_s <= onset]",
+        "healthy = tested[tested.time_s < onset]",
+        "tests/analysis/test_monitoring.py::test_a_period_ending_at_the_onset_is_healthy",
+    ),
+    (
+        "analysis/monitoring.py",
+        "first_alarm is not None and first_alarm > onset",
+        "first_alarm is not None and first_alarm >= onset",
+        "tests/analysis/test_monitoring.py::test_a_first_alarm_at_the_onset_gives_no_verdict_for_the_fault",
+    ),
+]
+
+
+def _pytest(test: str) -> subprocess.CompletedProcess[str]:
+    cmd = [sys.executable, "-m", "pytest", test, "-x", "-q", "-p", "no:cacheprovider"]
+    return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+
+
+def main() -> int:
+    """Apply each mutation in turn; print what caught it; return how many survived."""
+    survived = 0
+    for i, (file, text, mutated, test) in enumerate(MUTATIONS, 1):
+        path = ROOT / file
+        original = path.read_text()
+        if original.count(text) != 1:
+            print(f"{i:2d} {file}: the line is gone or not unique: {text!r}")
+            survived += 1
+            continue
+        if _pytest(test).returncode != 0:
+            print(f"{i:2d} {file}: {test} fails without the mutation")
+            survived += 1
+            continue
+        try:
+            path.write_text(original.replace(text, mutated))
+            run = _pytest(test)
+        finally:
+            path.write_text(original)
+        failed = next((ln for ln in run.stdout.splitlines() if ln.startswith("FAILED")), "")
+        verdict = "killed" if run.returncode == 1 else f"SURVIVED (pytest exit {run.returncode})"
+        survived += verdict != "killed"
+        print(f"{i:2d} {file}: {text!r} -> {mutated!r}: {verdict} {failed}", flush=True)
+    return survived
+
+
+if __name__ == "__main__":
+    sys.exit(main())
