@@ -224,6 +224,22 @@ class ChangeDetector:
         self._alarmed = False
         self.isolation_periods = isolation_periods
 
+    @classmethod
+    def from_settings(cls, m: int, settings: MonitorSettings, alpha: float) -> ChangeDetector:
+        """The detector a ``[monitor]`` section describes (the one place its settings' names
+        meet the detector's), for a channel with false-alarm probability ``alpha`` per
+        period (:meth:`MonitorSettings.alpha`)."""
+        return cls(
+            m,
+            settings.baseline_periods,
+            alpha,
+            windows=settings.windows,
+            shape_alpha=settings.shape_false_alarm,
+            window=settings.window_periods,
+            surface=settings.surface,
+            isolation_periods=settings.verdict_periods,
+        )
+
     @property
     def learning(self) -> bool:
         """True while the baseline is being learned."""

@@ -91,17 +91,7 @@ class _Monitor:
         self.alpha = settings.alpha(self.period_s, len(self.monitored))
         m = scn.bits_per_period
         self.detectors = [
-            ChangeDetector(
-                m,
-                settings.baseline_periods,
-                self.alpha,
-                settings.windows,
-                settings.shape_false_alarm,
-                settings.window_periods,
-                settings.surface,
-                settings.verdict_periods,
-            )
-            for _ in self.monitored
+            ChangeDetector.from_settings(m, settings, self.alpha) for _ in self.monitored
         ]
         self.first = max(scn.settle_periods, scn.first_estimated_period)
         self.first_alarm: int | None = None  # the first alarmed period, any channel

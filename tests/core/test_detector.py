@@ -329,3 +329,23 @@ def test_the_false_alarm_probability_per_period_is_capped_at_a_half():
     assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 2) == 0.5
     assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 1) == 0.5
     assert MonitorSettings(false_alarms_per_hour=3600.0).alpha(1.0, 4) == 0.25
+
+
+def test_from_settings_gives_each_setting_to_its_detector_parameter() -> None:
+    """Every [monitor] setting reaches the detector parameter of its meaning (distinct
+    values, so a swap or a dropped one fails)."""
+    from probing.core.monitor import ChangeDetector, MonitorSettings
+
+    settings = MonitorSettings(
+        baseline_periods=17,
+        false_alarms_per_hour=3.0,
+        windows=5,
+        shape_false_alarm=0.02,
+        verdict_periods=4,
+        window_periods=2,
+        surface=True,
+    )
+    d = ChangeDetector.from_settings(31, settings, alpha=0.003)
+    assert (d.m, d.b, d.k, d.alpha) == (31, 17, 5, 0.003)
+    assert (d.shape_alpha, d.surface, d.isolation_periods) == (0.02, True, 4)
+    assert d._recent.maxlen == 2  # the periods averaged into each test
