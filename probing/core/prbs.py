@@ -105,7 +105,15 @@ def mls(order: int) -> np.ndarray:
     return _mls_cached(int(order)).copy()
 
 
-def _steps_per(bit_duration_s: float, dt_s: float) -> int:
+def steps_per_bit(bit_duration_s: float, dt_s: float) -> int:
+    """Simulation steps per bit, t0 / dt; raises ValueError unless a whole number >= 1 (to
+    1e-9: decimal step sizes are not exact in binary).
+
+    Examples
+    --------
+    >>> steps_per_bit(0.03, 0.01)
+    3
+    """
     ratio = bit_duration_s / dt_s
     steps = round(ratio)
     if steps < 1 or not math.isclose(ratio, steps, rel_tol=1e-9, abs_tol=1e-9):
@@ -165,7 +173,7 @@ class Probe:
         """Simulation steps per bit, t0 / dt; raises ValueError unless an integer."""
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be > 0, got {dt_s}")
-        return _steps_per(self.bit_duration_s, dt_s)
+        return steps_per_bit(self.bit_duration_s, dt_s)
 
     def samples(self, dt_s: float, periods: int = 1) -> np.ndarray:
         """The probe at the simulation rate, in deg.

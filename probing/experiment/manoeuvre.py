@@ -30,7 +30,6 @@ import pyarrow as pa
 
 from probing.core.forked import forked_map
 from probing.core.noise import cyclic_estimates
-from probing.core.prbs import Probe
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
@@ -130,7 +129,7 @@ def run_manoeuvre(
     assert man is not None and scn.control is not None, "not a manoeuvre scenario"
     flight = scn.flight
     power = control_power(flight)
-    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    probe = scn.probe
     m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
     period = m * spb
     half = (m // 2) * spb  # the pulse of the truth starts on a bit boundary near mid-period

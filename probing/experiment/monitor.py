@@ -84,7 +84,7 @@ class _Monitor:
 
     def __init__(self, scn: Scenario, settings: MonitorSettings) -> None:
         self.scn, self.settings = scn, settings
-        self.period_s = scn.bits_per_period * scn.bit_duration_s
+        self.period_s = scn.period_s
         channels = list(scn.channels)
         self.surface = channels.index(scn.surface_channel) if settings.surface else None
         self.monitored = [(j, c) for j, c in enumerate(channels) if j != self.surface]

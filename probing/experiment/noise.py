@@ -169,7 +169,7 @@ def _deterministic(
     ``bare``: the third result if the caller has it (it is the first result of the same
     scenario without its nonlinearity, to the bit: the probe repeats each period exactly).
     """
-    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    probe = scn.probe
     m, spb = scn.bits_per_period, scn.steps_per_bit
     steps = m * spb
     two = h_rows.shape[1] == 2 * m

@@ -150,7 +150,7 @@ class _Rig:
         aircraft: TrimmedAircraft | None,
         nominal_twin: bool = False,
     ) -> _Rig:
-        probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+        probe = scn.probe
         flight = scn.flight
         power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -23,7 +24,7 @@ from probing.core.monitor import MonitorSettings
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity, ParameterError
-from probing.core.prbs import MAX_ORDER, MIN_ORDER
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, Probe, steps_per_bit
 from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
@@ -206,15 +207,26 @@ class Scenario:
         """The channel of the probed surface's position sensor (``elevator_deg``, ...)."""
         return SURFACES[self.surface].channel
 
+    @functools.cached_property
+    def probe(self) -> Probe:
+        """The probe of ``[probe]``: order, bit duration and amplitude (in the surface's
+        unit), built once."""
+        return Probe(self.order, self.bit_duration_s, self.amplitude_deg)
+
     @property
     def steps_per_bit(self) -> int:
-        """Simulation steps per probe bit."""
-        return round(self.bit_duration_s / self.dt_s)
+        """Simulation steps per probe bit (the probe's rule: a whole number)."""
+        return self.probe.steps_per_bit(self.dt_s)
 
     @property
     def bits_per_period(self) -> int:
         """M = 2**order - 1."""
-        return 2**self.order - 1
+        return self.probe.length
+
+    @property
+    def period_s(self) -> float:
+        """T = M t0, one probe period in seconds."""
+        return self.probe.memory_s
 
     @property
     def total_steps(self) -> int:
@@ -561,12 +573,13 @@ def _parse(data: dict[str, Any], text: str) -> Scenario:
     )
     order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
     bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
-    ratio = bit / dt
-    if round(ratio) < 1 or not math.isclose(ratio, round(ratio), rel_tol=1e-9, abs_tol=1e-9):
+    try:
+        steps_per_bit(bit, dt)  # the probe's own rule
+    except ValueError:
         raise ScenarioError(
             "probe.bit_duration_s",
             f"must be an integer multiple of simulation.dt_s ({dt:g}), got {bit:g}",
-        )
+        ) from None
     amplitude = _amplitude(probe, SURFACES[surface].unit, surface)
     periods = _integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
     settle = _integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)

@@ -26,7 +26,7 @@ import pyarrow as pa
 
 from probing.core.convolution import causal_convolve
 from probing.core.multiplex import Layout, memory_bits
-from probing.core.prbs import Probe, mls
+from probing.core.prbs import mls
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
@@ -397,7 +397,7 @@ def _fly(
     flight = scn.flight
     plant = make_plant(flight)
     drives = [plant.drive(s) for s in sim.surfaces]
-    spb = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).steps_per_bit(scn.dt_s)
+    spb = scn.steps_per_bit
     inputs = layout.inputs(mls(scn.order))
     commands = np.empty((inputs.shape[1] * spb, len(drives)))
     for i, (drive, a) in enumerate(zip(drives, sim.amplitudes, strict=True)):

@@ -16,7 +16,6 @@ import numpy as np
 
 from probing.core.convolution import causal_convolve
 from probing.core.correlator import StreamingCorrelator
-from probing.core.prbs import Probe
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     PROBING_SCHEMA,
@@ -53,7 +52,7 @@ def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str
 
     Returns, per channel, an array (periods, 3, M): z, zeta, h_est per period.
     """
-    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    probe = scn.probe
     bits = probe.bits(scn.periods)
     out = {}
     for channel, h in h_pulse.items():
@@ -83,7 +82,7 @@ def compute_truth(scn: Scenario, out: str | Path) -> Path:
 
 def write_truth(scn: Scenario, outputs: OutputFolder) -> None:
     """Compute the ground truth of ``scn`` and write its two files into an open folder."""
-    probe = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    probe = scn.probe
     m = probe.length
     n_bits = scn.periods * m
     spb = probe.steps_per_bit(scn.dt_s)

@@ -244,7 +244,7 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
             first_alarm_period=-1,
             verdict="",
             alpha_per_period=math.nan,
-            period_s=scn.bits_per_period * scn.bit_duration_s,
+            period_s=scn.period_s,
             flight_s=scn.total_steps * scn.dt_s,
             ended="",
             wall_s=math.nan,

@@ -409,3 +409,18 @@ def test_a_monitor_baseline_fits_between_its_windows_and_the_settled_periods(
         with pytest.raises(ScenarioError) as info:
             parse_scenario(data)
         assert info.value.field == "monitor.baseline_periods"
+
+
+def test_the_scenarios_probe_is_built_once_and_follows_replace() -> None:
+    """scn.probe is the [probe] section's Probe (built once); a replaced scenario has its
+    own; steps per bit and the period come from it."""
+    from probing.core.prbs import Probe
+
+    scn = load_scenario(BASELINE)
+    assert scn.probe == Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg)
+    assert scn.probe is scn.probe
+    assert (scn.steps_per_bit, scn.bits_per_period) == (1, 511)
+    assert scn.period_s == 511 * 0.01
+    other = scn.replace({"probe.amplitude_deg": 0.02, "probe.bit_duration_s": 0.03})
+    assert other.probe.amplitude_deg == 0.02 and other.steps_per_bit == 3
+    assert scn.probe.amplitude_deg == scn.amplitude_deg  # the original's is untouched
