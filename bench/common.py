@@ -1,30 +1,41 @@
-"""What several sections of ``make bench`` share: a fresh twin cache, bare stepping time."""
+"""What several sections of ``make bench`` share: a fresh twin cache, bare stepping time, the
+default flight lengthened, peak RSS."""
 
 from __future__ import annotations
 
 import os
+import resource
 import shutil
 import statistics
 import subprocess
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from probing.experiment.scenario import Scenario
+from probing.experiment.run import run_scenario
+from probing.experiment.scenario import Scenario, load_scenario
 from probing.sim.plant import make_plant
 
 __all__ = [
     "BEFORE_GROUPING",
+    "DEFAULT_SCENARIO",
+    "ROOT",
+    "bare_loop",
     "bare_seconds_per_step",
     "child_json",
+    "flight",
+    "median_time",
+    "peak_rss_kib",
     "project_at",
     "same_data",
     "twin_cache_dir",
+    "warm_up",
 ]
 
 ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_SCENARIO = ROOT / "scenarios" / "baseline-737.toml"
 #: The main branch before issue [3/6] (every run loaded and trimmed its own aircraft): the
 #: baseline of that issue's targets, run from its own source tree in the same venv.
 BEFORE_GROUPING = "e9ba1c5"
@@ -118,3 +129,51 @@ def same_data(a: Path, b: Path, pattern: str = "*/points/*/*.parquet") -> bool:
             if x.shape != y.shape or not np.array_equal(x, y, equal_nan=nan_ok):
                 return False
     return True
+
+
+def median_time(fn: Callable[[], object], repeats: int) -> float:
+    """Median wall time of ``fn()`` over ``repeats`` calls (s)."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def flight(minutes: float, name: str = "bench-flight", **changes: object) -> Scenario:
+    """The default 737 scenario lengthened to about ``minutes`` of simulated flight."""
+    scn = load_scenario(DEFAULT_SCENARIO)
+    periods = max(3, round(minutes * 60.0 / (scn.bits_per_period * scn.bit_duration_s)))
+    return scn.replace({"probe.periods": periods, "name": name, **changes})
+
+
+def bare_loop(scn: Scenario) -> float:
+    """Wall time of ``scn.total_steps`` bare ``fdm.run()`` calls on a freshly trimmed plant."""
+    run = make_plant(scn.flight).fdm.run
+    t0 = time.perf_counter()
+    for _ in range(scn.total_steps):
+        run()
+    return time.perf_counter() - t0
+
+
+def warm_up() -> None:
+    """One short run, so that first-call costs (imports, caches) stay out of the figures."""
+    with twin_cache_dir(), tempfile.TemporaryDirectory() as out:
+        run_scenario(flight(0.2, "bench-warm-up"), out, progress=False)
+
+
+def peak_rss_kib() -> int:
+    """Peak resident set size of this process (KiB).
+
+    ``VmHWM`` of ``/proc/self/status`` on Linux: Linux carries ``getrusage``'s
+    ``ru_maxrss`` over ``fork`` and ``exec``, so a child started by a large parent would
+    report the parent's size.  Elsewhere ``ru_maxrss`` (KiB on Linux, bytes on macOS).
+    """
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)

@@ -11,12 +11,14 @@ memory of a long monitored flight.
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
-from bench.common import child_json
+from bench.common import child_json, peak_rss_kib
+from bench.report import Rendered, Row
 from probing.experiment import monitor as monitor_module
 from probing.experiment.monitor import monitor_scenario
 from probing.experiment.run import run_scenario
@@ -64,8 +66,6 @@ def _plain(scn: Scenario) -> float:
 
 def child_monitor(hours: float) -> dict:
     """A monitored flight of ``hours`` in this process; its peak RSS (``--child-monitor``)."""
-    from bench.__main__ import peak_rss_kib
-
     scn = flight(hours)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
@@ -160,3 +160,14 @@ def render_monitor(r: dict) -> tuple[list[dict], list[str]]:
         "",
     ]
     return rows, lines
+
+
+def run(args: argparse.Namespace) -> dict:
+    """The detector's cost and a long monitored flight's memory."""
+    return bench_monitor(quick=args.quick, repeats=args.repeats)
+
+
+def render(r: dict) -> Rendered:
+    """The summary rows and the section's text."""
+    rows, lines = render_monitor(r)
+    return Rendered([Row(**row) for row in rows], lines)

@@ -7,9 +7,11 @@ periods minus that of its last 10 (:func:`probing.experiment.noise.measured_bias
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
+from bench.report import Rendered, Row
 from probing.experiment.noise import measured_bias, predict
 from probing.experiment.scenario import Scenario, load_scenario
 
@@ -93,3 +95,14 @@ def render_noise_bias(r: dict) -> tuple[list[tuple[str, str, str, str]], list[st
         )
     lines.append("")
     return summary, lines
+
+
+def run(args: argparse.Namespace) -> dict:
+    """Predicted vs measured slow-mode bias."""
+    return bench_noise_bias(quick=args.quick)
+
+
+def render(r: dict) -> Rendered:
+    """The summary rows and the section's text."""
+    rows, lines = render_noise_bias(r)
+    return Rendered([Row(q, v, b, ratio) for q, v, b, ratio in rows], lines)

@@ -9,6 +9,7 @@ a fresh twin cache (the group's one twin is simulated in both).
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import subprocess
@@ -25,6 +26,7 @@ from bench.common import (
     same_data,
     twin_cache_dir,
 )
+from bench.report import Rendered, Row
 from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
@@ -337,3 +339,14 @@ def _remains(g: dict) -> list[str]:
         "larger part and stays whatever the grouping; the grouping removed the load and "
         "trim, which was the rest.",
     ]
+
+
+def run(args: argparse.Namespace) -> dict:
+    """Groups of 1, 8, 64 points before and after one trim per group."""
+    return bench_per_point(quick=args.quick, repeats=args.repeats)
+
+
+def render(r: dict) -> Rendered:
+    """The summary rows and the section's text."""
+    rows, lines = render_per_point(r)
+    return Rendered([Row(**row) for row in rows], lines)

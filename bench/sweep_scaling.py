@@ -7,6 +7,7 @@ work: one reference run (which simulates the shared twin) and 16 points.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import statistics
@@ -15,6 +16,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from bench.report import Rendered, Row
 
 ROOT = Path(__file__).resolve().parent.parent
 POINTS = 16
@@ -186,3 +189,14 @@ def render_sweep_scaling(r: dict) -> tuple[list[dict], list[str]]:
 if __name__ == "__main__":  # pragma: no cover - manual use
     _, text = render_sweep_scaling(bench_sweep_scaling())
     print("\n".join(text))
+
+
+def run(args: argparse.Namespace) -> dict:
+    """1 vs 2 workers and Dask on a 16-point sweep."""
+    return bench_sweep_scaling(periods=args.sweep_periods, repeats=args.repeats)
+
+
+def render(r: dict) -> Rendered:
+    """The summary rows and the section's text."""
+    rows, lines = render_sweep_scaling(r)
+    return Rendered([Row(**row) for row in rows], lines)

@@ -1,4 +1,5 @@
-"""Test-session settings and the one factory of JSBSim aircraft for the tests.
+"""Test-session settings, the one factory of JSBSim aircraft for the tests and their one 737
+base scenario.
 
 The reference-twin cache lives in a temporary folder, so the tests neither read twins a
 developer's runs left behind nor fill the user's cache.
@@ -6,6 +7,7 @@ developer's runs left behind nor fill the user's cache.
 
 from __future__ import annotations
 
+import copy
 import os
 import re
 from collections.abc import Callable, Iterator
@@ -77,6 +79,50 @@ def pytest_report_header(config: pytest.Config) -> list[str]:
     if os.environ.get("OPENBLAS_CORETYPE"):
         lines.append(f"OPENBLAS_CORETYPE={os.environ['OPENBLAS_CORETYPE']}")
     return lines
+
+
+#: The tests' 737 scenario (read through :func:`base_scenario`, which copies it).
+_BASE_737: dict[str, Any] = {
+    "name": "t",
+    "aircraft": {"model": "737"},
+    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
+    "simulation": {"dt_s": 0.01},
+    "probe": {
+        "order": 9,
+        "bit_duration_s": 0.01,
+        "amplitude_deg": 0.005,
+        "periods": 8,
+        "settle_periods": 2,
+    },
+    "nonlinearity": {"type": "none"},
+    "output": {"channels": ["theta_rad", "q_rad_s", "alpha_rad"], "drift": "reference"},
+}
+
+
+def base_scenario(changes: dict[str, Any] | None = None, /, **entries: Any) -> dict[str, Any]:
+    """The tests' 737 base scenario, as a fresh deep copy to change at will.
+
+    Parameters
+    ----------
+    changes
+        Dotted keys set in their section, e.g. ``{"probe.order": 6}``.
+    **entries
+        Top-level entries set whole, e.g. ``name="b"`` or ``disturbance={...}`` (a new one
+        goes last).
+
+    Returns
+    -------
+    dict
+        The scenario as :func:`probing.experiment.scenario.parse_scenario` takes it: the 737
+        at 15000 ft and 280 KCAS, dt 0.01 s, an order-9 elevator probe of 0.005 deg with
+        0.01 s bits, 8 periods of which 2 settle, no nonlinearity, theta, q and alpha.
+    """
+    data = copy.deepcopy(_BASE_737)
+    for key, value in (changes or {}).items():
+        section, name = key.split(".")
+        data[section][name] = copy.deepcopy(value)
+    data.update(copy.deepcopy(entries))
+    return data
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import base_scenario
 
 from analysis import sweep_plots
 from analysis.sweep_plots import (
@@ -29,22 +30,11 @@ from probing.experiment.scenario import parse_scenario
 
 A = 0.005  # probe amplitude of the base scenario, deg
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-BASE: dict[str, Any] = {
-    "name": "base",
-    "aircraft": {"model": "737"},
-    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
-    "simulation": {"dt_s": 0.01},
-    "probe": {
-        "order": 9,
-        "bit_duration_s": 0.01,
-        "amplitude_deg": A,
-        "periods": 8,
-        "settle_periods": 2,
-    },
-    "nonlinearity": {"type": "none"},
-    "output": {"channels": ["theta_rad", "q_rad_s"], "drift": "reference"},
-    "disturbance": {"turbulence": "none", "seed": 0},
-}
+BASE: dict[str, Any] = base_scenario(
+    {"probe.amplitude_deg": A, "output.channels": ["theta_rad", "q_rad_s"]},
+    name="base",
+    disturbance={"turbulence": "none", "seed": 0},
+)
 
 
 @pytest.fixture(autouse=True)

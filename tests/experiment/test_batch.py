@@ -6,6 +6,7 @@ import dataclasses
 from pathlib import Path
 
 import pytest
+from conftest import base_scenario
 
 import probing.experiment.run as run_module
 from probing.core.forked import forked_map
@@ -18,21 +19,17 @@ from probing.sim.fork import TrimmedAircraft, trim_key
 
 pytestmark = pytest.mark.jsbsim
 
-BASE = {
-    "name": "b",
-    "aircraft": {"model": "737"},
-    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
-    "simulation": {"dt_s": 0.01},
-    "probe": {
-        "order": 6,
-        "bit_duration_s": 0.02,
-        "amplitude_deg": 0.01,
-        "periods": 3,
-        "settle_periods": 1,
+BASE = base_scenario(
+    {
+        "probe.order": 6,
+        "probe.bit_duration_s": 0.02,
+        "probe.amplitude_deg": 0.01,
+        "probe.periods": 3,
+        "probe.settle_periods": 1,
+        "output.channels": ["theta_rad", "q_rad_s"],
     },
-    "nonlinearity": {"type": "none"},
-    "output": {"channels": ["theta_rad", "q_rad_s"], "drift": "reference"},
-}
+    name="b",
+)
 
 
 def scenario(name: str, **changes: object) -> Scenario:

@@ -12,6 +12,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from conftest import base_scenario
 
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import parse_scenario
@@ -21,21 +22,7 @@ from probing.sim.errors import DivergenceError
 
 pytestmark = pytest.mark.jsbsim
 
-BASE = {
-    "name": "t",
-    "aircraft": {"model": "737"},
-    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
-    "simulation": {"dt_s": 0.01},
-    "probe": {
-        "order": 9,
-        "bit_duration_s": 0.01,
-        "amplitude_deg": 0.005,
-        "periods": 8,
-        "settle_periods": 2,
-    },
-    "nonlinearity": {"type": "none"},
-    "output": {"channels": ["theta_rad", "q_rad_s", "alpha_rad"], "drift": "reference"},
-}
+BASE = base_scenario()
 
 
 def scenario(**changes):

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import base_scenario
 
 from probing.experiment.batch import run_grouped
 from probing.experiment.run import run_scenario
@@ -20,21 +21,7 @@ from probing.sim.surfaces import SURFACES
 
 pytestmark = pytest.mark.jsbsim
 
-BASE = {
-    "name": "s",
-    "aircraft": {"model": "737"},
-    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
-    "simulation": {"dt_s": 0.01},
-    "probe": {
-        "order": 9,
-        "bit_duration_s": 0.01,
-        "amplitude_deg": 0.005,
-        "periods": 8,
-        "settle_periods": 2,
-    },
-    "nonlinearity": {"type": "none"},
-    "output": {"channels": ["theta_rad"], "drift": "reference"},
-}
+BASE = base_scenario({"output.channels": ["theta_rad"]}, name="s")
 
 
 def scenario(surface: str, model: str = "737", channels=("theta_rad",), changes=None, **kw):

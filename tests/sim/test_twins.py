@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+from conftest import base_scenario
 
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import parse_scenario
@@ -20,22 +21,16 @@ from probing.sim.twins import twin_spec as _twin_spec
 
 pytestmark = pytest.mark.jsbsim
 
-BASE = {
-    "name": "tw",
-    "aircraft": {"model": "737"},
-    "condition": {"altitude_ft": 15000, "speed_kcas": 280},
-    "simulation": {"dt_s": 0.01},
-    "probe": {
-        "order": 6,
-        "bit_duration_s": 0.01,
-        "amplitude_deg": 0.005,
-        "periods": 3,
-        "settle_periods": 1,
+BASE = base_scenario(
+    {
+        "probe.order": 6,
+        "probe.periods": 3,
+        "probe.settle_periods": 1,
+        "output.channels": ["theta_rad", "q_rad_s"],
     },
-    "nonlinearity": {"type": "none"},
-    "output": {"channels": ["theta_rad", "q_rad_s"], "drift": "reference"},
-    "disturbance": {"turbulence": "light", "seed": 4},
-}
+    name="tw",
+    disturbance={"turbulence": "light", "seed": 4},
+)
 
 
 def twin_key(scn):
