@@ -26,46 +26,17 @@ from pathlib import Path
 from typing import TextIO
 
 import numpy as np
-import pyarrow as pa
 
 from probing.core.forked import forked_map
 from probing.core.noise import cyclic_estimates
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import (
-    PER_DEG,
-    field,
-    output_folder,
-)
+from probing.experiment.storage import OUTPUT_FILES, output_folder
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.plant import make_plant
 
-__all__ = ["MANOEUVRE_SCHEMA", "ManoeuvreResult", "run_manoeuvre"]
-
-MANOEUVRE_SCHEMA = pa.schema(
-    [
-        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
-        field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
-        field("time_mid_s", pa.float64(), "s", "time after trim at the middle of the period"),
-        field("reference", pa.float64(), "<manoeuvre>", "the hold's reference change there"),
-        field(
-            "achieved",
-            pa.float64(),
-            "<manoeuvre>",
-            "the twin's change there (pitch, bank: deg; speed: kt true)",
-        ),
-        field("tap", pa.int32(), "1", "tap i: the response i bits after a one-bit pulse"),
-        field("lag_s", pa.float64(), "s", "lag of the tap, i t0"),
-        field("h_est", pa.float64(), PER_DEG, "the period's own cyclic estimate"),
-        field(
-            "h_pulse",
-            pa.float64(),
-            PER_DEG,
-            "single pulse on the twin at mid-period, folded onto one period",
-        ),
-    ]
-)
+__all__ = ["ManoeuvreResult", "run_manoeuvre"]
 
 
 @dataclass(frozen=True)
@@ -145,7 +116,7 @@ def run_manoeuvre(
     u = probe.samples(scn.dt_s)
     reference = probe.reference()
     y_p, y_t = np.empty((period, len(channels))), np.empty((period, len(channels)))
-    rows: dict[str, list] = {f.name: [] for f in MANOEUVRE_SCHEMA}
+    rows: dict[str, list] = {f.name: [] for f in OUTPUT_FILES["manoeuvre.parquet"].schema}
     errors: dict[str, list[float]] = {c: [] for c in channels}
     steps = 0
     with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
@@ -196,9 +167,6 @@ def run_manoeuvre(
     with output_folder(folder, meta) as files:
         writer = files.writer(
             "manoeuvre.parquet",
-            MANOEUVRE_SCHEMA,
-            "the probing output's pulse response period by period along the manoeuvre, "
-            "and a single pulse on the unprobed twin at each period's middle",
             channels,
             scn.surface_unit,
             own_units={"reference": man.unit, "achieved": man.unit},

@@ -25,14 +25,7 @@ from probing.experiment.scenario import Scenario
 from probing.experiment.storage import MONITOR_SCHEMA, AtomicParquetWriter, OutputFolder, metadata
 from probing.sim.fork import TrimmedAircraft
 
-__all__ = ["MONITOR_TEXT", "MonitorResult", "monitor_scenario"]
-
-MONITOR_TEXT = (
-    "change detection after every probe period, one row per period and monitored channel: "
-    "-log10 p of no change of the period's pulse-response estimate against the flight's own "
-    "baseline (Hotelling T^2 and the gain), its threshold for the false-alarm rate, the gain "
-    "against the baseline and the airframe test"
-)
+__all__ = ["MonitorResult", "monitor_scenario"]
 
 
 @dataclass
@@ -102,9 +95,7 @@ class _Monitor:
         self.writer: AtomicParquetWriter | None = None
 
     def open(self, outputs: OutputFolder) -> None:
-        self.writer = outputs.writer(
-            "monitor.parquet", MONITOR_SCHEMA, MONITOR_TEXT, [c for _, c in self.monitored]
-        )
+        self.writer = outputs.writer("monitor.parquet", [c for _, c in self.monitored])
 
     def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
         cols: dict[str, list] = {f.name: [] for f in MONITOR_SCHEMA}

@@ -34,7 +34,6 @@ from probing.core.prbs import Probe
 from probing.experiment.progress import progress_bar
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
-    PROBING_SCHEMA,
     OutputFolder,
     Settled,
     metadata,
@@ -53,14 +52,6 @@ from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
 
-PROBING_TEXT = (
-    "probing output z (eq. 5), its DC-corrected form zeta (eq. 9) and the pulse-response "
-    "estimate h_est, one row per channel, period and tap"
-)
-TIMESERIES_TEXT = (
-    "the run step by step: probe, nonlinearity output, realised surface, measured outputs "
-    "(sensor noise added) and the unprobed twin's outputs"
-)
 #: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
 #: least one; the plant is still stepped and checked period by period.
 CHUNK_STEPS = 8192
@@ -583,9 +574,9 @@ def run_scenario(
         ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
         with output_folder(folder, rig.metadata()) as outputs:
             per = scn.surface_unit
-            w_probe = outputs.writer("probing.parquet", PROBING_SCHEMA, PROBING_TEXT, channels, per)
+            w_probe = outputs.writer("probing.parquet", channels, per)
             w_ts = (
-                outputs.writer("timeseries.parquet", ts_schema, TIMESERIES_TEXT, channels, per)
+                outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
                 if timeseries
                 else None
             )

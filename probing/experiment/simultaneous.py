@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import TextIO
 
 import numpy as np
-import pyarrow as pa
 
 from probing.core.convolution import causal_convolve
 from probing.core.multiplex import Layout, memory_bits
@@ -30,7 +29,7 @@ from probing.core.prbs import mls
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import scenario_provenance
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import field, output_folder
+from probing.experiment.storage import output_folder
 from probing.sim.channels import CHANNELS, unit_of
 from probing.sim.plant import TrimResult, make_plant
 from probing.sim.surfaces import SURFACES
@@ -38,7 +37,6 @@ from probing.sim.truth import linear_pulse_response
 from probing.sim.twins import open_twin
 
 __all__ = [
-    "RESPONSES_SCHEMA",
     "SeparationCheck",
     "SimultaneousResult",
     "check_separation",
@@ -49,19 +47,6 @@ __all__ = [
 
 class SeparationError(ValueError):
     """A simultaneous design that cannot keep its surfaces apart; the message says why."""
-
-
-RESPONSES_SCHEMA = pa.schema(
-    [
-        field("surface", pa.string(), "", "probed surface (its unit: deg, or norm)"),
-        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
-        field("tap", pa.int32(), "1", "bits after the surface's pulse"),
-        field("lag_s", pa.float64(), "s", "lag of the tap, tap t0"),
-        field("h_est", pa.float64(), "<channel>/<surface>", "the surfaces probed together"),
-        field("h_alone", pa.float64(), "<channel>/<surface>", "this surface probed alone"),
-        field("h_lin", pa.float64(), "<channel>/<surface>", "the linearisation, alone"),
-    ]
-)
 
 
 def layout_of(scn: Scenario) -> Layout:
@@ -327,9 +312,6 @@ def run_simultaneous(
     with output_folder(folder, meta) as files:
         writer = files.writer(
             "responses.parquet",
-            RESPONSES_SCHEMA,
-            "each probed surface's pulse response, probed together, alone and on the "
-            "linearisation, over the surface's window of taps",
             scn.channels,
             own_units={column: _units(scn) for column in ("h_est", "h_alone", "h_lin")},
         )

@@ -38,13 +38,17 @@ from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
     "CHANNEL_UNIT",
+    "MANOEUVRE_SCHEMA",
     "MONITOR_SCHEMA",
+    "OUTPUT_FILES",
     "PER_DEG",
     "PROBING_SCHEMA",
+    "RESPONSES_SCHEMA",
     "ROW_GROUP_ROWS",
     "RUN_FILES",
     "TRUTH_SCHEMA",
     "AtomicParquetWriter",
+    "OutputFile",
     "OutputFileError",
     "OutputFolder",
     "OutputFolderError",
@@ -317,19 +321,26 @@ class OutputFolder:
     def writer(
         self,
         name: str,
-        schema: pa.Schema,
-        description: str,
         channels: Sequence[str],
         per: str = "deg",
         own_units: dict[str, Any] | None = None,
+        schema: pa.Schema | None = None,
+        description: str | None = None,
     ) -> AtomicParquetWriter:
-        """A new atomic writer for ``<folder>/<name>``.
+        """A new atomic writer for ``<folder>/<name>``, a file of :data:`OUTPUT_FILES`.
 
         The file carries the folder's metadata, ``probing.description`` and the
         ``probing.units`` of its columns for these channels, per unit of ``per`` where a
         column is per unit of probe (:func:`units`); ``own_units`` replaces the entries of
-        the columns whose unit the schema cannot say alone.
+        the columns whose unit the schema cannot say alone.  The schema and description
+        are the registry's; ``schema`` gives the columns of a file laid out per run
+        (``timeseries.parquet``), and a file outside the registry (a test's) names both.
         """
+        spec = OUTPUT_FILES.get(name)
+        schema = schema if schema is not None else spec.schema if spec else None
+        description = description or (spec.description if spec else None)
+        if schema is None or description is None:
+            raise ValueError(f"{name}: not in OUTPUT_FILES, or laid out per run: give schema")
         found = {**units(schema, channels, per), **(own_units or {})}
         meta = {**self.metadata, **metadata(description=description, units=found)}
         w = AtomicParquetWriter(self.path / name, schema, meta)
@@ -337,18 +348,6 @@ class OutputFolder:
         return w
 
 
-#: The files the project writes into a run's folder.  A run that completes into a folder
-#: removes those of them it did not write (an earlier run's), so the folder holds the files
-#: of one run only.
-RUN_FILES = (
-    "probing.parquet",
-    "timeseries.parquet",
-    "truth.parquet",
-    "prediction.parquet",
-    "monitor.parquet",
-    "responses.parquet",
-    "manoeuvre.parquet",
-)
 _DIGEST_KEY = b"probing.scenario_digest"
 
 
@@ -504,6 +503,122 @@ def timeseries_schema(
             field(f"{c}_reference", pa.float64(), unit_of(c), "unprobed twin") for c in channels
         ]
     return pa.schema(fields)
+
+
+MANOEUVRE_SCHEMA = pa.schema(
+    [
+        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
+        field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
+        field("time_mid_s", pa.float64(), "s", "time after trim at the middle of the period"),
+        field("reference", pa.float64(), "<manoeuvre>", "the hold's reference change there"),
+        field(
+            "achieved",
+            pa.float64(),
+            "<manoeuvre>",
+            "the twin's change there (pitch, bank: deg; speed: kt true)",
+        ),
+        field("tap", pa.int32(), "1", "tap i: the response i bits after a one-bit pulse"),
+        field("lag_s", pa.float64(), "s", "lag of the tap, i t0"),
+        field("h_est", pa.float64(), PER_DEG, "the period's own cyclic estimate"),
+        field(
+            "h_pulse",
+            pa.float64(),
+            PER_DEG,
+            "single pulse on the twin at mid-period, folded onto one period",
+        ),
+    ]
+)
+
+RESPONSES_SCHEMA = pa.schema(
+    [
+        field("surface", pa.string(), "", "probed surface (its unit: deg, or norm)"),
+        field("channel", pa.string(), "", "output channel (its name carries its unit)"),
+        field("tap", pa.int32(), "1", "bits after the surface's pulse"),
+        field("lag_s", pa.float64(), "s", "lag of the tap, tap t0"),
+        field("h_est", pa.float64(), "<channel>/<surface>", "the surfaces probed together"),
+        field("h_alone", pa.float64(), "<channel>/<surface>", "this surface probed alone"),
+        field("h_lin", pa.float64(), "<channel>/<surface>", "the linearisation, alone"),
+    ]
+)
+
+
+@dataclass(frozen=True)
+class OutputFile:
+    """A file of a run's folder: its layout and what it holds.
+
+    Attributes
+    ----------
+    name : str
+        The file name in the run's folder.
+    description : str
+        Stored as the file's ``probing.description``.
+    schema : pyarrow.Schema or None
+        Its columns with their units; None for a file laid out per run (its writer builds
+        the schema: ``timeseries.parquet``'s columns are the run's channels).
+    """
+
+    name: str
+    description: str
+    schema: pa.Schema | None
+
+
+#: Every file a run writes into its folder: the one place a file's name, layout and
+#: description live (:meth:`OutputFolder.writer` reads it; adding a file is one entry).
+OUTPUT_FILES: dict[str, OutputFile] = {
+    f.name: f
+    for f in (
+        OutputFile(
+            "probing.parquet",
+            "probing output z (eq. 5), its DC-corrected form zeta (eq. 9) and the "
+            "pulse-response estimate h_est, one row per channel, period and tap",
+            PROBING_SCHEMA,
+        ),
+        OutputFile(
+            "timeseries.parquet",
+            "the run step by step: probe, nonlinearity output, realised surface, measured "
+            "outputs (sensor noise added) and the unprobed twin's outputs",
+            None,
+        ),
+        OutputFile(
+            "truth.parquet",
+            "ground truth: h_pulse, one-bit pulse of amplitude a on a trimmed twin minus an "
+            "unprobed twin, over a; h_lin, JSBSim's FGLinearization discretised with "
+            "zero-order hold at t0; both sampled at the end of each bit, over the whole run",
+            TRUTH_SCHEMA,
+        ),
+        OutputFile(
+            "prediction.parquet",
+            "predicted probing output: h_pulse superposed over the run's probe history and "
+            "passed through the same correlator; compare row by row with probing.parquet",
+            PROBING_SCHEMA,
+        ),
+        OutputFile(
+            "monitor.parquet",
+            "change detection after every probe period, one row per period and monitored "
+            "channel: -log10 p of no change of the period's pulse-response estimate against "
+            "the flight's own baseline (Hotelling T^2 and the gain), its threshold for the "
+            "false-alarm rate, the gain against the baseline and the airframe test",
+            MONITOR_SCHEMA,
+        ),
+        OutputFile(
+            "responses.parquet",
+            "each probed surface's pulse response, probed together, alone and on the "
+            "linearisation, over the surface's window of taps",
+            RESPONSES_SCHEMA,
+        ),
+        OutputFile(
+            "manoeuvre.parquet",
+            "the probing output's pulse response period by period along the manoeuvre, "
+            "and a single pulse on the unprobed twin at each period's middle",
+            MANOEUVRE_SCHEMA,
+        ),
+    )
+}
+
+#: The files the project writes into a run's folder (:data:`OUTPUT_FILES`).  A run that
+#: completes into a folder removes those of them it did not write (an earlier run's), so the
+#: folder holds the files of one run only.
+RUN_FILES = tuple(OUTPUT_FILES)
 
 
 def units(schema: pa.Schema, channels: Sequence[str], per: str = "deg") -> dict[str, Any]:

@@ -18,8 +18,6 @@ from probing.core.convolution import causal_convolve
 from probing.core.correlator import StreamingCorrelator
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
-    PROBING_SCHEMA,
-    TRUTH_SCHEMA,
     OutputFolder,
     output_folder,
     probing_block,
@@ -28,23 +26,11 @@ from probing.experiment.storage import (
 from probing.sim.truth import linear_pulse_response, single_pulse_response
 
 __all__ = [
-    "PREDICTION_TEXT",
-    "TRUTH_TEXT",
     "TruthFiles",
     "compute_truth",
     "predicted_probing",
     "write_truth",
 ]
-
-TRUTH_TEXT = (
-    "ground truth: h_pulse, one-bit pulse of amplitude a on a trimmed twin minus an unprobed "
-    "twin, over a; h_lin, JSBSim's FGLinearization discretised with zero-order hold at t0; "
-    "both sampled at the end of each bit, over the whole run"
-)
-PREDICTION_TEXT = (
-    "predicted probing output: h_pulse superposed over the run's probe history and passed "
-    "through the same correlator; compare row by row with probing.parquet"
-)
 
 
 def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -90,8 +76,8 @@ def write_truth(scn: Scenario, outputs: OutputFolder) -> None:
     h_lin = linear_pulse_response(scn.flight, scn.channels, scn.bit_duration_s, n_bits)
     pred = predicted_probing(scn, h_pulse)
     channels = list(scn.channels)
-    w_truth = outputs.writer("truth.parquet", TRUTH_SCHEMA, TRUTH_TEXT, channels)
-    w_pred = outputs.writer("prediction.parquet", PROBING_SCHEMA, PREDICTION_TEXT, channels)
+    w_truth = outputs.writer("truth.parquet", channels)
+    w_pred = outputs.writer("prediction.parquet", channels)
     taps = np.arange(n_bits, dtype=np.int32)
     lag_s = np.arange(m) * probe.bit_duration_s
     for channel in channels:

@@ -40,7 +40,7 @@ def test_a_completed_run_removes_the_files_an_earlier_run_left(tmp_path: Path) -
     (folder / "notes.txt").write_text("mine")  # not a file the project writes: kept
     stream = io.StringIO()
     with output_folder(folder, metadata(scenario_digest="new"), stream=stream) as out:
-        out.writer("probing.parquet", SCHEMA, "new", []).write({"x": [2.0]})
+        out.writer("probing.parquet", [], schema=SCHEMA, description="new").write({"x": [2.0]})
     assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "probing.parquet"]
     assert digest_of(folder / "probing.parquet") == "new"
     lines = stream.getvalue().splitlines()
@@ -59,7 +59,7 @@ def test_a_failed_run_leaves_the_earlier_run_whole(tmp_path: Path) -> None:
         pytest.raises(RuntimeError),
         output_folder(folder, metadata(scenario_digest="new"), stream=stream) as out,
     ):
-        out.writer("probing.parquet", SCHEMA, "new", []).write({"x": [2.0]})
+        out.writer("probing.parquet", [], schema=SCHEMA, description="new").write({"x": [2.0]})
         raise RuntimeError("diverged")
     assert sorted(p.name for p in folder.iterdir()) == ["probing.parquet", "truth.parquet"]
     assert digest_of(folder / "probing.parquet") == "old"

@@ -133,7 +133,7 @@ def test_a_failed_run_leaves_nothing_half_written(tmp_path: Path, exists: bool) 
     with pytest.raises(RuntimeError, match="diverged"):
         with output_folder(path, metadata(scenario="x")) as folder:
             for name in ("monitor.parquet", "other.parquet"):
-                w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+                w = folder.writer(name, ["theta_rad"], schema=MONITOR_SCHEMA, description="made up")
                 w.row_group_rows = 4
                 w.write(_monitor_rows(6))
             assert len(list(path.iterdir())) == 2  # the partial files are on disk
@@ -151,7 +151,7 @@ def test_a_finished_run_has_its_files_and_no_partial_one(tmp_path: Path) -> None
     path = tmp_path / "run"
     with output_folder(path, metadata(scenario="x")) as folder:
         for name in ("monitor.parquet", "other.parquet"):
-            w = folder.writer(name, MONITOR_SCHEMA, "made up", ["theta_rad"])
+            w = folder.writer(name, ["theta_rad"], schema=MONITOR_SCHEMA, description="made up")
             w.write(_monitor_rows(6))
     assert sorted(p.name for p in path.iterdir()) == ["monitor.parquet", "other.parquet"]
     assert pq.read_table(path / "monitor.parquet").num_rows == 6
@@ -205,3 +205,33 @@ def test_a_stored_file_that_is_not_parquet_is_named(tmp_path: Path) -> None:
             read()
     with pytest.raises(StoredFileError, match=r"missing\.parquet"):
         read_schema(tmp_path / "missing.parquet")
+
+
+@pytest.mark.jsbsim
+def test_each_file_of_a_run_is_laid_out_and_described_as_the_registry_says(
+    run_folder: Path,
+) -> None:
+    """Every file a run (with its truth) writes is an OUTPUT_FILES entry: its description is
+    the entry's and its columns the entry's schema (timeseries: laid out per run)."""
+    from probing.experiment.storage import OUTPUT_FILES
+
+    names = sorted(p.name for p in run_folder.glob("*.parquet"))
+    assert names == sorted(
+        ["probing.parquet", "timeseries.parquet", "truth.parquet", "prediction.parquet"]
+    )
+    for name in names:
+        schema = pq.read_schema(run_folder / name)
+        entry = OUTPUT_FILES[name]
+        assert schema.metadata[b"probing.description"].decode() == entry.description
+        if entry.schema is not None:
+            assert schema.names == entry.schema.names, name
+
+
+def test_a_file_outside_the_registry_needs_its_schema_and_description(tmp_path: Path) -> None:
+    """A name the registry does not know, or the per-run timeseries without its schema, is
+    refused before any file is opened."""
+    with output_folder(tmp_path / "run", metadata(scenario="x")) as folder:
+        for name in ("other.parquet", "timeseries.parquet"):
+            with pytest.raises(ValueError, match="give schema"):
+                folder.writer(name, ["theta_rad"])
+    assert not (tmp_path / "run").exists() or list((tmp_path / "run").iterdir()) == []
