@@ -118,6 +118,88 @@ def _axis_groups(data: SweepData) -> list[list[str]]:
     return groups + ([zipped] if zipped else [])
 
 
+def _theory_line(
+    ax: Any,
+    data: SweepData,
+    rows: pd.DataFrame,
+    xs: np.ndarray,
+    x_axis: tuple[str, list[str], bool, float],
+    color: str,
+    series: bool,
+) -> np.ndarray:
+    """Draw one series' predicted gain, the dense theory curve (or, when its scenario cannot
+    be rebuilt, the summary's predictions at the points); return the values drawn.
+
+    ``x_axis`` is (x field, the keys varied with it, whether drawn as absolute value, the
+    probe amplitude a); ``series`` whether there is more than one series."""
+    x_field, x_group, use_abs, a = x_axis
+    scn = data.scenario(int(rows["index"].iloc[0]))
+    path = {f: [data.values[int(i)][f] for i in rows["index"]] for f in x_group}
+    if scn is not None:
+        try:
+            params, gain, _ = theory_curve(scn, path)
+        except ValueError:
+            pass
+        else:
+            xd = (np.abs(params[x_field]) if use_abs else params[x_field]) / a
+            ax.plot(
+                xd,
+                gain,
+                "-",
+                color=C_THEORY if not series else color,
+                lw=1.0,
+                label=None if series else "predicted a~/a, eq. (10)",
+            )
+            return gain
+    # scenario not rebuildable: the summary's predictions at the points
+    pg = rows["predicted_gain"].to_numpy(dtype=float)
+    ax.plot(
+        xs[rows.index],
+        pg,
+        "--",
+        color=C_THEORY,
+        lw=0.8,
+        label=None if series else "predicted a~/a at the points",
+    )
+    return pg
+
+
+def _measured_points(
+    ax: Any,
+    drawn_series: list[tuple[pd.DataFrame, str, str]],
+    xs: np.ndarray,
+    measured: np.ndarray,
+    off: np.ndarray,
+    stuck: np.ndarray,
+    series: bool,
+) -> None:
+    """The measured gains of each series on scale: filled, or open where b~ ≠ 0 is
+    predicted (one legend entry for those)."""
+    open_label = "measured where b~ ≠ 0 is predicted (the offset step leaks into h)"
+    if series:
+        open_label = "open: " + open_label
+    open_label_done = False
+    for rows, color, tag in drawn_series:
+        sel = rows.index.to_numpy()
+        xr, meas = xs[sel], measured[sel]
+        shown = ~off[sel] & np.isfinite(meas)
+        plain, open_ = shown & ~stuck[sel], shown & stuck[sel]
+        lab = "measured gain g" + (f" ({tag})" if tag else "")
+        if plain.any() or (series and open_.any()):
+            ax.plot(xr[plain], meas[plain], "o", color=color, ms=4, label=lab)
+        if open_.any():
+            ax.plot(
+                xr[open_],
+                meas[open_],
+                "o",
+                mfc="none",
+                color=color,
+                ms=5,
+                label=None if open_label_done else open_label,
+            )
+            open_label_done = True
+
+
 def plot_nonlinearity(data: SweepData) -> Any:
     """Gain over the apparent-input theory curve and shape error against a nonlinearity's
     parameter over a (one series per value of the other varied keys)."""
@@ -138,6 +220,7 @@ def plot_nonlinearity(data: SweepData) -> Any:
     fig, (ax1, ax2) = gain_and_shape_axes()
     theory_values: list[np.ndarray] = []
     drawn_series: list[tuple[pd.DataFrame, str, str]] = []
+    x_axis = (x_field, x_group, use_abs, a)
     series = df.groupby(
         [df["index"].map(lambda i, k=k: fmt_value(data.values[int(i)][k])) for k in series_keys]
         if series_keys
@@ -154,37 +237,7 @@ def plot_nonlinearity(data: SweepData) -> Any:
             )
         order = np.argsort(xs[grp.index], kind="stable")
         rows = grp.iloc[order]
-        scn = data.scenario(int(rows["index"].iloc[0]))
-        path = {f: [data.values[int(i)][f] for i in rows["index"]] for f in x_group}
-        drawn = False
-        if scn is not None:
-            try:
-                params, gain, _ = theory_curve(scn, path)
-            except ValueError:
-                pass
-            else:
-                xd = (np.abs(params[x_field]) if use_abs else params[x_field]) / a
-                ax1.plot(
-                    xd,
-                    gain,
-                    "-",
-                    color=C_THEORY if not series_keys else color,
-                    lw=1.0,
-                    label=None if series_keys else "predicted a~/a, eq. (10)",
-                )
-                theory_values.append(gain)
-                drawn = True
-        if not drawn:  # scenario not rebuildable: the summary's predictions at the points
-            pg = rows["predicted_gain"].to_numpy(dtype=float)
-            ax1.plot(
-                xs[rows.index],
-                pg,
-                "--",
-                color=C_THEORY,
-                lw=0.8,
-                label=None if series_keys else "predicted a~/a at the points",
-            )
-            theory_values.append(pg)
+        theory_values.append(_theory_line(ax1, data, rows, xs, x_axis, color, bool(series_keys)))
         drawn_series.append((rows, color, tag))
     if series_keys:  # one legend entry for the theory lines, one per series for the markers
         ax1.plot([], [], "-", color=C_THEORY, lw=1.0, label="predicted a~/a, eq. (10): lines")
@@ -195,29 +248,7 @@ def plot_nonlinearity(data: SweepData) -> Any:
     if off.any() and stuck[off].all():
         off_label = "measured, off scale, b~ ≠ 0 predicted (the offset step leaks into h)"
     off = gain_limits(ax1, theory_values, measured, xs, off_label)
-    open_label = "measured where b~ ≠ 0 is predicted (the offset step leaks into h)"
-    if series_keys:
-        open_label = "open: " + open_label
-    open_label_done = False
-    for rows, color, tag in drawn_series:
-        sel = rows.index.to_numpy()
-        xr, meas = xs[sel], measured[sel]
-        shown = ~off[sel] & np.isfinite(meas)
-        plain, open_ = shown & ~stuck[sel], shown & stuck[sel]
-        lab = "measured gain g" + (f" ({tag})" if tag else "")
-        if plain.any() or (series_keys and open_.any()):
-            ax1.plot(xr[plain], meas[plain], "o", color=color, ms=4, label=lab)
-        if open_.any():
-            ax1.plot(
-                xr[open_],
-                meas[open_],
-                "o",
-                mfc="none",
-                color=color,
-                ms=5,
-                label=None if open_label_done else open_label,
-            )
-            open_label_done = True
+    _measured_points(ax1, drawn_series, xs, measured, off, stuck, bool(series_keys))
     failed, missing = status_masks(df)
     mark_failed(ax1, xs, failed, missing)
     ax1.set_ylabel("gain a~/a (dimensionless)")

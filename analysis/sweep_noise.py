@@ -55,6 +55,67 @@ def _noise_frame(data: SweepData) -> tuple[pd.DataFrame, str]:
     )
 
 
+def _reference_lines(
+    ax1: Any,
+    ax2: Any,
+    data: SweepData,
+    naive: np.ndarray,
+    meas: np.ndarray,
+    theory: np.ndarray,
+    usable: np.ndarray,
+) -> None:
+    """The naive rule and the noise model over the usable points, the medians of measured
+    over each, and the band of 25 % around the model on the ratio panel."""
+    lo, hi = naive[usable].min() / 2, naive[usable].max() * 2
+    line = np.array([lo, hi])
+    ax1.loglog(line, line, ":", color="0.4", lw=1.0, label=f"y = x: {SIGMA}/(a √(MP))")
+    th = usable & np.isfinite(theory) & (theory > 0)
+    if th.any():
+        order = np.argsort(naive[th])
+        ax1.loglog(
+            naive[th][order],
+            theory[th][order],
+            "--",
+            color=C_THEORY,
+            lw=0.8,
+            label=f"noise model, {_estimators(data)} (+)",
+        )
+    r_naive = np.median(meas[usable] / naive[usable])
+    r_theory = np.median(meas[th] / theory[th]) if th.any() else math.nan
+    ax1.text(
+        0.98,
+        0.03,
+        f"median measured / naive = {r_naive:.3g}\nmedian measured / noise model = {r_theory:.3f}",
+        transform=ax1.transAxes,
+        ha="right",
+        va="bottom",
+        fontsize=7,
+        bbox={"fc": "white", "ec": "0.8", "lw": 0.5},
+    )
+    ax2.axhline(1.0, color=C_THEORY, ls="--", lw=0.8, label="= noise model")
+    ax2.axhspan(0.75, 1.25, color="0.92", lw=0, label="within 25 %")
+    ratio = meas[th] / theory[th] if th.any() else np.array([1.0])
+    ax2.set_ylim(min(0.5, 0.9 * float(np.nanmin(ratio))), max(1.5, 1.1 * float(np.nanmax(ratio))))
+
+
+def _notes(df: pd.DataFrame, data: SweepData, usable: np.ndarray, channel: str) -> list[str]:
+    """What the figure leaves out: failed points, points not run, and points without noise
+    on the channel drawn."""
+    failed, missing = status_masks(df)
+    noise_fields = [f for f in data.varying if f.startswith("disturbance.sensor_noise.")]
+    skipped = int(len(df) - usable.sum() - failed.sum() - missing.sum())
+    notes = []
+    if failed.any():
+        notes.append(f"{failed.sum()} failed (trim/divergence) points not shown")
+    if missing.any():
+        notes.append(f"{missing.sum()} points not run yet")
+    if skipped:
+        where = ", ".join(short_key(f) for f in noise_fields)
+        elsewhere = f"; the varied noise is on {where}" if channel not in where.split(", ") else ""
+        notes.append(f"{skipped} points with {SIGMA} = 0 on {channel} not shown{elsewhere}")
+    return notes
+
+
 def plot_noise(data: SweepData) -> Any:
     """Measured against predicted standard error of h, and their ratio, against
     sigma / (a sqrt(M P))."""
@@ -64,10 +125,8 @@ def plot_noise(data: SweepData) -> Any:
     theory = df["predicted"].to_numpy(dtype=float)
     channel = str(df["channel"].iloc[0]) if "channel" in df and len(df) else "?"
     unit = CHANNELS[channel].unit if channel in CHANNELS else "output unit"
-    noise_fields = [f for f in data.varying if f.startswith("disturbance.sensor_noise.")]
     amp_varies = "probe.amplitude_deg" in data.varying
     usable = np.isfinite(naive) & (naive > 0) & np.isfinite(meas) & (meas > 0)
-    failed, missing = status_masks(df)
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(7.6, 3.9), constrained_layout=True)
     if amp_varies:
@@ -84,49 +143,8 @@ def plot_noise(data: SweepData) -> Any:
         ax1.loglog(naive[m], theory[m], "+", color=color, ms=7, mew=1.0)
         ax2.semilogx(naive[m], meas[m] / theory[m], "o", color=color, ms=4.5, label=lab)
     if usable.any():
-        lo, hi = naive[usable].min() / 2, naive[usable].max() * 2
-        line = np.array([lo, hi])
-        ax1.loglog(line, line, ":", color="0.4", lw=1.0, label=f"y = x: {SIGMA}/(a √(MP))")
-        th = usable & np.isfinite(theory) & (theory > 0)
-        if th.any():
-            order = np.argsort(naive[th])
-            ax1.loglog(
-                naive[th][order],
-                theory[th][order],
-                "--",
-                color=C_THEORY,
-                lw=0.8,
-                label=f"noise model, {_estimators(data)} (+)",
-            )
-        r_naive = np.median(meas[usable] / naive[usable])
-        r_theory = np.median(meas[th] / theory[th]) if th.any() else math.nan
-        ax1.text(
-            0.98,
-            0.03,
-            f"median measured / naive = {r_naive:.3g}\n"
-            f"median measured / noise model = {r_theory:.3f}",
-            transform=ax1.transAxes,
-            ha="right",
-            va="bottom",
-            fontsize=7,
-            bbox={"fc": "white", "ec": "0.8", "lw": 0.5},
-        )
-        ax2.axhline(1.0, color=C_THEORY, ls="--", lw=0.8, label="= noise model")
-        ax2.axhspan(0.75, 1.25, color="0.92", lw=0, label="within 25 %")
-        ratio = meas[th] / theory[th] if th.any() else np.array([1.0])
-        ax2.set_ylim(
-            min(0.5, 0.9 * float(np.nanmin(ratio))), max(1.5, 1.1 * float(np.nanmax(ratio)))
-        )
-    skipped = int(len(df) - usable.sum() - failed.sum() - missing.sum())
-    notes = []
-    if failed.any():
-        notes.append(f"{failed.sum()} failed (trim/divergence) points not shown")
-    if missing.any():
-        notes.append(f"{missing.sum()} points not run yet")
-    if skipped:
-        where = ", ".join(short_key(f) for f in noise_fields)
-        elsewhere = f"; the varied noise is on {where}" if channel not in where.split(", ") else ""
-        notes.append(f"{skipped} points with {SIGMA} = 0 on {channel} not shown{elsewhere}")
+        _reference_lines(ax1, ax2, data, naive, meas, theory, usable)
+    notes = _notes(df, data, usable, channel)
     if not usable.any():
         ax1.text(
             0.5,
