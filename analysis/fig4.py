@@ -35,7 +35,7 @@ from probing.core.correlator import StreamingCorrelator
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import NoApparentFormError, RateLimit, compensate
 from probing.core.prbs import Probe
-from probing.experiment.fig4 import BASELINE, CHANNEL, OFFSET_TWIN, PANELS
+from probing.experiment.fig4_set import BASELINE, CHANNEL, OFFSET_TWIN, PANELS
 from probing.experiment.scenario import Scenario, parse_scenario
 from probing.experiment.storage import read_schema, read_settled
 

@@ -54,3 +54,23 @@ def test_one_version_string() -> None:
     assert probing.__version__ == version("probing") == pyproject
     sources = [p for p in ROOT.glob("probing/**/*.py") if f'"{pyproject}"' in p.read_text()]
     assert sources == []  # the version is written in pyproject.toml only
+
+
+def test_analysis_loads_no_simulator() -> None:
+    """Every ``analysis`` module draws from stored files: importing them all loads neither
+    JSBSim, the plant nor the runner (the constants they share live in light modules)."""
+    simulator = ("jsbsim", "probing.sim.plant", "probing.experiment.run")
+    code = (
+        "import importlib, json, pkgutil, sys\n"
+        "import analysis\n"
+        "names = [m.name for m in pkgutil.walk_packages(analysis.__path__, 'analysis.')]\n"
+        "for name in names:\n"
+        "    importlib.import_module(name)\n"
+        f"print(json.dumps([len(names), [m for m in {simulator!r} if m in sys.modules]]))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    ).stdout
+    n_modules, loaded = json.loads(out.splitlines()[-1])
+    assert n_modules >= 12  # every module was imported
+    assert loaded == []

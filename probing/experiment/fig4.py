@@ -17,10 +17,18 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.batch import run_grouped
+from probing.experiment.fig4_set import (
+    BASELINE,
+    CHANNEL,
+    OFFSET_TWIN,
+    PANELS,
+    SWEEP_BITS_S,
+    SWEEP_PERIODS,
+    SWEEP_RATIOS,
+    SWEEP_SETTLE,
+)
 from probing.experiment.run import run_scenario
 from probing.experiment.scenario import Scenario, ScenarioError, load_scenario
 from probing.experiment.storage import read_schema, write_json_atomic
@@ -40,25 +48,8 @@ __all__ = [
     "sweep_scenarios",
 ]
 
-#: Panel key (scenario file stem) -> panel letter, in figure order.
-PANELS: dict[str, str] = {
-    "a_deadband": "a",
-    "b_saturation": "b",
-    "c_relay": "c",
-    "d_backlash": "d",
-    "e_rate_limit": "e",
-    "f_rate_limit": "f",
-    "g_hysteresis_relay": "g",
-}
-BASELINE = "baseline"
-OFFSET_TWIN = "b_saturation_offset"  # constant b~ through the same chain: the remedy run
-CHANNEL = "theta_rad"
 DIGEST_KEY = b"probing.scenario_digest"
 AIRCRAFT_KEY = b"probing.aircraft"
-#: Rate-limit sweep: r_l / (2a/t0), log-spaced, and the bit durations (s).
-SWEEP_RATIOS = tuple(float(r) for r in np.geomspace(0.25, 4.0, 9))  # 0.25 * sqrt(2)**k
-SWEEP_BITS_S = (0.01, 0.04)
-SWEEP_PERIODS, SWEEP_SETTLE = 4, 2
 
 
 def stored_digest(folder: Path) -> str | None:
