@@ -640,6 +640,7 @@ def test_a_ctrl_c_lost_where_it_landed_still_ends_the_command(
     """A Ctrl-C that landed where Python drops it (an import) and then broke the command
     (a pool's workers ended: another error), or let it finish: one line, exit 130."""
     import probing.cli as cli
+    import probing.cli.plot as plot_command
     from probing.core.forked import INTERRUPTS
 
     def command(args):
@@ -648,7 +649,7 @@ def test_a_ctrl_c_lost_where_it_landed_still_ends_the_command(
             raise RuntimeError("A child process terminated abruptly")
         return 0
 
-    monkeypatch.setattr(cli, "_cmd_plot", command)
+    monkeypatch.setattr(plot_command, "_cmd_plot", command)  # the plot command
     assert cli.main(["plot", "fig4", "results"]) == 130
     out, err = capsys.readouterr()
     assert err == "probing: error: interrupted\n" and out == ""
@@ -660,10 +661,11 @@ def test_an_error_without_a_ctrl_c_is_not_called_an_interrupt(
 ) -> None:
     """The same error with no Ctrl-C noted propagates as itself."""
     import probing.cli as cli
+    import probing.cli.plot as plot_command
 
     def command(args):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(cli, "_cmd_plot", command)
+    monkeypatch.setattr(plot_command, "_cmd_plot", command)  # the plot command
     with pytest.raises(RuntimeError, match="a bug"):
         cli.main(["plot", "fig4", "results"])
