@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,21 +22,32 @@ from probing.cli.sweep import _plot_sweep_folder
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    if args.target == "monitor":
-        return _plot_monitor(args)
-    if args.target == "simultaneous":
-        return _plot_simultaneous(args)
-    if args.target == "manoeuvres":
-        return _plot_manoeuvres(args)
-    if args.target == "sweep":
-        figures = args.figures if args.figures is not None else args.results / "figures"
-        _out_folder(figures, "--figures")
-        _plot_sweep_folder(args.results, figures)
-        return 0
+    target = PLOT_TARGETS[args.target]
     if args.figures is None:
-        args.figures = Path("figures")
+        args.figures = _default(target.figures, args.results)
+    if args.summary is None and target.summary is not None:
+        args.summary = _default(target.summary, args.results)
+    return target.draw(args)
+
+
+def _default(text: str, results: Path) -> Path:
+    """A default folder or file as the help states it: ``RESULTS/...`` is under RESULTS."""
+    if text.startswith("RESULTS/"):
+        return results / text.removeprefix("RESULTS/")
+    return Path(text)
+
+
+def _plot_fig4(args: argparse.Namespace) -> int:
+    """Fig. 4's figures, and its summary.csv and .md in RESULTS, from the stored runs."""
     _check_fig4_outputs(args.results, args, "RESULTS")  # summary.csv and .md go there
     return _finish_fig4(args.results, args, time.perf_counter())
+
+
+def _plot_sweep(args: argparse.Namespace) -> int:
+    """A sweep's figure (and a sweep over seeds' table) from its folder."""
+    _out_folder(args.figures, "--figures")
+    _plot_sweep_folder(args.results, args.figures)
+    return 0
 
 
 def _plot_monitor(args: argparse.Namespace) -> int:
@@ -70,8 +82,7 @@ def _plot_study(
     RESULTS: ``load`` them (FileNotFoundError: none there), ``summarise`` and ``draw``."""
     if not args.results.is_dir():
         raise UsageError(f"RESULTS: {args.results} is not a folder")
-    figures = args.figures if args.figures is not None else args.results / "figures"
-    summary = args.summary if args.summary is not None else args.results / "summary.md"
+    figures, summary = args.figures, args.summary
     _out_folder(figures, "--figures")
     _out_file(summary, "--summary")
     from probing.experiment.storage import StoredFileError
@@ -89,38 +100,98 @@ def _plot_study(
     return 0
 
 
+@dataclass(frozen=True)
+class PlotTarget:
+    """A set of figures and tables ``probing plot TARGET RESULTS`` redraws from stored files.
+
+    ``draw`` checks the outputs, reads RESULTS, draws and prints, and returns the exit code;
+    ``args.figures`` and ``args.summary`` are set by then.  ``what`` names the set in the
+    command's help, ``results`` says which folder RESULTS is; ``figures`` is the default
+    figure folder and ``summary`` the default ``--summary`` file (None: no summary file to
+    name), as the help states them (``RESULTS/...``: under RESULTS).
+    """
+
+    draw: Callable[[argparse.Namespace], int]
+    what: str
+    results: str
+    figures: str = "RESULTS/figures"
+    summary: str | None = None
+
+
+#: ``probing plot``'s targets, in the order of its help; the parser's choices and help are
+#: generated from it, so a new target is one entry here.
+PLOT_TARGETS: dict[str, PlotTarget] = {
+    "fig4": PlotTarget(
+        _plot_fig4, "fig4", "the results folder written by `probing fig4`", figures="figures"
+    ),
+    "sweep": PlotTarget(_plot_sweep, "a sweep", "a sweep folder (results/sweeps/NAME)"),
+    "monitor": PlotTarget(
+        _plot_monitor,
+        "the monitor study",
+        "the study's folder (results/monitor: make monitor)",
+        summary="RESULTS/summary.md",
+    ),
+    "simultaneous": PlotTarget(
+        _plot_simultaneous,
+        "the simultaneous study",
+        "the study's folder (results/simultaneous: make simultaneous)",
+        summary="RESULTS/summary.md",
+    ),
+    "manoeuvres": PlotTarget(
+        _plot_manoeuvres,
+        "the manoeuvre study",
+        "the study's folder (results/manoeuvres: make manoeuvres)",
+        summary="RESULTS/summary.md",
+    ),
+}
+
+
+def _listing(words: list[str]) -> str:
+    """``a, b or c``."""
+    return " or ".join([", ".join(words[:-1]), words[-1]]) if len(words) > 1 else words[0]
+
+
+def _defaults(attribute: str) -> str:
+    """Each default of a target's ``attribute`` with the targets it is theirs:
+    ``figures for fig4; RESULTS/figures for sweep, monitor, ...``."""
+    targets: dict[str, list[str]] = {}
+    for name, target in PLOT_TARGETS.items():
+        value = getattr(target, attribute)
+        if value is not None:
+            targets.setdefault(value, []).append(name)
+    if len(targets) == 1:
+        return next(iter(targets))
+    return "; ".join(f"{value} for {', '.join(names)}" for value, names in targets.items())
+
+
 def register(sub: Subcommands) -> None:
-    """Add ``plot`` to ``sub``."""
+    """Add ``plot`` to ``sub``, its targets and their help from :data:`PLOT_TARGETS`."""
+    whats = [target.what for target in PLOT_TARGETS.values()]
     plot = command(
         sub,
         "plot",
-        "redraw the figures and tables of fig4, a sweep, or the monitor, simultaneous or "
-        "manoeuvre study from stored Parquet (no simulation)",
+        f"redraw the figures and tables of {_listing(whats)} from stored Parquet (no simulation)",
     )
-    plot.add_argument(
-        "target",
-        choices=["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"],
-        help="which figure set",
-    )
+    plot.add_argument("target", choices=list(PLOT_TARGETS), help="which figure set")
     plot.add_argument(
         "results",
         type=_path,
-        help="results folder written by `probing fig4`, a sweep folder (results/sweeps/NAME), "
-        "or a study's folder (results/monitor, results/simultaneous, results/manoeuvres: "
-        "make monitor, make simultaneous, make manoeuvres)",
+        help="the folder read: "
+        + "; ".join(f"{name}: {target.results}" for name, target in PLOT_TARGETS.items()),
     )
     plot.add_argument(
         "--figures",
         type=_path,
         default=None,
-        help="figure folder (default: figures for fig4, RESULTS/figures for a sweep or a study)",
+        help=f"figure folder (default: {_defaults('figures')})",
     )
+    with_summary = [name for name, target in PLOT_TARGETS.items() if target.summary is not None]
     plot.add_argument(
         "--summary",
         type=_path,
         default=None,
-        help="monitor, simultaneous, manoeuvres: write the study's tables to this file "
-        "(default: RESULTS/summary.md)",
+        help=f"{', '.join(with_summary)}: write the study's tables to this file "
+        f"(default: {_defaults('summary')})",
     )
     plot.add_argument(
         "--copy-summary", type=_path, default=None, help="fig4: also copy summary.md to this file"

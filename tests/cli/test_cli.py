@@ -669,3 +669,42 @@ def test_an_error_without_a_ctrl_c_is_not_called_an_interrupt(
     monkeypatch.setattr(plot_command, "_cmd_plot", command)  # the plot command
     with pytest.raises(RuntimeError, match="a bug"):
         cli.main(["plot", "fig4", "results"])
+
+
+# ------------------------------------------------------------------ 17. tables of the parser
+def test_the_plot_targets_are_the_plot_commands_choices_and_help() -> None:
+    """``probing plot``'s choices, help and top-level line come from PLOT_TARGETS alone."""
+    from probing.cli.plot import PLOT_TARGETS
+
+    plot = _subcommands()["plot"]
+    (target,) = [a for a in plot._actions if a.dest == "target"]
+    assert list(target.choices) == list(PLOT_TARGETS)
+    text = " ".join(plot.format_help().split())
+    top = " ".join(build_parser().format_help().split())
+    for name, entry in PLOT_TARGETS.items():
+        assert f"{name}: {entry.results}" in text, name
+        assert entry.what in top, name
+    figures = "figures for fig4; RESULTS/figures for sweep, monitor, simultaneous, manoeuvres"
+    assert f"figure folder (default: {figures})" in text  # as the next test finds them
+    assert "monitor, simultaneous, manoeuvres: write the study's tables to this file " in text
+    assert "(default: RESULTS/summary.md)" in text
+
+
+@pytest.mark.parametrize("name", ["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"])
+def test_each_plot_target_draws_into_its_stated_defaults(
+    name: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The default figure folder and summary file a target is given are the ones its help
+    states: figures for fig4, RESULTS/figures otherwise; RESULTS/summary.md for a study."""
+    import dataclasses
+
+    from probing.cli.plot import PLOT_TARGETS
+
+    seen: list[Any] = []
+    entry = dataclasses.replace(PLOT_TARGETS[name], draw=lambda args: seen.append(args) or 0)
+    monkeypatch.setitem(PLOT_TARGETS, name, entry)
+    assert cli_main(["plot", name, str(tmp_path)]) == 0
+    (args,) = seen
+    assert args.figures == (Path("figures") if name == "fig4" else tmp_path / "figures")
+    study = name in ("monitor", "simultaneous", "manoeuvres")
+    assert args.summary == (tmp_path / "summary.md" if study else None)
