@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import types
+import typing
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -21,40 +24,9 @@ from probing.cli.common import (
 def _cmd_design(args: argparse.Namespace) -> int:
     if args.simultaneous is not None:
         return _check_simultaneous(args.simultaneous)
-    missing = [o for o in ("aircraft", "altitude_ft", "speed_kcas") if getattr(args, o) is None]
-    if missing:
-        options = ", ".join("--" + o.replace("_", "-") for o in missing)
-        raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
-    from probing.experiment.design import (
-        DesignError,
-        DesignInputError,
-        DesignRequest,
-        recommend,
-    )
+    request = _request(args)
+    from probing.experiment.design import DesignError, DesignInputError, recommend
     from probing.experiment.storage import strict_json
-
-    request = DesignRequest(
-        aircraft=args.aircraft,
-        altitude_ft=args.altitude_ft,
-        speed_kcas=args.speed_kcas,
-        dt_s=args.dt_s,
-        deadband_deg=tuple(args.deadband_deg) if args.deadband_deg else None,
-        saturation_deg=tuple(args.saturation_deg) if args.saturation_deg else None,
-        rate_limit_deg_s=args.rate_limit_deg_s,
-        noise_sigma=args.noise_sigma,
-        turbulence=args.turbulence,
-        channel=args.channel,
-        estimator=args.estimator,
-        target_gain_se=args.target_gain_se,
-        detect_gain_change=args.detect_gain_change,
-        false_alarm=args.false_alarm,
-        detection_probability=args.detection_probability,
-        target_h_se=args.target_h_se,
-        amplitude_deg=args.amplitude_deg,
-        deadband_margin=args.deadband_margin,
-        settle_periods=args.settle_periods,
-        calibration_seeds=args.calibration_seeds,
-    )
 
     def job() -> int:
         try:
@@ -147,10 +119,32 @@ def register(sub: Subcommands) -> None:
     design.set_defaults(func=_cmd_design)
 
 
+def _request(args: argparse.Namespace) -> Any:
+    """The :class:`~probing.experiment.design_request.DesignRequest` the options give
+    (UsageError naming the required ones missing)."""
+    from probing.experiment.design_request import DesignRequest
+
+    fields = dataclasses.fields(DesignRequest)
+    required = [f.name for f in fields if f.default is dataclasses.MISSING]
+    missing = [name for name in required if getattr(args, name) is None]
+    if missing:
+        options = ", ".join(_flag(name) for name in missing)
+        raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
+    values = {f.name: getattr(args, f.name) for f in fields}
+    return DesignRequest(
+        **{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}  # nargs=2
+    )
+
+
+def _flag(name: str) -> str:
+    """The option of a DesignRequest field: ``dt_s`` is ``--dt-s``."""
+    return "--" + name.replace("_", "-")
+
+
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
-    from probing.core.noise import ESTIMATORS
-    from probing.sim.channels import CHANNEL_NAMES
-    from probing.sim.flight import TURBULENCE_SEVERITY
+    """``--simultaneous``, an option per DesignRequest field (its default and help from the
+    field, :func:`~probing.experiment.design_request._option`), and ``--json``."""
+    from probing.experiment.design_request import DesignRequest
 
     parser.add_argument(
         "--simultaneous",
@@ -160,83 +154,31 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
         help="check a scenario's [simultaneous] design from the linearisation (exit 2 if "
         "its surfaces cannot be kept apart) instead of recommending a probe",
     )
-    parser.add_argument("--aircraft", help="JSBSim model, e.g. gtm_t2 or 737 (required)")
-    parser.add_argument("--altitude-ft", type=float, help="trim altitude (ft) (required)")
-    parser.add_argument("--speed-kcas", type=float, help="trim speed (kt CAS) (required)")
-    parser.add_argument("--dt-s", type=float, default=0.01, help="simulation step (s)")
-    parser.add_argument(
-        "--deadband-deg",
-        type=float,
-        nargs=2,
-        metavar=("LOWER", "UPPER"),
-        default=None,
-        help="deadband edges relative to trim (deg)",
-    )
-    parser.add_argument(
-        "--saturation-deg",
-        type=float,
-        nargs=2,
-        metavar=("LOWER", "UPPER"),
-        default=None,
-        help="saturation limits relative to trim (deg)",
-    )
-    parser.add_argument(
-        "--rate-limit-deg-s", type=float, default=None, metavar="R", help="rate limit (deg/s)"
-    )
-    parser.add_argument(
-        "--channel", choices=CHANNEL_NAMES, default="theta_rad", help="the output to estimate"
-    )
-    parser.add_argument(
-        "--noise-sigma", type=float, default=0.0, help="sensor noise on the channel (1 sigma)"
-    )
-    parser.add_argument(
-        "--turbulence",
-        choices=list(TURBULENCE_SEVERITY),
-        default="none",
-        help="turbulence level; what the reference twin does not cancel is measured",
-    )
-    parser.add_argument(
-        "--calibration-seeds",
-        type=int,
-        default=32,
-        help="noise-free turbulence runs to measure it on (a std from K of them: 1/sqrt(2(K-1)))",
-    )
-    parser.add_argument(
-        "--estimator",
-        choices=list(ESTIMATORS),
-        default=None,
-        help="the estimator (default: the one with the smallest predicted scatter)",
-    )
-    target = parser.add_mutually_exclusive_group()
-    target.add_argument(
-        "--target-gain-se", type=float, default=None, help="standard error of the gain"
-    )
-    target.add_argument(
-        "--detect-gain-change",
-        type=float,
-        default=None,
-        metavar="CHANGE",
-        help="a gain change to detect (with --false-alarm and --detection-probability)",
-    )
-    target.add_argument(
-        "--target-h-se",
-        type=float,
-        default=None,
-        help="standard error of h, RMS over taps (channel unit per deg)",
-    )
-    parser.add_argument(
-        "--false-alarm", type=float, default=0.01, help="false-alarm probability (two-sided)"
-    )
-    parser.add_argument(
-        "--detection-probability", type=float, default=0.9, help="detection probability"
-    )
-    parser.add_argument(
-        "--amplitude-deg", type=float, default=0.005, help="amplitude without a deadband (deg)"
-    )
-    parser.add_argument(
-        "--deadband-margin", type=float, default=3.0, help="a >= margin x deadband half width"
-    )
-    parser.add_argument(
-        "--settle-periods", type=int, default=2, help="periods left out before averaging"
-    )
+    hints = typing.get_type_hints(DesignRequest)
+    groups: dict[str, Any] = {}
+    for f in dataclasses.fields(DesignRequest):
+        keywords = dict(f.metadata["option"])
+        exclusive = keywords.pop("exclusive")
+        if exclusive is None:
+            where = parser
+        else:
+            if exclusive not in groups:
+                groups[exclusive] = parser.add_mutually_exclusive_group()
+            where = groups[exclusive]
+        kind, nargs = _argument_type(hints[f.name])
+        default = None if f.default is dataclasses.MISSING else f.default
+        if nargs is not None:
+            keywords["nargs"] = nargs
+        where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def _argument_type(hint: Any) -> tuple[Any, int | None]:
+    """The argparse ``type`` and ``nargs`` of a field's type: ``float | None`` is a float,
+    ``tuple[float, float] | None`` two of them; a ``str`` is taken as it is (None)."""
+    if isinstance(hint, types.UnionType):  # X | None
+        (hint,) = [k for k in typing.get_args(hint) if k is not type(None)]
+    if typing.get_origin(hint) is tuple:
+        items = typing.get_args(hint)
+        return items[0], len(items)
+    return (None if hint is str else hint), None
