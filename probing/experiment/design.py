@@ -34,12 +34,12 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.stats import norm
 
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
+from probing.experiment.design_request import DesignInputError, DesignRequest, detectable_stderr
 from probing.experiment.noise import ChannelPrediction, predict, scatter_models
-from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError, parse_scenario
+from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import make_plant
 
@@ -59,162 +59,6 @@ __all__ = [
 
 class DesignError(ValueError):
     """The request cannot be met; the message says why."""
-
-
-class DesignInputError(ValueError):
-    """An invalid request: ``option`` names the command-line option, ``message`` the rule."""
-
-    def __init__(self, option: str, message: str) -> None:
-        self.option, self.message = option, message
-        super().__init__(f"{option}: {message}")
-
-
-#: Scenario field -> the ``probing design`` option that sets it.
-_OPTIONS = {
-    "name": "--aircraft",
-    "aircraft.model": "--aircraft",
-    "condition.altitude_ft": "--altitude-ft",
-    "condition.speed_kcas": "--speed-kcas",
-    "simulation.dt_s": "--dt-s",
-    "probe.amplitude_deg": "--amplitude-deg",
-    "probe.settle_periods": "--settle-periods",
-    "output.channels": "--channel",
-    "output.estimator": "--estimator",
-    "disturbance.turbulence": "--turbulence",
-}
-
-
-@dataclass(frozen=True)
-class DesignRequest:
-    """What ``probing design`` is asked: aircraft, condition, nonlinearities, noise, target.
-
-    Attributes are in the units of their names; ``noise_sigma`` is the sensor noise of
-    ``channel`` (its unit, 1 sigma); ``target_h_se`` is in the channel's unit per deg.
-    """
-
-    aircraft: str
-    altitude_ft: float
-    speed_kcas: float
-    dt_s: float = 0.01
-    deadband_deg: tuple[float, float] | None = None
-    saturation_deg: tuple[float, float] | None = None
-    rate_limit_deg_s: float | None = None
-    noise_sigma: float = 0.0
-    turbulence: str = "none"
-    channel: str = "theta_rad"
-    estimator: str | None = None
-    target_gain_se: float | None = None
-    detect_gain_change: float | None = None
-    false_alarm: float = 0.01
-    detection_probability: float = 0.9
-    target_h_se: float | None = None
-    amplitude_deg: float = 0.005
-    deadband_margin: float = 3.0
-    settle_periods: int = 2
-    calibration_seeds: int = 32
-
-    def base(self) -> dict[str, Any]:
-        """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
-        noise = {self.channel: self.noise_sigma} if self.noise_sigma else {}
-        return {
-            "name": "design",
-            "aircraft": {"model": self.aircraft},
-            "condition": {"altitude_ft": self.altitude_ft, "speed_kcas": self.speed_kcas},
-            "simulation": {"dt_s": self.dt_s},
-            "probe": {
-                "order": 9,
-                "bit_duration_s": self.dt_s,
-                "amplitude_deg": self.amplitude_deg,
-                "periods": max(self.settle_periods + 1, 2),
-                "settle_periods": self.settle_periods,
-            },
-            "nonlinearity": {"type": "none"},
-            "output": {
-                "channels": [self.channel],
-                "drift": "reference",
-                "estimator": self.estimator or "streaming",
-            },
-            "disturbance": {"turbulence": self.turbulence, "sensor_noise": noise},
-        }
-
-    def nonlinearities(self) -> list[tuple[str, dict[str, Any]]]:
-        """The nonlinearities asked about, as (option, scenario changes), in order."""
-        out = []
-        if self.deadband_deg is not None:
-            lo, up = self.deadband_deg
-            change = {"type": "deadband", "lower_deg": lo, "upper_deg": up}
-            out.append(("--deadband-deg", change))
-        if self.saturation_deg is not None:
-            lo, up = self.saturation_deg
-            change = {"type": "saturation", "lower_deg": lo, "upper_deg": up}
-            out.append(("--saturation-deg", change))
-        if self.rate_limit_deg_s is not None:
-            change = {"type": "rate_limit", "rate_deg_s": self.rate_limit_deg_s}
-            out.append(("--rate-limit-deg-s", change))
-        return out
-
-    def validate(self) -> Scenario:
-        """Check every value as the scenario schema does; the base scenario.
-
-        Raises
-        ------
-        DesignInputError
-            Naming the option and the rule, for the first invalid value.
-        """
-        data = self.base()
-        try:
-            scn = parse_scenario(data)
-        except ScenarioError as exc:
-            option = _OPTIONS.get(exc.field, exc.field)
-            if exc.field.startswith("disturbance.sensor_noise"):
-                option = "--noise-sigma"
-            raise DesignInputError(option, exc.message) from None
-        for option, change in self.nonlinearities():
-            try:
-                scn.replace({f"nonlinearity.{k}": v for k, v in change.items()})
-            except ScenarioError as exc:
-                raise DesignInputError(option, f"{exc.field}: {exc.message}") from None
-        positive = (
-            ("--target-gain-se", self.target_gain_se),
-            ("--detect-gain-change", self.detect_gain_change),
-            ("--target-h-se", self.target_h_se),
-            ("--deadband-margin", self.deadband_margin),
-        )
-        for option, value in positive:
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise DesignInputError(option, f"must be a number > 0, got {value:g}")
-        for option, value in (
-            ("--false-alarm", self.false_alarm),
-            ("--detection-probability", self.detection_probability),
-        ):
-            if not 0 < value < 1:
-                raise DesignInputError(option, f"must be a probability in (0, 1), got {value:g}")
-        targets = [t for t in (self.target_gain_se, self.detect_gain_change, self.target_h_se) if t]
-        if len(targets) > 1:
-            raise DesignInputError(
-                "--target-gain-se", "give one target: a gain standard error, a gain change "
-                "to detect, or a standard error of h"
-            )  # fmt: skip
-        if targets and self.noise_sigma == 0 and self.turbulence == "none":
-            raise DesignInputError(
-                "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
-            )
-        if not 2 <= self.calibration_seeds <= 100:
-            raise DesignInputError("--calibration-seeds", "must be from 2 to 100")
-        return scn
-
-    @property
-    def target(self) -> tuple[str, float] | None:
-        """("gain", its standard error) or ("h", its standard error) or None."""
-        if self.detect_gain_change is not None:
-            return "gain", detectable_stderr(
-                self.detect_gain_change, self.false_alarm, self.detection_probability
-            )
-        if self.target_gain_se is not None:
-            return "gain", self.target_gain_se
-        if self.target_h_se is not None:
-            return "h", self.target_h_se
-        return None
 
 
 @dataclass
@@ -261,18 +105,6 @@ class Design:
     reasons: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     estimators: dict[str, float] = field(default_factory=dict)
-
-
-def detectable_stderr(change: float, false_alarm: float, detection_probability: float) -> float:
-    """The gain standard error at which a gain change ``change`` is detected with
-    ``detection_probability`` by a two-sided test of false-alarm probability ``false_alarm``.
-
-    Examples
-    --------
-    >>> round(detectable_stderr(0.05, 0.01, 0.9), 5)  # 0.05 / (2.576 + 1.282)
-    0.01296
-    """
-    return change / (norm.ppf(1 - false_alarm / 2) + norm.ppf(detection_probability))
 
 
 def fewest_periods(scatter: Callable[[int], float], target: float, max_periods: int) -> int:

@@ -640,6 +640,7 @@ def test_a_ctrl_c_lost_where_it_landed_still_ends_the_command(
     """A Ctrl-C that landed where Python drops it (an import) and then broke the command
     (a pool's workers ended: another error), or let it finish: one line, exit 130."""
     import probing.cli as cli
+    import probing.cli.plot as plot_command
     from probing.core.forked import INTERRUPTS
 
     def command(args):
@@ -648,7 +649,7 @@ def test_a_ctrl_c_lost_where_it_landed_still_ends_the_command(
             raise RuntimeError("A child process terminated abruptly")
         return 0
 
-    monkeypatch.setattr(cli, "_cmd_plot", command)
+    monkeypatch.setattr(plot_command, "_cmd_plot", command)  # the plot command
     assert cli.main(["plot", "fig4", "results"]) == 130
     out, err = capsys.readouterr()
     assert err == "probing: error: interrupted\n" and out == ""
@@ -660,10 +661,119 @@ def test_an_error_without_a_ctrl_c_is_not_called_an_interrupt(
 ) -> None:
     """The same error with no Ctrl-C noted propagates as itself."""
     import probing.cli as cli
+    import probing.cli.plot as plot_command
 
     def command(args):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(cli, "_cmd_plot", command)
+    monkeypatch.setattr(plot_command, "_cmd_plot", command)  # the plot command
     with pytest.raises(RuntimeError, match="a bug"):
         cli.main(["plot", "fig4", "results"])
+
+
+# ------------------------------------------------------------------ 17. tables of the parser
+def test_the_plot_targets_are_the_plot_commands_choices_and_help() -> None:
+    """``probing plot``'s choices, help and top-level line come from PLOT_TARGETS alone."""
+    from probing.cli.plot import PLOT_TARGETS
+
+    plot = _subcommands()["plot"]
+    (target,) = [a for a in plot._actions if a.dest == "target"]
+    assert list(target.choices) == list(PLOT_TARGETS)
+    text = " ".join(plot.format_help().split())
+    top = " ".join(build_parser().format_help().split())
+    for name, entry in PLOT_TARGETS.items():
+        assert f"{name}: {entry.results}" in text, name
+        assert entry.what in top, name
+    figures = "figures for fig4; RESULTS/figures for sweep, monitor, simultaneous, manoeuvres"
+    assert f"figure folder (default: {figures})" in text  # as the next test finds them
+    assert "monitor, simultaneous, manoeuvres: write the study's tables to this file " in text
+    assert "(default: RESULTS/summary.md)" in text
+
+
+@pytest.mark.parametrize("name", ["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"])
+def test_each_plot_target_draws_into_its_stated_defaults(
+    name: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The default figure folder and summary file a target is given are the ones its help
+    states: figures for fig4, RESULTS/figures otherwise; RESULTS/summary.md for a study."""
+    import dataclasses
+
+    from probing.cli.plot import PLOT_TARGETS
+
+    seen: list[Any] = []
+    entry = dataclasses.replace(PLOT_TARGETS[name], draw=lambda args: seen.append(args) or 0)
+    monkeypatch.setitem(PLOT_TARGETS, name, entry)
+    assert cli_main(["plot", name, str(tmp_path)]) == 0
+    (args,) = seen
+    assert args.figures == (Path("figures") if name == "fig4" else tmp_path / "figures")
+    study = name in ("monitor", "simultaneous", "manoeuvres")
+    assert args.summary == (tmp_path / "summary.md" if study else None)
+
+
+def test_every_design_option_defaults_to_its_design_request_field() -> None:
+    """A ``probing design`` option's default is its DesignRequest field's (None when the
+    field is required), stated once in its help; no options give the default request."""
+    import dataclasses
+
+    import probing.cli.design as design_command
+    from probing.experiment.design_request import DesignRequest
+
+    design = _subcommands()["design"]
+    actions = {a.dest: a for a in design._actions}
+    formatter = design._get_formatter()
+    for f in dataclasses.fields(DesignRequest):
+        action = actions[f.name]
+        assert action.option_strings == ["--" + f.name.replace("_", "-")]
+        required = f.default is dataclasses.MISSING
+        assert action.default == (None if required else f.default), f.name
+        text = formatter._expand_help(action)
+        stated = None if required or f.default is None else f"(default: {f.default})"
+        if stated is not None:
+            assert text.count("(default:") == 1 and stated in text, (f.name, text)
+    condition = ["--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
+    args = build_parser().parse_args(["design", *condition])
+    assert design_command._request(args) == DesignRequest("737", 15000.0, 280.0)
+
+
+def test_every_design_option_reaches_the_request() -> None:
+    """Each option given a value other than its default: the request holds every one."""
+    import dataclasses
+
+    import probing.cli.design as design_command
+    from probing.experiment.design_request import DesignRequest
+
+    given = DesignRequest(
+        aircraft="gtm_t2",
+        altitude_ft=800.0,
+        speed_kcas=75.0,
+        dt_s=0.02,
+        deadband_deg=(-0.1, 0.2),
+        saturation_deg=(-3.0, 4.0),
+        rate_limit_deg_s=20.0,
+        channel="q_rad_s",
+        noise_sigma=1e-4,
+        turbulence="light",
+        calibration_seeds=8,
+        estimator="cyclic",
+        detect_gain_change=0.1,
+        false_alarm=0.05,
+        detection_probability=0.8,
+        amplitude_deg=0.01,
+        deadband_margin=2.0,
+        settle_periods=3,
+    )
+
+    def argv(request: DesignRequest) -> list[str]:
+        out = ["design"]
+        for name, value in vars(request).items():
+            if value is not None:
+                values = value if isinstance(value, tuple) else (value,)
+                out += ["--" + name.replace("_", "-"), *map(str, values)]
+        return out
+
+    for request in (
+        given,
+        dataclasses.replace(given, detect_gain_change=None, target_gain_se=0.01),  # one target
+        dataclasses.replace(given, detect_gain_change=None, target_h_se=0.01),  # at a time
+    ):
+        assert design_command._request(build_parser().parse_args(argv(request))) == request

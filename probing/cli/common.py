@@ -1,0 +1,106 @@
+"""What every command of the command line shares: its one-line errors, the output checks, the
+parser's classes and the path argument."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NoReturn
+
+#: The subparsers of ``probing``, to which each command module adds its commands.
+Subcommands = argparse._SubParsersAction
+
+
+class UsageError(Exception):
+    """Bad input found by a command: printed as one line, exit code 2."""
+
+
+def _error(message: str, code: int) -> int:
+    print(f"probing: error: {message}", file=sys.stderr)
+    return code
+
+
+def _out_folder(path: Path, option: str) -> Path:
+    """``path`` after :func:`probing.experiment.storage.check_output_folder` (UsageError)."""
+    from probing.experiment.storage import OutputPathError, check_output_folder
+
+    try:
+        return check_output_folder(path, option)
+    except OutputPathError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _out_file(path: Path, option: str) -> Path:
+    """``path`` after :func:`probing.experiment.storage.check_output_file` (UsageError)."""
+    from probing.experiment.storage import OutputPathError, check_output_file
+
+    try:
+        return check_output_file(path, option)
+    except OutputPathError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _run_folder(out: Path, scn: Any) -> None:
+    """``--out`` and the run's own folder in it, ``OUT/<scenario name>`` (UsageError)."""
+    _out_folder(out, "--out")
+    _out_folder(out / scn.name, "--out")
+
+
+def _load_scenario(path: Path) -> Any:
+    from probing.experiment.scenario import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(path)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _simulating(job: Callable[[], int], where: str) -> int:
+    """Run ``job``; a trim failure or divergence is one line and exit code 1."""
+    from probing.sim.errors import DivergenceError, TrimError
+
+    try:
+        return job()
+    except (TrimError, DivergenceError) as exc:
+        return _error(f"{where}: {exc}", 1)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, ``probing: error: ...``, exit code 2
+    (argparse prints the whole usage first); its subcommands' parsers are of this class."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``message`` as the command's one-line error and exit with code 2."""
+        self.exit(2, f"probing: error: {' '.join(message.split())}\n")
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """States an option's default after its help, unless the help states it already, the
+    default is None (nothing to say) or False (a flag that is off)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            "(default" in text
+            or default is None
+            or default is False
+            or default == argparse.SUPPRESS
+        ):
+            return text
+        return super()._get_help_string(action)
+
+
+def _path(text: str) -> Path:
+    """A path argument; an empty one (``--out ""``, the current folder) is refused."""
+    if not text:
+        raise argparse.ArgumentTypeError("empty path")
+    return Path(text)
+
+
+def command(sub: Subcommands, name: str, text: str) -> argparse.ArgumentParser:
+    """Add the command ``name`` to ``sub``: ``text`` is its line in the top-level help and
+    its description; its options' help states their defaults (:class:`_HelpFormatter`)."""
+    return sub.add_parser(name, help=text, description=text, formatter_class=_HelpFormatter)

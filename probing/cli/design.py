@@ -1,0 +1,184 @@
+"""``probing design``: a recommended probe, or the check of a [simultaneous] design."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import types
+import typing
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _error,
+    _load_scenario,
+    _path,
+    _simulating,
+    command,
+)
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    if args.simultaneous is not None:
+        return _check_simultaneous(args.simultaneous)
+    request = _request(args)
+    from probing.experiment.design import DesignError, DesignInputError, recommend
+    from probing.experiment.storage import strict_json
+
+    def job() -> int:
+        try:
+            d, modes, _ = recommend(request)
+        except DesignInputError as exc:
+            raise UsageError(str(exc)) from None
+        except DesignError as exc:
+            if args.json:
+                print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
+            return _error(f"infeasible: {exc}", 2)
+        if args.json:
+            payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
+            print(strict_json(payload, indent=2, sort_keys=False))
+            return 0
+        print(
+            f"{args.aircraft} at {args.altitude_ft:g} ft, {args.speed_kcas:g} kcas: short period "
+            f"wn = {modes.sp_wn:.3g} rad/s, zeta = {modes.sp_zeta:.3g}; phugoid wn = "
+            f"{modes.ph_wn:.3g} rad/s, zeta = {modes.ph_zeta:.3g}"
+        )
+        print(_design_table(d))
+        return 0
+
+    return _simulating(job, f"--aircraft {args.aircraft}")
+
+
+def _check_simultaneous(path: Path) -> int:
+    """``probing design --simultaneous``: the design's memory condition, or its refusal."""
+    from probing.experiment.simultaneous import SeparationError, check_separation
+
+    scn = _load_scenario(path)
+    if scn.simultaneous is None:
+        raise UsageError(f"{path}: has no [simultaneous] section")
+
+    def job() -> int:
+        try:
+            check = check_separation(scn)
+        except SeparationError as exc:
+            raise UsageError(f"{path}: {exc}") from None
+        if not check.ok:
+            raise UsageError(f"{path}: {check.refusal()}")
+        layout = check.layout
+        print(
+            f"{scn.name}: {layout.design} design, {layout.surfaces} surfaces, "
+            f"{layout.window_bits} taps each, {layout.total_periods} periods flown"
+        )
+        print(check.table())
+        return 0
+
+    return _simulating(job, str(path))
+
+
+def _modes_dict(modes: Any) -> dict[str, float]:
+    return {k: getattr(modes, k) for k in ("sp_wn", "sp_zeta", "ph_wn", "ph_zeta")}
+
+
+def _design_table(d: Any) -> str:
+    from analysis.tables import fmt
+    from probing.sim.channels import unit_of
+
+    unit = unit_of(d.channel)
+    rows = [
+        ("order", f"{d.order} (M = {d.bits_per_period})", d.reasons["order"]),
+        ("bit_duration_s", f"{d.bit_duration_s:g}", d.reasons["bit_duration_s"]),
+        ("amplitude_deg", f"{d.amplitude_deg:.4g}", d.reasons["amplitude_deg"]),
+        ("estimator", d.estimator, d.reasons["estimator"]),
+        ("periods", f"{d.periods} ({d.settle_periods} settling)", d.reasons["periods"]),
+    ]
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    lines = [f"{'parameter':<{w0}}  {'value':<{w1}}  reason"]
+    lines += [f"{a:<{w0}}  {b:<{w1}}  {c}" for a, b, c in rows]
+    lines.append(
+        f"predicted on {d.channel} (seed-to-seed): gain se {fmt(d.predicted_gain_stderr, 3)}, "
+        f"h se {fmt(d.predicted_h_stderr, 3)} {unit}/deg, z se {fmt(d.predicted_z_stderr, 3)} "
+        f"{unit}; bias of h (slow modes) {fmt(d.predicted_h_bias, 3)} {unit}/deg"
+    )
+    lines += [f"warning: {w}" for w in d.warnings]
+    lines += [
+        "",
+        "scenario (probing design ... --json gives it as scenario_toml):",
+        d.scenario_toml,
+    ]
+    return "\n".join(lines)
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``design`` to ``sub``."""
+    design = command(sub, "design", "recommend order, bit duration and amplitude for an experiment")
+    _design_arguments(design)
+    design.set_defaults(func=_cmd_design)
+
+
+def _request(args: argparse.Namespace) -> Any:
+    """The :class:`~probing.experiment.design_request.DesignRequest` the options give
+    (UsageError naming the required ones missing)."""
+    from probing.experiment.design_request import DesignRequest
+
+    fields = dataclasses.fields(DesignRequest)
+    required = [f.name for f in fields if f.default is dataclasses.MISSING]
+    missing = [name for name in required if getattr(args, name) is None]
+    if missing:
+        options = ", ".join(_flag(name) for name in missing)
+        raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
+    values = {f.name: getattr(args, f.name) for f in fields}
+    return DesignRequest(
+        **{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}  # nargs=2
+    )
+
+
+def _flag(name: str) -> str:
+    """The option of a DesignRequest field: ``dt_s`` is ``--dt-s``."""
+    return "--" + name.replace("_", "-")
+
+
+def _design_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--simultaneous``, an option per DesignRequest field (its default and help from the
+    field, :func:`~probing.experiment.design_request._option`), and ``--json``."""
+    from probing.experiment.design_request import DesignRequest
+
+    parser.add_argument(
+        "--simultaneous",
+        type=_path,
+        default=None,
+        metavar="SCENARIO",
+        help="check a scenario's [simultaneous] design from the linearisation (exit 2 if "
+        "its surfaces cannot be kept apart) instead of recommending a probe",
+    )
+    hints = typing.get_type_hints(DesignRequest)
+    groups: dict[str, Any] = {}
+    for f in dataclasses.fields(DesignRequest):
+        keywords = dict(f.metadata["option"])
+        exclusive = keywords.pop("exclusive")
+        if exclusive is None:
+            where = parser
+        else:
+            if exclusive not in groups:
+                groups[exclusive] = parser.add_mutually_exclusive_group()
+            where = groups[exclusive]
+        kind, nargs = _argument_type(hints[f.name])
+        default = None if f.default is dataclasses.MISSING else f.default
+        if nargs is not None:
+            keywords["nargs"] = nargs
+        where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def _argument_type(hint: Any) -> tuple[Any, int | None]:
+    """The argparse ``type`` and ``nargs`` of a field's type: ``float | None`` is a float,
+    ``tuple[float, float] | None`` two of them; a ``str`` is taken as it is (None)."""
+    if isinstance(hint, types.UnionType):  # X | None
+        (hint,) = [k for k in typing.get_args(hint) if k is not type(None)]
+    if typing.get_origin(hint) is tuple:
+        items = typing.get_args(hint)
+        return items[0], len(items)
+    return (None if hint is str else hint), None

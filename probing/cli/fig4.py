@@ -1,0 +1,107 @@
+"""``probing fig4``: the paper's Fig. 4, its runs, figures and summary."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import time
+from pathlib import Path
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _out_file,
+    _out_folder,
+    _path,
+    _simulating,
+    command,
+)
+
+
+def _cmd_fig4(args: argparse.Namespace) -> int:
+    from probing.experiment.fig4 import load_set, run_set
+    from probing.experiment.scenario import ScenarioError
+
+    t_start = time.perf_counter()
+    scen_dir = args.scenarios
+    try:
+        load_set(scen_dir)  # every scenario valid before anything runs
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
+    _check_fig4_outputs(results, args)
+    _out_file(results / "manifest.json", "--out")
+    _check_fig4_runs(scen_dir, results, args.force)
+    print(f"probing fig4: {scen_dir} -> {results}")
+
+    def job() -> int:
+        run_set(scen_dir, results, force=args.force)
+        return _finish_fig4(results, args, t_start)
+
+    return _simulating(job, str(scen_dir))
+
+
+def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
+    _out_folder(results, option)
+    for name in ("summary.csv", "summary.md"):
+        _out_file(results / name, option)
+    _out_folder(args.figures, "--figures")
+    if args.copy_summary is not None:
+        _out_file(args.copy_summary, "--copy-summary")
+
+
+def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
+    """Every run folder of the set can be written, and (without ``--force``) every stored
+    run that would be reused can be read."""
+    from probing.experiment.fig4 import is_stored, planned_runs
+    from probing.experiment.scenario import ScenarioError
+    from probing.experiment.storage import StoredFileError
+
+    try:
+        runs = planned_runs(scen_dir, results)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    for scn, folder in runs:
+        _out_folder(folder, "--out")
+        if not force:
+            try:
+                is_stored(folder, scn)
+            except StoredFileError as exc:
+                raise UsageError(f"{exc}; delete it, or rerun with --force") from None
+
+
+def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
+    from analysis import fig4, fig4_plots
+    from probing.experiment.storage import StoredFileError
+
+    try:
+        data = fig4.collect(results)
+    except (fig4.NotAFig4FolderError, StoredFileError) as exc:
+        raise UsageError(str(exc)) from None
+    paths = fig4_plots.draw(data, args.figures, data.set_name)
+    text = fig4.write_summary(data, results)
+    if args.copy_summary is not None:
+        shutil.copyfile(results / "summary.md", args.copy_summary)
+    print(text)
+    for p in paths:
+        print(f"figure -> {p}")
+    print(f"summary -> {results / 'summary.csv'}, {results / 'summary.md'}")
+    print(f"wall time {time.perf_counter() - t_start:.1f} s")
+    return 0
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``fig4`` to ``sub``."""
+    fig4 = command(sub, "fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
+    fig4.add_argument(
+        "--scenarios", type=_path, default=Path("scenarios/fig4"), help="scenario set folder"
+    )
+    fig4.add_argument(
+        "--out", type=_path, default=None, help="results folder (default: results/<set folder>)"
+    )
+    fig4.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    fig4.add_argument("--force", action="store_true", help="simulate even if results are stored")
+    fig4.add_argument(
+        "--copy-summary", type=_path, default=None, help="also copy summary.md to this file"
+    )
+    fig4.set_defaults(func=_cmd_fig4)

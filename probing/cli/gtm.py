@@ -1,0 +1,84 @@
+"""``probing modes`` and ``gtm-damage``: the GTM's mode table and NASA's damage cases."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from probing.cli.common import Subcommands, _out_file, _out_folder, _path, _simulating, command
+
+
+def _cmd_modes(args: argparse.Namespace) -> int:
+    _out_file(args.docs, "--docs")
+    _out_file(args.figure.with_name(f"{args.figure.name}.png"), "--figure")
+
+    def job() -> int:
+        from analysis import gtm_modes
+        from probing.experiment.modes import damage_table, mode_table
+
+        points = mode_table()
+        damage = damage_table()
+        print(gtm_modes.mode_table(points))
+        for p in points:
+            if p.modes is not None:
+                eigs = ", ".join(f"{e:.4f}" for e in p.modes.eigenvalues)
+                print(f"{p.ve_kts:.0f} kt eigenvalues: {eigs}")
+        print(gtm_modes.damage_level_table(damage))
+        gtm_modes.write_doc(points, args.docs, damage)
+        (path,) = gtm_modes.save(points, args.figure)
+        print(f"wrote {args.docs} and {path}")
+        return 0
+
+    return _simulating(job, "gtm_t2")
+
+
+def _cmd_gtm_damage(args: argparse.Namespace) -> int:
+    _out_folder(args.out, "--out")
+    _out_file(args.out / "summary.csv", "--out")
+    _out_folder(args.figures, "--figures")
+
+    def job() -> int:
+        from analysis import gtm_damage
+        from probing.experiment.gtm_damage import run_example6
+
+        run_example6(args.out)
+        cases = gtm_damage.load(args.out)
+        table = gtm_damage.summary(cases)
+        table.to_csv(args.out / "summary.csv", index=False)
+        trim = gtm_damage.trim_table(cases)
+        trim.to_csv(args.out / "trim.csv", index=False)
+        paths = gtm_damage.draw(cases, args.figures)
+        print(trim.set_index("trim").T.to_string())
+        cols = ["case", "name", "phi_deg_end", "beta_deg_min", "beta_deg_max", "r_deg_s_end"]
+        print(table[cols].to_string(index=False))
+        for path in paths:
+            print(f"figure -> {path}")
+        print(f"summary -> {args.out / 'summary.csv'}, trim -> {args.out / 'trim.csv'}")
+        return 0
+
+    return _simulating(job, "gtm_t2")
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``modes`` and ``gtm-damage`` to ``sub``."""
+    modes = command(
+        sub,
+        "modes",
+        "trim and linearise the GTM at 800 ft, 60..130 KEAS; write the mode table and figure",
+    )
+    modes.add_argument("--docs", type=_path, default=Path("docs/gtm.md"), help="page written whole")
+    modes.add_argument(
+        "--figure", type=_path, default=Path("figures/gtm_modes"), help="figure (without .png)"
+    )
+    modes.set_defaults(func=_cmd_modes)
+
+    damage = command(
+        sub,
+        "gtm-damage",
+        "NASA's Example 6: each GTM damage case at 10 s of a 45 deg bank climbing turn",
+    )
+    damage.add_argument(
+        "--out", type=_path, default=Path("results/gtm_damage"), help="time histories, summary"
+    )
+    damage.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    damage.set_defaults(func=_cmd_gtm_damage)

@@ -1,0 +1,177 @@
+"""``probing run``, ``truth`` and ``monitor``: one scenario each."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _load_scenario,
+    _path,
+    _run_folder,
+    _simulating,
+    command,
+)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    scn = _load_scenario(args.scenario)
+    _run_folder(args.out, scn)
+    if scn.simultaneous is not None:
+        return _run_simultaneous(scn, args)
+    if scn.manoeuvre is not None:
+        return _run_manoeuvre(scn, args)
+
+    def job() -> int:
+        from probing.experiment.run import run_scenario
+        from probing.experiment.truth import TruthFiles
+
+        truth = TruthFiles(scn) if args.truth else None  # one run's files: run and truth
+        result = run_scenario(scn, args.out, progress=None, observer=truth)
+        print(
+            f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
+            f"{result.wall_s:.2f} s -> {result.out_dir}"
+        )
+        if args.truth:
+            print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
+    """``probing run`` of a ``[simultaneous]`` scenario: ``responses.parquet``; with
+    ``--truth`` each surface is flown alone too and the measured cross-talk printed."""
+    from probing.experiment.simultaneous import SeparationError, run_simultaneous
+
+    def job() -> int:
+        try:
+            result = run_simultaneous(scn, args.out, truth=args.truth, progress=None)
+        except SeparationError as exc:
+            raise UsageError(f"{args.scenario}: {exc}") from None
+        print(
+            f"{scn.name}: {len(scn.simultaneous.surfaces)} surfaces together "
+            f"({scn.simultaneous.design}), {result.steps_simulated} steps in "
+            f"{result.wall_s:.2f} s -> {result.out_dir}"
+        )
+        if result.crosstalk:
+            print(result.table())
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
+    """``probing run`` of a ``[manoeuvre]`` scenario: ``manoeuvre.parquet``, the probing
+    output period by period with its single-pulse truth (so ``--truth`` adds nothing)."""
+    from probing.experiment.manoeuvre import run_manoeuvre
+
+    def job() -> int:
+        result = run_manoeuvre(scn, args.out, progress=None)
+        worst = ", ".join(
+            f"{c} {100 * e[scn.settle_periods :].max():.1f} %" for c, e in result.errors.items()
+        )
+        print(
+            f"{scn.name}: {scn.periods} periods through a {scn.manoeuvre.hold} manoeuvre, "
+            f"{result.steps_simulated} steps in {result.wall_s:.2f} s -> {result.out_dir}; "
+            f"largest error against the single pulse after settling: {worst}"
+        )
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _print_truth(scn: Any, out: Path) -> None:
+    from probing.experiment.truth import compute_truth
+
+    print(f"{scn.name}: ground truth -> {compute_truth(scn, out)}")
+
+
+def _one_surface(scn: Any, path: Path, command: str) -> Any:
+    """``scn``, unless it probes several surfaces ([simultaneous]: ``probing run`` flies it)."""
+    if scn.simultaneous is not None:
+        raise UsageError(
+            f"{path}: probing {command} takes one probed surface; a [simultaneous] scenario "
+            f"is flown by probing run (its --truth flies each surface alone)"
+        )
+    if scn.manoeuvre is not None:
+        raise UsageError(
+            f"{path}: probing {command} flies a steady condition; a [manoeuvre] scenario is "
+            f"flown by probing run (with its single-pulse truth along the manoeuvre)"
+        )
+    return scn
+
+
+def _cmd_truth(args: argparse.Namespace) -> int:
+    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "truth")
+    _run_folder(args.out, scn)
+
+    def job() -> int:
+        _print_truth(scn, args.out)
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def _cmd_monitor(args: argparse.Namespace) -> int:
+    from probing.experiment.scenario import ScenarioError
+
+    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
+    try:
+        scn.monitor_settings()
+    except ScenarioError as exc:
+        raise UsageError(f"{args.scenario}: {exc}") from None
+    _run_folder(args.out, scn)
+
+    def job() -> int:
+        from probing.experiment.monitor import monitor_scenario
+
+        result = monitor_scenario(scn, args.out, timeseries=args.timeseries)
+        print(f"{scn.name}: {result.line()} -> {result.run.out_dir / 'monitor.parquet'}")
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``run``, ``truth`` and ``monitor`` to ``sub``."""
+    run = command(
+        sub, "run", "simulate a scenario and write probing.parquet and timeseries.parquet"
+    )
+    _scenario_arguments(run)
+    run.add_argument(
+        "--truth", action="store_true", help="also write truth.parquet and prediction.parquet"
+    )
+    run.set_defaults(func=_cmd_run)
+
+    truth = command(
+        sub,
+        "truth",
+        "ground truth of a scenario: single-pulse and linearised pulse responses "
+        "(truth.parquet) and the probing output they predict (prediction.parquet)",
+    )
+    _scenario_arguments(truth)
+    truth.set_defaults(func=_cmd_truth)
+
+    monitor = command(
+        sub,
+        "monitor",
+        "fly a scenario probing continuously; after every period a change detector writes "
+        "monitor.parquet (docs/monitoring.md)",
+    )
+    _scenario_arguments(monitor)
+    monitor.add_argument(
+        "--timeseries", action="store_true", help="also write timeseries.parquet (large)"
+    )
+    monitor.set_defaults(func=_cmd_monitor)
+
+
+def _scenario_arguments(parser: argparse.ArgumentParser) -> None:
+    """The scenario file and the results folder, as run, truth and monitor take them."""
+    parser.add_argument("scenario", type=_path, help="scenario TOML file (docs/scenarios.md)")
+    parser.add_argument(
+        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )

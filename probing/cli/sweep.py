@@ -1,0 +1,120 @@
+"""``probing sweep``: a sweep file's points, in parallel and resumably."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _error,
+    _out_folder,
+    _path,
+    command,
+)
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from probing.experiment.scenario import ScenarioError
+    from probing.sweep import load_sweep
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"-j/--jobs: must be an integer >= 1, got {args.jobs}")
+    if args.scheduler and args.executor != "dask":
+        raise UsageError("--scheduler: only with --executor dask")
+    if not args.connect_timeout_s > 0:
+        raise UsageError(f"--connect-timeout-s: must be > 0, got {args.connect_timeout_s:g}")
+    try:
+        sweep = load_sweep(args.sweep)
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    _out_folder(args.out, "--out")
+    _out_folder(args.out / sweep.name, "--out")
+    figures = args.figures if args.figures is not None else args.out / sweep.name / "figures"
+    if args.plot:
+        _out_folder(figures, "--figures")
+    from probing.sweep import SchedulerError, SweepBusyError, run_sweep
+
+    try:
+        result = run_sweep(
+            sweep,
+            args.out,
+            jobs=args.jobs,
+            executor=args.executor,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+            connect_timeout_s=args.connect_timeout_s,
+        )
+    except SchedulerError as exc:
+        raise UsageError(str(exc)) from None
+    except SweepBusyError as exc:
+        return _error(str(exc), 1)
+    for message in result.messages:
+        print(f"  {message}", file=sys.stderr)
+    from analysis.tables import sweep_table
+    from probing.sweep import read_summary
+
+    print(sweep_table(read_summary(result.folder), sweep.fields))
+    print(result.line())
+    if args.plot:
+        _plot_sweep_folder(result.folder, figures)
+    return 1 if result.errors else 0
+
+
+def _plot_sweep_folder(folder: Path, figures: Path) -> None:
+    """Draw a sweep's figure; for a sweep over seeds also print its measured/predicted table."""
+    from analysis.seeds import has_seeds, seed_statistics, seed_table
+    from analysis.sweep_plots import NotASweepError, load_sweep_data, plot_sweep
+
+    try:
+        paths = plot_sweep(folder, figures)
+    except NotASweepError as exc:
+        raise UsageError(str(exc)) from None
+    for path in paths:
+        print(f"wrote {path}")
+    data = load_sweep_data(folder)
+    if has_seeds(data):
+        print("seed-to-seed scatter, measured / predicted (ratio):")
+        print(seed_table(seed_statistics(data)))
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``sweep`` to ``sub``."""
+    sweep = command(
+        sub, "sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)"
+    )
+    sweep.add_argument("sweep", type=_path, help="sweep TOML file (scenarios/sweeps/*.toml)")
+    sweep.add_argument(
+        "--out", type=_path, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
+    )
+    sweep.add_argument(
+        "-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)"
+    )
+    sweep.add_argument(
+        "--executor", choices=["local", "dask"], default="local", help="local pool or Dask"
+    )
+    sweep.add_argument(
+        "--scheduler",
+        default=None,
+        help="address of an existing Dask scheduler (tcp://host:8786); without it, "
+        "--executor dask starts a LocalCluster",
+    )
+    sweep.add_argument(
+        "--connect-timeout-s",
+        type=float,
+        default=10.0,
+        help="how long to wait for --scheduler before giving up (exit 2)",
+    )
+    sweep.add_argument(
+        "--retry-failed", action="store_true", help="run again the points recorded as failed"
+    )
+    sweep.add_argument("--plot", action="store_true", help="draw the sweep's figure afterwards")
+    sweep.add_argument(
+        "--figures",
+        type=_path,
+        default=None,
+        help="figure folder (default: OUT/<name>/figures)",
+    )
+    sweep.set_defaults(func=_cmd_sweep)

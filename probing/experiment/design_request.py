@@ -1,0 +1,221 @@
+"""What ``probing design`` is asked (:class:`DesignRequest`), its defaults and the help of
+each of its options, and the checks of a request: light enough for the command line to
+build its options from it without loading the simulator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, field
+from typing import Any
+
+from probing.core.noise import ESTIMATORS
+from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
+from probing.sim.channels import CHANNEL_NAMES
+from probing.sim.flight import TURBULENCE_SEVERITY
+
+__all__ = ["DesignInputError", "DesignRequest", "detectable_stderr"]
+
+
+def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, **kw: Any) -> Any:
+    """A :class:`DesignRequest` field that is a ``probing design`` option: ``help`` is its
+    help text, ``exclusive`` names the group of options of which one at most is given, and
+    ``kw`` are further keywords of :meth:`argparse.ArgumentParser.add_argument` (``metavar``,
+    ``choices``).  No default: a required value, which the command checks itself."""
+    return field(default=default, metadata={"option": {"help": help, "exclusive": exclusive, **kw}})
+
+
+class DesignInputError(ValueError):
+    """An invalid request: ``option`` names the command-line option, ``message`` the rule."""
+
+    def __init__(self, option: str, message: str) -> None:
+        self.option, self.message = option, message
+        super().__init__(f"{option}: {message}")
+
+
+#: Scenario field -> the ``probing design`` option that sets it.
+_OPTIONS = {
+    "name": "--aircraft",
+    "aircraft.model": "--aircraft",
+    "condition.altitude_ft": "--altitude-ft",
+    "condition.speed_kcas": "--speed-kcas",
+    "simulation.dt_s": "--dt-s",
+    "probe.amplitude_deg": "--amplitude-deg",
+    "probe.settle_periods": "--settle-periods",
+    "output.channels": "--channel",
+    "output.estimator": "--estimator",
+    "disturbance.turbulence": "--turbulence",
+}
+
+
+@dataclass(frozen=True)
+class DesignRequest:
+    """What ``probing design`` is asked: aircraft, condition, nonlinearities, noise, target.
+
+    Attributes are in the units of their names; ``noise_sigma`` is the sensor noise of
+    ``channel`` (its unit, 1 sigma); ``target_h_se`` is in the channel's unit per deg.  Each
+    field is the option ``--field-name`` of ``probing design``, with the default and help
+    of its metadata ``"option"`` (:func:`_option`).
+    """
+
+    aircraft: str = _option(help="JSBSim model, e.g. gtm_t2 or 737 (required)")
+    altitude_ft: float = _option(help="trim altitude (ft) (required)")
+    speed_kcas: float = _option(help="trim speed (kt CAS) (required)")
+    dt_s: float = _option(0.01, help="simulation step (s)")
+    deadband_deg: tuple[float, float] | None = _option(
+        None, help="deadband edges relative to trim (deg)", metavar=("LOWER", "UPPER")
+    )
+    saturation_deg: tuple[float, float] | None = _option(
+        None, help="saturation limits relative to trim (deg)", metavar=("LOWER", "UPPER")
+    )
+    rate_limit_deg_s: float | None = _option(None, help="rate limit (deg/s)", metavar="R")
+    channel: str = _option("theta_rad", help="the output to estimate", choices=CHANNEL_NAMES)
+    noise_sigma: float = _option(0.0, help="sensor noise on the channel (1 sigma)")
+    turbulence: str = _option(
+        "none",
+        help="turbulence level; what the reference twin does not cancel is measured",
+        choices=list(TURBULENCE_SEVERITY),
+    )
+    calibration_seeds: int = _option(
+        32,
+        help="noise-free turbulence runs to measure it on (a std from K of them: 1/sqrt(2(K-1)))",
+    )
+    estimator: str | None = _option(
+        None,
+        help="the estimator (default: the one with the smallest predicted scatter)",
+        choices=list(ESTIMATORS),
+    )
+    target_gain_se: float | None = _option(
+        None, help="standard error of the gain", exclusive="target"
+    )
+    detect_gain_change: float | None = _option(
+        None,
+        help="a gain change to detect (with --false-alarm and --detection-probability)",
+        metavar="CHANGE",
+        exclusive="target",
+    )
+    target_h_se: float | None = _option(
+        None, help="standard error of h, RMS over taps (channel unit per deg)", exclusive="target"
+    )
+    false_alarm: float = _option(0.01, help="false-alarm probability (two-sided)")
+    detection_probability: float = _option(0.9, help="detection probability")
+    amplitude_deg: float = _option(0.005, help="amplitude without a deadband (deg)")
+    deadband_margin: float = _option(3.0, help="a >= margin x deadband half width")
+    settle_periods: int = _option(2, help="periods left out before averaging")
+
+    def base(self) -> dict[str, Any]:
+        """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
+        noise = {self.channel: self.noise_sigma} if self.noise_sigma else {}
+        return {
+            "name": "design",
+            "aircraft": {"model": self.aircraft},
+            "condition": {"altitude_ft": self.altitude_ft, "speed_kcas": self.speed_kcas},
+            "simulation": {"dt_s": self.dt_s},
+            "probe": {
+                "order": 9,
+                "bit_duration_s": self.dt_s,
+                "amplitude_deg": self.amplitude_deg,
+                "periods": max(self.settle_periods + 1, 2),
+                "settle_periods": self.settle_periods,
+            },
+            "nonlinearity": {"type": "none"},
+            "output": {
+                "channels": [self.channel],
+                "drift": "reference",
+                "estimator": self.estimator or "streaming",
+            },
+            "disturbance": {"turbulence": self.turbulence, "sensor_noise": noise},
+        }
+
+    def nonlinearities(self) -> list[tuple[str, dict[str, Any]]]:
+        """The nonlinearities asked about, as (option, scenario changes), in order."""
+        out = []
+        if self.deadband_deg is not None:
+            lo, up = self.deadband_deg
+            change = {"type": "deadband", "lower_deg": lo, "upper_deg": up}
+            out.append(("--deadband-deg", change))
+        if self.saturation_deg is not None:
+            lo, up = self.saturation_deg
+            change = {"type": "saturation", "lower_deg": lo, "upper_deg": up}
+            out.append(("--saturation-deg", change))
+        if self.rate_limit_deg_s is not None:
+            change = {"type": "rate_limit", "rate_deg_s": self.rate_limit_deg_s}
+            out.append(("--rate-limit-deg-s", change))
+        return out
+
+    def validate(self) -> Scenario:
+        """Check every value as the scenario schema does; the base scenario.
+
+        Raises
+        ------
+        DesignInputError
+            Naming the option and the rule, for the first invalid value.
+        """
+        data = self.base()
+        try:
+            scn = parse_scenario(data)
+        except ScenarioError as exc:
+            option = _OPTIONS.get(exc.field, exc.field)
+            if exc.field.startswith("disturbance.sensor_noise"):
+                option = "--noise-sigma"
+            raise DesignInputError(option, exc.message) from None
+        for option, change in self.nonlinearities():
+            try:
+                scn.replace({f"nonlinearity.{k}": v for k, v in change.items()})
+            except ScenarioError as exc:
+                raise DesignInputError(option, f"{exc.field}: {exc.message}") from None
+        positive = (
+            ("--target-gain-se", self.target_gain_se),
+            ("--detect-gain-change", self.detect_gain_change),
+            ("--target-h-se", self.target_h_se),
+            ("--deadband-margin", self.deadband_margin),
+        )
+        for option, value in positive:
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise DesignInputError(option, f"must be a number > 0, got {value:g}")
+        for option, value in (
+            ("--false-alarm", self.false_alarm),
+            ("--detection-probability", self.detection_probability),
+        ):
+            if not 0 < value < 1:
+                raise DesignInputError(option, f"must be a probability in (0, 1), got {value:g}")
+        targets = [t for t in (self.target_gain_se, self.detect_gain_change, self.target_h_se) if t]
+        if len(targets) > 1:
+            raise DesignInputError(
+                "--target-gain-se", "give one target: a gain standard error, a gain change "
+                "to detect, or a standard error of h"
+            )  # fmt: skip
+        if targets and self.noise_sigma == 0 and self.turbulence == "none":
+            raise DesignInputError(
+                "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
+            )
+        if not 2 <= self.calibration_seeds <= 100:
+            raise DesignInputError("--calibration-seeds", "must be from 2 to 100")
+        return scn
+
+    @property
+    def target(self) -> tuple[str, float] | None:
+        """("gain", its standard error) or ("h", its standard error) or None."""
+        if self.detect_gain_change is not None:
+            return "gain", detectable_stderr(
+                self.detect_gain_change, self.false_alarm, self.detection_probability
+            )
+        if self.target_gain_se is not None:
+            return "gain", self.target_gain_se
+        if self.target_h_se is not None:
+            return "h", self.target_h_se
+        return None
+
+
+def detectable_stderr(change: float, false_alarm: float, detection_probability: float) -> float:
+    """The gain standard error at which a gain change ``change`` is detected with
+    ``detection_probability`` by a two-sided test of false-alarm probability ``false_alarm``.
+
+    Examples
+    --------
+    >>> print(round(detectable_stderr(0.05, 0.01, 0.9), 5))  # 0.05 / (2.576 + 1.282)
+    0.01296
+    """
+    from scipy.stats import norm
+
+    return change / (norm.ppf(1 - false_alarm / 2) + norm.ppf(detection_probability))
