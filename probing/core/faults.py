@@ -243,4 +243,15 @@ FAULTS: dict[str, FaultType] = {
         "the probed surface holds its position at the onset",
         lambda onset_s, v: ActuatorFault("stuck", onset_s),
     ),
+    "sensor_bias": FaultType(
+        "sensor_bias",
+        "sensor",
+        "sensor",
+        (
+            FaultField("channel", "channel", description="the measured output channel"),
+            FaultField("bias", "number", "channel", -1e6, 1e6, "the offset, in the channel's unit"),
+        ),
+        "an offset on one measured channel (the reference does not see it)",
+        lambda onset_s, v: SensorBias(str(v["channel"]), float(v["bias"]), onset_s),
+    ),
 }

@@ -262,6 +262,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     commands = np.empty((chunk * n_steps, 3)) if rig.follower else None
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
+    sensor_fault = scn.build_fault("sensor")
     drive = rig.drive
     trim = drive.trim_position
     for first in range(0, scn.periods, chunk):
@@ -303,6 +304,8 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             return
         rig.periods_flown = first + k
         measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
+        if sensor_fault is not None:  # on what the aircraft measures, not on its reference
+            sensor_fault.apply(measured, scn.channels, first * n_steps, scn.dt_s)
         yield _Chunk(
             first,
             k,

@@ -859,8 +859,8 @@ def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
         return {}
     model, duration_s = scn.model, scn.total_steps * scn.dt_s
     if "type" not in fault:
-        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULT_TYPES)})")
-    kind = _choice(fault, "fault", "type", FAULT_TYPES)
+        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULTS)})")
+    kind = _choice(fault, "fault", "type", tuple(FAULTS))
     entry = FAULTS[kind]
     own = {"type", "onset_s", *entry.names}
     for key in fault:
