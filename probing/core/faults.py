@@ -160,6 +160,14 @@ class ActuatorFault:
         if self.onset_s < 0:
             raise ValueError("onset_s must be >= 0")
 
+    def position(self, asked: float, trim: float, held: float) -> float:
+        """The surface's position from the onset on, in its unit: ``asked`` is what the
+        autopilot and the probe ask for, ``trim`` the trimmed position, ``held`` the position
+        the surface had at the onset."""
+        if self.kind == "stuck":
+            return held
+        return trim + self.scale * (asked - trim)
+
 
 @dataclass(frozen=True)
 class AirframeDamage:

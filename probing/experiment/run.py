@@ -28,6 +28,7 @@ from typing import Any, Protocol, TextIO
 import numpy as np
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.faults import onset_step
 from probing.core.noise import cyclic_estimates, detrend
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
@@ -325,7 +326,7 @@ class _FaultOnset:
 
     def __init__(self, nl: Nonlinearity | None, onset_s: float, dt_s: float, n_steps: int):
         self.nl, self.dt_s, self.n_steps = nl, dt_s, n_steps
-        self.onset = round(onset_s / dt_s) if nl is not None else None
+        self.onset = onset_step(onset_s, dt_s) if nl is not None else None
         self.state = nl.initial_state() if nl is not None else None
 
     def apply(self, q: np.ndarray, period: int) -> np.ndarray:

@@ -240,6 +240,7 @@ class Scenario:
     @property
     def flight(self) -> Flight:
         """What the trimmed aircraft depends on: model, condition, dt, turbulence, seed."""
+        damage = self.build_fault("plant")  # an airframe fault: NASA's damage case
         return Flight(
             self.model,
             self.altitude_ft,
@@ -250,8 +251,8 @@ class Scenario:
             self.seed,
             gamma_deg=self.gamma_deg,
             bank_deg=self.bank_deg,
-            damage_case=self.fault_values["case"] if self._fault_acts("plant") else 0,
-            damage_onset_s=self.fault_onset_s if self._fault_acts("plant") else None,
+            damage_case=damage.case if damage is not None else 0,
+            damage_onset_s=damage.onset_s if damage is not None else None,
             control=self.control,
             surface=self.surface,
         )

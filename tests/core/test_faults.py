@@ -142,3 +142,10 @@ def test_a_sensor_bias_acts_from_its_onset_step_whatever_the_chunks():
 def test_entries_are_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         FAULTS["stuck"].place = "sensor"  # type: ignore[misc]
+
+
+def test_an_actuator_fault_positions_the_surface_from_what_is_asked():
+    assert faults.ActuatorFault("effectiveness", 1.0, 0.5).position(3.0, 1.0, 7.0) == 2.0
+    assert faults.ActuatorFault("stuck", 1.0).position(3.0, 1.0, 7.0) == 7.0
+    with pytest.raises(ValueError):
+        faults.ActuatorFault("sensor_bias", 1.0)
