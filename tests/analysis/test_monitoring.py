@@ -314,3 +314,16 @@ def test_a_damaged_flight_file_is_one_line_naming_it_and_nothing_written(study, 
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("probing: error: ") and str(damaged) in err
     assert not summary.exists() and not figures.exists()
+
+
+def test_each_study_faults_right_verdict_is_its_types_class_in_the_registry():
+    from analysis.monitoring import FAULTS
+    from probing.core.faults import FAULTS as REGISTRY
+
+    truths = {key: fault.truth for key, fault in FAULTS.items()}
+    damage = {f"damage{k}": "airframe" for k in range(1, 7)}
+    actuator = ("deadband", "backlash", "rate-limit", "effectiveness-0.8", "effectiveness-0.5")
+    assert truths == {"none": "none", **damage, **dict.fromkeys((*actuator, "stuck"), "actuator")}
+    for fault in FAULTS.values():
+        if fault.fault_type != "none":
+            assert fault.truth == REGISTRY[fault.fault_type].fault_class
