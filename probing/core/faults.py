@@ -39,6 +39,7 @@ __all__ = [
     "FaultType",
     "SensorBias",
     "onset_step",
+    "sweep_fields",
 ]
 
 #: The verdicts a fault can call for: the monitor's isolation is right when it names this.
@@ -263,3 +264,24 @@ FAULTS: dict[str, FaultType] = {
         lambda onset_s, v: SensorBias(str(v["channel"]), float(v["bias"]), onset_s),
     ),
 }
+
+
+def sweep_fields(kind: str, values: Mapping[str, Any]) -> dict[str, Any]:
+    """A sweep's dotted ``fault.*`` entries for a fault of type ``kind`` (``fault.type``
+    first, then ``values`` in their order), as the study generators write them.
+
+    Raises
+    ------
+    KeyError
+        If ``kind`` is not a fault type.
+    ValueError
+        If a value is not one of the type's fields (a nonlinearity's parameters are checked
+        when the sweep is read, with the rest of the scenario).
+    """
+    entry = FAULTS[kind]
+    params = {n for t in NONLINEARITIES.values() for n in t.names}
+    allowed = {"onset_s", *entry.names, *(params if entry.takes_nonlinearity else ())}
+    for name in values:
+        if name not in allowed:
+            raise ValueError(f"{name} is not a field of a {kind} fault")
+    return {"fault.type": kind, **{f"fault.{k}": v for k, v in values.items()}}

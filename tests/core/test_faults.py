@@ -149,3 +149,16 @@ def test_an_actuator_fault_positions_the_surface_from_what_is_asked():
     assert faults.ActuatorFault("stuck", 1.0).position(3.0, 1.0, 7.0) == 7.0
     with pytest.raises(ValueError):
         faults.ActuatorFault("sensor_bias", 1.0)
+
+
+def test_the_study_generators_sweep_fields_are_the_registrys():
+    assert faults.sweep_fields("gtm_damage", {"case": 5}) == {
+        "fault.type": "gtm_damage",
+        "fault.case": 5,
+    }
+    fields = faults.sweep_fields("nonlinearity", {"nonlinearity": "backlash", "width_deg": 0.1})
+    assert list(fields) == ["fault.type", "fault.nonlinearity", "fault.width_deg"]
+    with pytest.raises(ValueError, match="scale is not a field of a stuck fault"):
+        faults.sweep_fields("stuck", {"scale": 0.5})
+    with pytest.raises(KeyError):
+        faults.sweep_fields("no_such_fault", {})
