@@ -121,6 +121,9 @@ def load_study(results: str | Path) -> pd.DataFrame:
     ------
     FileNotFoundError
         If ``results`` holds no monitor sweep.
+    ValueError
+        If a flight's ``[fault]`` type (its summary's ``fault_type``) is not its study
+        fault's.
     """
     results = Path(results)
     frames = []
@@ -129,6 +132,13 @@ def load_study(results: str | Path) -> pd.DataFrame:
         df = df[df.status == "done"].copy()
         sweep = summary.parent.name
         df["fault"] = [_fault_key(sweep, r) for _, r in df.iterrows()]
+        if "fault_type" in df:  # the flights' own [fault] type must be the study fault's
+            for key, kind in zip(df.fault, df.fault_type, strict=True):
+                if FAULTS[key].fault_type != kind:
+                    raise ValueError(
+                        f"{summary}: fault_type {kind} in the sweep of {key}, "
+                        f"whose faults are {FAULTS[key].fault_type}"
+                    )
         df["probe"] = _probe_and_fault(sweep)[0]
         df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
