@@ -13,7 +13,8 @@ scored:
 * the **verdict** is the monitor's own (the file's ``probing.verdict``: each channel's
   isolation on the ``verdict_periods`` from its first alarm on) when that first alarm came
   after the onset; a flight whose first alarm was a false one has none for its fault.
-  Right means ``airframe`` for NASA's damage cases and ``actuator`` for the actuator's;
+  Right means the fault type's class in :data:`probing.core.faults.FAULTS`: ``airframe`` for
+  NASA's damage cases, ``actuator`` for the actuator's;
 * the **ROC** sweeps the threshold (-log10 of the false-alarm probability per period) by a
   factor c: detection within the goal's periods against false alarms per hour of the healthy
   periods at c times the threshold (a false-alarm probability alpha^c).
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from probing.core.faults import FAULTS as FAULT_TYPES
 from probing.experiment.storage import read_table
 
 __all__ = [
@@ -46,14 +48,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Fault:
-    """One fault of the study: its label, the verdict that is right, and the goal.
+    """One fault of the study: its label, its ``[fault]`` type, and the goal.
 
     Attributes
     ----------
     label : str
         For tables and figures.
-    truth : str
-        ``"airframe"``, ``"actuator"`` or ``"none"``.
+    fault_type : str
+        Its ``[fault]`` type (a key of :data:`probing.core.faults.FAULTS`), or ``"none"``.
     goal_periods : int
         Detection within this many probe periods after the onset ...
     goal_probability : float
@@ -61,27 +63,33 @@ class Fault:
     """
 
     label: str
-    truth: str
+    fault_type: str
     goal_periods: int
     goal_probability: float
+
+    @property
+    def truth(self) -> str:
+        """The verdict that is right: the fault type's class in the registry (``"airframe"``,
+        ``"actuator"``, ``"sensor"``), or ``"none"`` without a fault."""
+        return FAULT_TYPES[self.fault_type].fault_class if self.fault_type != "none" else "none"
 
 
 #: Sweep name (without ``monitor-`` and a probed surface's prefix) -> the fault;
 #: effectiveness is split by its scale.
 FAULTS: dict[str, Fault] = {
     "none": Fault("no fault", "none", 0, 0.0),
-    "damage1": Fault("case 1: rudder off", "airframe", 3, 0.95),
-    "damage2": Fault("case 2: vertical tail off", "airframe", 3, 0.95),
-    "damage3": Fault("case 3: left outboard flap off", "airframe", 3, 0.95),
-    "damage4": Fault("case 4: left wing tip off", "airframe", 3, 0.95),
-    "damage5": Fault("case 5: left elevator off", "airframe", 3, 0.95),
-    "damage6": Fault("case 6: left stabilizer off", "airframe", 3, 0.95),
-    "deadband": Fault("dead band, a~/a = 0.8", "actuator", 5, 0.9),
-    "backlash": Fault("backlash, a~/a = 0.8", "actuator", 5, 0.9),
-    "rate-limit": Fault("rate limit at (2a/t0) / 2", "actuator", 5, 0.9),
-    "effectiveness-0.8": Fault("effectiveness 0.8", "actuator", 5, 0.9),
-    "effectiveness-0.5": Fault("effectiveness 0.5", "actuator", 5, 0.9),
-    "stuck": Fault("elevator stuck", "actuator", 5, 0.9),
+    "damage1": Fault("case 1: rudder off", "gtm_damage", 3, 0.95),
+    "damage2": Fault("case 2: vertical tail off", "gtm_damage", 3, 0.95),
+    "damage3": Fault("case 3: left outboard flap off", "gtm_damage", 3, 0.95),
+    "damage4": Fault("case 4: left wing tip off", "gtm_damage", 3, 0.95),
+    "damage5": Fault("case 5: left elevator off", "gtm_damage", 3, 0.95),
+    "damage6": Fault("case 6: left stabilizer off", "gtm_damage", 3, 0.95),
+    "deadband": Fault("dead band, a~/a = 0.8", "nonlinearity", 5, 0.9),
+    "backlash": Fault("backlash, a~/a = 0.8", "nonlinearity", 5, 0.9),
+    "rate-limit": Fault("rate limit at (2a/t0) / 2", "nonlinearity", 5, 0.9),
+    "effectiveness-0.8": Fault("effectiveness 0.8", "effectiveness", 5, 0.9),
+    "effectiveness-0.5": Fault("effectiveness 0.5", "effectiveness", 5, 0.9),
+    "stuck": Fault("elevator stuck", "stuck", 5, 0.9),
 }
 
 
@@ -113,6 +121,9 @@ def load_study(results: str | Path) -> pd.DataFrame:
     ------
     FileNotFoundError
         If ``results`` holds no monitor sweep.
+    ValueError
+        If a flight's ``[fault]`` type (its summary's ``fault_type``) is not its study
+        fault's.
     """
     results = Path(results)
     frames = []
@@ -121,6 +132,13 @@ def load_study(results: str | Path) -> pd.DataFrame:
         df = df[df.status == "done"].copy()
         sweep = summary.parent.name
         df["fault"] = [_fault_key(sweep, r) for _, r in df.iterrows()]
+        if "fault_type" in df:  # the flights' own [fault] type must be the study fault's
+            for key, kind in zip(df.fault, df.fault_type, strict=True):
+                if FAULTS[key].fault_type != kind:
+                    raise ValueError(
+                        f"{summary}: fault_type {kind} in the sweep of {key}, "
+                        f"whose faults are {FAULTS[key].fault_type}"
+                    )
         df["probe"] = _probe_and_fault(sweep)[0]
         df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]

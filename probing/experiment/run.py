@@ -28,6 +28,7 @@ from typing import Any, Protocol, TextIO
 import numpy as np
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.faults import onset_step
 from probing.core.noise import cyclic_estimates, detrend
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
@@ -253,6 +254,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     commands = np.empty((chunk * n_steps, 3)) if rig.follower else None
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
+    sensor_fault = scn.build_fault("sensor")
     drive = rig.drive
     trim = drive.trim_position
     for first in range(0, scn.periods, chunk):
@@ -294,6 +296,8 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             return
         rig.periods_flown = first + k
         measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
+        if sensor_fault is not None:  # on what the aircraft measures, not on its reference
+            sensor_fault.apply(measured, scn.channels, first * n_steps, scn.dt_s)
         yield _Chunk(
             first,
             k,
@@ -313,7 +317,7 @@ class _FaultOnset:
 
     def __init__(self, nl: Nonlinearity | None, onset_s: float, dt_s: float, n_steps: int):
         self.nl, self.dt_s, self.n_steps = nl, dt_s, n_steps
-        self.onset = round(onset_s / dt_s) if nl is not None else None
+        self.onset = onset_step(onset_s, dt_s) if nl is not None else None
         self.state = nl.initial_state() if nl is not None else None
 
     def apply(self, q: np.ndarray, period: int) -> np.ndarray:

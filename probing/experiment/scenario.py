@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from probing.core.faults import FAULTS, FaultType, onset_step
 from probing.core.monitor import MonitorSettings
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
@@ -29,7 +30,6 @@ from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
 from probing.sim.flight import (
-    ACTUATOR_FAULTS,
     DAMAGE_CASES,
     DAMAGE_MODEL,
     MANOEUVRE_HOLDS,
@@ -79,25 +79,16 @@ SECTIONS: dict[str, set[str] | None] = {
     "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
     "output": {"channels", "drift", "detrend_order", "estimator"},
     "disturbance": {"turbulence", "sensor_noise", "seed"},
-    "fault": {"type", "case", "onset_s", "nonlinearity", "scale"}
+    "fault": {"type", "onset_s"}
+    | {n for t in FAULTS.values() for n in t.names}
     | {n for t in NONLINEARITIES.values() for n in t.names},
     "control": {f.name for f in dataclasses.fields(Control)},
     "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
     "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
     "manoeuvre": {"hold", "start_s", "change_deg", "rate_deg_s", "change_kt", "rate_kt_s"},
 }
-#: Fault types of the ``[fault]`` section: airframe damage (NASA's GTM cases), a nonlinearity
-#: that appears on the probe path, and faults of the probed surface's actuator.
-FAULT_TYPES = ("gtm_damage", "nonlinearity", *ACTUATOR_FAULTS)
-#: Fields of each fault type besides ``type`` and ``onset_s``.
-_FAULT_FIELDS = {
-    "gtm_damage": ("case",),
-    "nonlinearity": ("nonlinearity",),  # and the nonlinearity's own parameters
-    "effectiveness": ("scale",),
-    "stuck": (),
-}
-#: Largest effectiveness scale (2: a surface twice as effective).
-_MAX_SCALE = 2.0
+#: Fault types of the ``[fault]`` section, from the registry :data:`probing.core.faults.FAULTS`.
+FAULT_TYPES = tuple(FAULTS)
 _REQUIRED = {
     "aircraft": ("model",),
     "condition": ("altitude_ft",),
@@ -183,11 +174,9 @@ class Scenario:
     gamma_deg: float = 0.0  # flight-path angle of the trim (climb positive)
     bank_deg: float = 0.0  # bank of a steady turn (0: straight)
     fault_type: str = "none"  # "none" or one of FAULT_TYPES
-    fault_case: int = 0  # gtm_damage: NASA's damage case 1..6
     fault_onset_s: float = 0.0  # time after the trim when the fault appears, s
-    fault_nonlinearity: str = "none"  # nonlinearity: the type that appears at the onset
-    fault_nl_params: dict[str, float] = field(default_factory=dict)
-    fault_scale: float = 1.0  # effectiveness: scale of the surface's motion about trim
+    # the fault's own fields as in [fault] (probing.core.faults.FAULTS), validated
+    fault_values: dict[str, Any] = field(default_factory=dict)
     control: Control | None = None  # [control]: the autopilot (None: open loop)
     monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
     surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
@@ -263,6 +252,7 @@ class Scenario:
     @property
     def flight(self) -> Flight:
         """What the trimmed aircraft depends on: model, condition, dt, turbulence, seed."""
+        damage = self.build_fault("plant")  # an airframe fault: NASA's damage case
         return Flight(
             self.model,
             self.altitude_ft,
@@ -273,25 +263,44 @@ class Scenario:
             self.seed,
             gamma_deg=self.gamma_deg,
             bank_deg=self.bank_deg,
-            damage_case=self.fault_case,
-            damage_onset_s=self.fault_onset_s if self.fault_type == "gtm_damage" else None,
+            damage_case=damage.case if damage is not None else 0,
+            damage_onset_s=damage.onset_s if damage is not None else None,
             control=self.control,
             surface=self.surface,
         )
 
     @property
+    def fault_kind(self) -> FaultType | None:
+        """The ``[fault]``'s entry of :data:`probing.core.faults.FAULTS`, or None without one."""
+        return FAULTS.get(self.fault_type)
+
+    def _fault_acts(self, place: str) -> bool:
+        """True if the scenario has a fault that acts at ``place`` (``FAULT_PLACES``)."""
+        kind = self.fault_kind
+        return kind is not None and kind.place == place
+
+    def build_fault(self, place: str) -> Any:
+        """The fault as ``place`` uses it (the registry's builder), or None if the scenario
+        has no fault acting there (``place``: one of ``probing.core.faults.FAULT_PLACES``)."""
+        if not self._fault_acts(place):
+            return None
+        assert self.fault_kind is not None
+        return self.fault_kind.build(self.fault_onset_s, self.fault_values)
+
+    @property
+    def fault_onset_step(self) -> int:
+        """The first step the fault acts in (the step that starts at ``fault_onset_s``)."""
+        return onset_step(self.fault_onset_s, self.dt_s)
+
+    @property
     def actuator_fault(self) -> ActuatorFault | None:
         """The probed surface's actuator fault (``effectiveness``, ``stuck``), or None."""
-        if self.fault_type not in ACTUATOR_FAULTS:
-            return None
-        return ActuatorFault(self.fault_type, self.fault_onset_s, self.fault_scale)
+        return self.build_fault("actuator")
 
     def build_fault_nonlinearity(self) -> Nonlinearity | None:
         """The nonlinearity that appears on the probe path at the onset (parameters in deg,
         deg/s), or None without such a fault."""
-        if self.fault_type != "nonlinearity":
-            return None
-        return NONLINEARITIES[self.fault_nonlinearity].build(self.fault_nl_params)
+        return self.build_fault("probe_path")
 
     def monitor_settings(self) -> MonitorSettings:
         """The ``[monitor]`` settings (the defaults without the section).
@@ -369,14 +378,7 @@ class Scenario:
 
     def _fault(self) -> dict[str, Any]:
         """The ``[fault]`` section."""
-        out: dict[str, Any] = {"type": self.fault_type, "onset_s": self.fault_onset_s}
-        if self.fault_type == "gtm_damage":
-            out["case"] = self.fault_case
-        elif self.fault_type == "nonlinearity":
-            out.update(nonlinearity=self.fault_nonlinearity, **self.fault_nl_params)
-        elif self.fault_type == "effectiveness":
-            out["scale"] = self.fault_scale
-        return out
+        return {"type": self.fault_type, "onset_s": self.fault_onset_s, **self.fault_values}
 
     def _condition(self) -> dict[str, float]:
         """The ``[condition]`` section; a straight-and-level trim leaves out its zero flight-path
@@ -871,45 +873,59 @@ def _fault(fault: dict[str, Any] | None, scn: Scenario) -> dict[str, Any]:
         return {}
     model, duration_s = scn.model, scn.total_steps * scn.dt_s
     if "type" not in fault:
-        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULT_TYPES)})")
-    kind = _choice(fault, "fault", "type", FAULT_TYPES)
-    own = {"type", "onset_s", *_FAULT_FIELDS[kind]}
+        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULTS)})")
+    kind = _choice(fault, "fault", "type", tuple(FAULTS))
+    entry = FAULTS[kind]
+    own = {"type", "onset_s", *entry.names}
     for key in fault:
-        if key not in own and kind != "nonlinearity":
+        if key not in own and not entry.takes_nonlinearity:  # its parameters are checked below
             raise ScenarioError(
                 f"fault.{field_label(key)}",
                 f"not a field of a {kind} fault (takes {', '.join(sorted(own - {'type'}))})",
             )
-    for key in ("onset_s", *_FAULT_FIELDS[kind]):
+    for key in ("onset_s", *entry.names):
         if key not in fault:
             raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
     onset = _instant_in_run(fault, "fault", "onset_s", duration_s)
-    out: dict[str, Any] = {"fault_type": kind, "fault_onset_s": onset}
-    if kind == "gtm_damage":
-        out["fault_case"] = _damage_case(fault, model, kind)
-    elif kind == "nonlinearity":
-        nl_type, params = _nonlinearity(
-            fault, section="fault", type_key="nonlinearity", others=("type", "onset_s")
+    values: dict[str, Any] = {}
+    for f in entry.fields:
+        if f.kind == "number":
+            values[f.name] = _number(fault, "fault", f.name, lo=f.lo, hi=f.hi)
+        elif f.kind == "damage_case":
+            values[f.name] = _damage_case(fault, model, kind, f.name)
+        elif f.kind == "channel":
+            values[f.name] = _output_channel(fault, f.name, scn.channels)
+        else:  # a nonlinearity: its type, and its own parameters beside it
+            others = ("type", "onset_s", *(n for n in entry.names if n != f.name))
+            nl_type, params = _nonlinearity(fault, section="fault", type_key=f.name, others=others)
+            if nl_type == "none":
+                raise ScenarioError(f"fault.{f.name}", "must name a nonlinearity, not none")
+            values.update({f.name: nl_type, **params})
+    return {"fault_type": kind, "fault_onset_s": onset, "fault_values": values}
+
+
+def _output_channel(fault: dict[str, Any], key: str, channels: tuple[str, ...]) -> str:
+    """A fault's channel: one of the scenario's output channels (``[output] channels``)."""
+    value = fault[key]
+    if not isinstance(value, str) or value not in channels:
+        raise ScenarioError(
+            f"fault.{key}",
+            f"must be one of the output channels ({', '.join(channels)}); got {value!r}",
         )
-        if nl_type == "none":
-            raise ScenarioError("fault.nonlinearity", "must name a nonlinearity, not none")
-        out.update(fault_nonlinearity=nl_type, fault_nl_params=params)
-    elif kind == "effectiveness":
-        out["fault_scale"] = _number(fault, "fault", "scale", lo=0, hi=_MAX_SCALE)
-    return out
+    return value
 
 
-def _damage_case(fault: dict[str, Any], model: str, kind: str) -> int:
+def _damage_case(fault: dict[str, Any], model: str, kind: str, key: str = "case") -> int:
     """The NASA damage case of a ``gtm_damage`` fault: 1..6 or its name, on the GTM only."""
     if model != DAMAGE_MODEL:
         raise ScenarioError("fault.type", f"{kind} exists for {DAMAGE_MODEL} only, not {model}")
-    case = fault["case"]
+    case = fault[key]
     names = {name: k for k, name in enumerate(DAMAGE_CASES, start=1)}
     if isinstance(case, str) and case in names:
         case = names[case]
     elif isinstance(case, bool) or case not in range(1, len(DAMAGE_CASES) + 1):
         raise ScenarioError(
-            "fault.case", f"must be 1..{len(DAMAGE_CASES)} or one of {', '.join(names)}"
+            f"fault.{key}", f"must be 1..{len(DAMAGE_CASES)} or one of {', '.join(names)}"
         )
     return int(case)
 

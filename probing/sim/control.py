@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.faults import onset_step
 from probing.sim.flight import ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.fork import trim_key
 from probing.sim.plant import Plant, SurfaceDrive, trim_flight
@@ -147,7 +148,7 @@ class ClosedLoop:
         self._trim_deg = trim.elevator_deg
         self._gains = _gains(control, power) if control.active else None
         self._integral = [0.0, 0.0, 0.0]  # pitch, bank, speed
-        self._stuck: float | None = None
+        self._held: float | None = None  # the probed surface's position at the fault's onset
         self._aileron_now, self._throttle_now = self._aileron0, self._throttle0
         self.dt_s = plant.dt_s
         self.drive: SurfaceDrive = plant.drive(surface)
@@ -191,7 +192,7 @@ class ClosedLoop:
         first = plant._steps
         damage = plant._fault
         fault = self.fault
-        onset = round(fault.onset_s / self.dt_s) if fault is not None else -1
+        onset = onset_step(fault.onset_s, self.dt_s) if fault is not None else -1
         g = self._get
         get_theta, get_q, get_phi, get_p, get_v = (g[k] for k in (_THETA, _Q, _PHI, _P, _VT))
         theta0, phi0, v0 = self._ref[_THETA], self._ref[_PHI], self._ref[_VT]
@@ -251,12 +252,9 @@ class ClosedLoop:
                 asked = trim_pos
             surface = asked + (probe_list[k] if probe_list is not None else 0.0)
             if step >= onset >= 0:
-                if fault.kind == "stuck":
-                    if self._stuck is None:
-                        self._stuck = get_pos()
-                    surface = self._stuck
-                else:
-                    surface = trim_pos + fault.scale * (surface - trim_pos)
+                if self._held is None:  # the position at the onset, before the fault acts
+                    self._held = get_pos()
+                surface = fault.position(surface, trim_pos, self._held)
             if write_el:
                 set_el(command(trim_deg + u_el))
             set_probed(probed_command(surface))

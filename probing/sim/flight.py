@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.faults import ACTUATOR_FAULTS, ActuatorFault  # re-exported: the autopilot's
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
@@ -100,37 +101,6 @@ class Control:
     def to_dict(self) -> dict[str, Any]:
         """Plain values, for keys and metadata."""
         return asdict(self)
-
-
-#: Actuator faults that act on the surface the probe drives, from an onset on.
-ACTUATOR_FAULTS = ("effectiveness", "stuck")
-
-
-@dataclass(frozen=True)
-class ActuatorFault:
-    """A fault of the probed surface's actuator, from ``onset_s`` after the trim on.
-
-    Attributes
-    ----------
-    kind : str
-        ``"effectiveness"``: the surface's motion about its trimmed position is scaled by
-        ``scale`` (an actuator that lost authority, a partial jam); ``"stuck"``: the surface
-        holds the position it has at the onset.
-    onset_s : float
-        Time after the trim, s.
-    scale : float
-        The scale of ``"effectiveness"`` (1 for ``"stuck"``).
-    """
-
-    kind: str
-    onset_s: float
-    scale: float = 1.0
-
-    def __post_init__(self) -> None:
-        if self.kind not in ACTUATOR_FAULTS:
-            raise ValueError(f"kind must be one of {', '.join(ACTUATOR_FAULTS)}")
-        if self.onset_s < 0:
-            raise ValueError("onset_s must be >= 0")
 
 
 #: The autopilot loops a manoeuvre moves the reference of -> (unit of change and rate, the

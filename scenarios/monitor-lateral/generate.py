@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.core.faults import sweep_fields
+
 HERE = Path(__file__).resolve().parent
 SEEDS = 20
 BASELINE = 50
@@ -135,7 +137,7 @@ def main() -> None:
                 "disturbance.seed": list(range(1, SEEDS + 1)),
                 "fault.onset_s": [round(float(t), 3) for t in onsets],
             }
-            fixed = {"fault.type": "gtm_damage", "fault.case": case}
+            fixed = sweep_fields("gtm_damage", {"case": case})
             name = f"{surface}-damage{case}"
             text = f"{surface} probe, damage case {case}: {SEEDS} seeds x random onsets"
             (HERE / f"{name}.toml").write_text(sweep_toml(name, base, text, fixed, zipped))

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.core.faults import sweep_fields
 from probing.experiment.design import DesignRequest, recommend
 
 HERE = Path(__file__).resolve().parent
@@ -40,16 +41,17 @@ ONSET_PERIODS = (55, 75)
 AFTER_PERIODS = 25
 HEALTHY_FLIGHTS, HEALTHY_FLIGHT_S = 10, 3600.0
 
-#: The faults: file name -> [fault] fields (without onset_s); a~/a = 0.8 for the dead band
-#: (edges +-0.2 a) and the backlash (width 0.4 a); the rate limit at half of 2a/t0.
-FAULTS: dict[str, dict] = {
-    "damage5": {"type": "gtm_damage", "case": 5},
-    "damage6": {"type": "gtm_damage", "case": 6},
-    "deadband": {"type": "nonlinearity", "nonlinearity": "deadband"},  # edges set below
-    "backlash": {"type": "nonlinearity", "nonlinearity": "backlash"},
-    "rate-limit": {"type": "nonlinearity", "nonlinearity": "rate_limit"},
-    "effectiveness": {"type": "effectiveness"},  # scale 0.8 and 0.5, a grid
-    "stuck": {"type": "stuck"},
+#: The faults: file name -> (its type in probing.core.faults.FAULTS, its fields without
+#: onset_s); a~/a = 0.8 for the dead band (edges +-0.2 a) and the backlash (width 0.4 a);
+#: the rate limit at half of 2a/t0.
+FAULTS: dict[str, tuple[str, dict]] = {
+    "damage5": ("gtm_damage", {"case": 5}),
+    "damage6": ("gtm_damage", {"case": 6}),
+    "deadband": ("nonlinearity", {"nonlinearity": "deadband"}),  # edges set below
+    "backlash": ("nonlinearity", {"nonlinearity": "backlash"}),
+    "rate-limit": ("nonlinearity", {"nonlinearity": "rate_limit"}),
+    "effectiveness": ("effectiveness", {}),  # scale 0.8 and 0.5, a grid
+    "stuck": ("stuck", {}),
 }
 
 
@@ -174,10 +176,10 @@ def main() -> None:
         "damage6": {},
         "stuck": {},
     }
-    for i, (name, fault) in enumerate(FAULTS.items()):
+    for i, (name, (kind, fault)) in enumerate(FAULTS.items()):
         rng = np.random.default_rng(1000 + i)
         onsets = rng.uniform(*ONSET_PERIODS, SEEDS) * period_s
-        fixed = {f"fault.{k}": v for k, v in fault.items()}
+        fixed = sweep_fields(kind, fault)
         fixed |= {k: round(v, 12) for k, v in params[name].items()}
         grid = dict(drifts)
         if name == "effectiveness":

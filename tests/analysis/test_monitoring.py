@@ -314,3 +314,35 @@ def test_a_damaged_flight_file_is_one_line_naming_it_and_nothing_written(study, 
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("probing: error: ") and str(damaged) in err
     assert not summary.exists() and not figures.exists()
+
+
+def test_each_study_faults_right_verdict_is_its_types_class_in_the_registry():
+    from analysis.monitoring import FAULTS
+    from probing.core.faults import FAULTS as REGISTRY
+
+    truths = {key: fault.truth for key, fault in FAULTS.items()}
+    damage = {f"damage{k}": "airframe" for k in range(1, 7)}
+    actuator = ("deadband", "backlash", "rate-limit", "effectiveness-0.8", "effectiveness-0.5")
+    assert truths == {"none": "none", **damage, **dict.fromkeys((*actuator, "stuck"), "actuator")}
+    for fault in FAULTS.values():
+        if fault.fault_type != "none":
+            assert fault.truth == REGISTRY[fault.fault_type].fault_class
+
+
+def test_a_flight_whose_fault_type_is_not_its_sweeps_is_refused(tmp_path: Path):
+    """The study fault's class comes from its [fault] type; the summary's own fault_type
+    must agree with it (no flight is scored against another fault's verdict)."""
+    rows = {
+        "monitor-deadband": ("nonlinearity", 41.0, "d1"),
+        "monitor-stuck": ("stuck", 41.0, "s1"),
+        "monitor-none": ("none", math.nan, "h1"),
+    }
+    summaries = {}
+    for sweep, (kind, onset, pid) in rows.items():
+        summaries[sweep] = {**_flight(tmp_path, sweep, pid, onset, {}), "fault_type": kind}
+        pd.DataFrame([summaries[sweep]]).to_parquet(tmp_path / sweep / "summary.parquet")
+    assert sorted(load_study(tmp_path).fault) == ["deadband", "none", "stuck"]
+    wrong = pd.DataFrame([{**summaries["monitor-stuck"], "fault_type": "effectiveness"}])
+    wrong.to_parquet(tmp_path / "monitor-stuck" / "summary.parquet")
+    with pytest.raises(ValueError, match="fault_type effectiveness in the sweep of stuck"):
+        load_study(tmp_path)

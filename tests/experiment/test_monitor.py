@@ -21,7 +21,7 @@ from probing.core.nonlinearities import NONLINEARITIES
 from probing.core.prbs import Probe
 from probing.experiment.monitor import monitor_scenario
 from probing.experiment.run import run_scenario
-from probing.experiment.scenario import parse_scenario
+from probing.experiment.scenario import parse_scenario, read_toml
 from probing.experiment.truth import compute_truth
 
 pytestmark = pytest.mark.jsbsim
@@ -342,6 +342,39 @@ def test_cli_monitor_one_line_and_short_runs_refused(tmp_path):
     assert res.returncode == 2 and len(res.stderr.splitlines()) == 1, res.stderr
     assert "monitor.baseline_periods" in res.stderr and "Traceback" not in res.stderr
     assert not (tmp_path / "out2").exists()
+
+
+def test_a_sensor_bias_offsets_the_measured_channel_from_its_onset_step_only(tmp_path):
+    """`probing monitor` on the study's flight (scenarios/monitor/base.toml, shortened), with
+    and without a bias on theta_rad: the measured theta differs by exactly the bias from the
+    step that starts at the onset on (its output is the row at onset + dt), and not at all
+    before; the other channel and the reference twin's theta do not see it."""
+    data, _ = read_toml(ROOT / "scenarios" / "monitor" / "base.toml")
+    data["probe"].update(order=6, periods=14)  # T = 0.63 s, 8.82 s in all
+    data["monitor"].update(baseline_periods=8, window_periods=1)
+    onset_s, bias = 5.0, 0.0123  # the onset step: 500, inside period 7
+    frames = {}
+    for name, fault in (
+        ("healthy", None),
+        ("biased", {"type": "sensor_bias", "channel": "theta_rad", "bias": bias}),
+    ):
+        flight = {**data, "name": name}
+        if fault is not None:
+            flight["fault"] = {**fault, "onset_s": onset_s}
+        path = tmp_path / f"{name}.toml"
+        path.write_text(_toml(flight))
+        res = _probing("monitor", str(path), "--out", str(tmp_path / "out"), "--timeseries")
+        assert res.returncode == 0, res.stderr
+        frames[name] = pd.read_parquet(tmp_path / "out" / name / "timeseries.parquet")
+    healthy, biased = frames["healthy"], frames["biased"]
+    k = round(onset_s / 0.01)
+    assert biased.time_s.iloc[k] == pytest.approx(onset_s + 0.01)
+    theta, theta0 = biased.theta_rad.to_numpy(), healthy.theta_rad.to_numpy()
+    assert np.array_equal(theta[:k], theta0[:k])  # up to the step before the onset step
+    assert theta[k - 1] == theta0[k - 1] and theta[k] == theta0[k] + bias
+    assert np.array_equal(theta[k:], theta0[k:] + bias)
+    for column in ("elevator_deg", "theta_rad_reference", "elevator_pos_deg"):
+        assert np.array_equal(biased[column].to_numpy(), healthy[column].to_numpy()), column
 
 
 @pytest.mark.parametrize(

@@ -369,13 +369,14 @@ def test_monitor_without_its_section_says_the_section_is_missing() -> None:
     assert "no [monitor] section" not in str(info.value)
 
 
-@pytest.mark.parametrize("kind", ["stuck", "gtm_damage"])
+@pytest.mark.parametrize("kind", ["stuck", "gtm_damage", "sensor_bias"])
 def test_a_fault_onset_must_come_before_the_run_ends(kind: str):
     """The baseline run lasts M x periods x t0 = 511 x 8 x 0.01 s: a fault at that instant
     would act on no step and is refused naming fault.onset_s; the largest float below it,
     and a step before it, are accepted."""
     duration = 511 * 8 * 0.01
-    fault = {"type": kind, **({"case": 2} if kind == "gtm_damage" else {})}
+    own = {"gtm_damage": {"case": 2}, "sensor_bias": {"channel": "theta_rad", "bias": 0.01}}
+    fault = {"type": kind, **own.get(kind, {})}
 
     def with_onset(onset: float) -> dict:
         data = _baseline_dict()
