@@ -74,3 +74,33 @@ def test_analysis_loads_no_simulator() -> None:
     n_modules, loaded = json.loads(out.splitlines()[-1])
     assert n_modules >= 12  # every module was imported
     assert loaded == []
+
+
+def test_no_code_assigns_to_another_objects_private_attribute() -> None:
+    """``x._name = ...`` (or ``+=``) only on ``self`` or ``cls``: an object owns its private
+    state (the closed loop used to write the plant's step count and scheduled damage)."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    found = []
+    for path in sorted([*root.glob("probing/**/*.py"), *root.glob("analysis/*.py")]):
+        for node in ast.walk(ast.parse(path.read_text())):
+            targets = (
+                node.targets
+                if isinstance(node, ast.Assign)
+                else [node.target]
+                if isinstance(node, ast.AugAssign | ast.AnnAssign)
+                else []
+            )
+            for t in targets:
+                for sub in ast.walk(t):
+                    if (
+                        isinstance(sub, ast.Attribute)
+                        and sub.attr.startswith("_")
+                        and not sub.attr.startswith("__")
+                        and not (
+                            isinstance(sub.value, ast.Name) and sub.value.id in ("self", "cls")
+                        )
+                    ):
+                        found.append(f"{path.relative_to(root)}:{node.lineno} {ast.unparse(t)}")
+    assert found == []

@@ -189,8 +189,8 @@ class ClosedLoop:
         """
         plant, fdm = self.plant, self.plant.fdm
         n = out.shape[0]
-        first = plant._steps
-        damage = plant._fault
+        first = plant.steps_run
+        damage_step = plant.damage_onset_step  # a scheduled damage (Plant.schedule), if any
         fault = self.fault
         onset = onset_step(fault.onset_s, self.dt_s) if fault is not None else -1
         g = self._get
@@ -258,9 +258,9 @@ class ClosedLoop:
             if write_el:
                 set_el(command(trim_deg + u_el))
             set_probed(probed_command(surface))
-            if damage is not None and step == damage[1]:
-                plant.damage(damage[0])
-                plant._fault = damage = None
+            if step == damage_step:
+                plant.start_scheduled_damage()
+                damage_step = None
             run()
             for get in getters:
                 append(get())
@@ -271,7 +271,7 @@ class ClosedLoop:
             if commands is not None:
                 flown.append((u_el, ail, thr))
         self._aileron_now, self._throttle_now = ail, thr
-        plant._steps = first + n
+        plant.count_steps(n)
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
         if position is not None:
             position[:] = realised
@@ -314,7 +314,7 @@ class ClosedLoop:
             run()
             for get in getters:
                 append(get())
-        plant._steps += n
+        plant.count_steps(n)
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
 
 

@@ -609,6 +609,32 @@ class Plant:
         if flight.damage_onset_s is not None:
             self._fault = (flight.damage_case, round(flight.damage_onset_s / self.dt_s))
 
+    @property
+    def steps_run(self) -> int:
+        """Steps run since the trim (or the last :meth:`schedule`)."""
+        return self._steps
+
+    @property
+    def damage_onset_step(self) -> int | None:
+        """The step index at which a scheduled damage case is still to be switched on, None
+        if there is none pending."""
+        return self._fault[1] if self._fault is not None else None
+
+    def start_scheduled_damage(self) -> None:
+        """Switch the scheduled damage case on now (effective from the next step) and clear
+        it: what :meth:`step` does at the onset step, for a loop that steps the aircraft
+        itself (:class:`probing.sim.control.ClosedLoop`)."""
+        if self._fault is None:
+            raise ValueError("no damage is scheduled")
+        case = self._fault[0]
+        self._fault = None
+        self.damage(case)
+
+    def count_steps(self, n: int) -> None:
+        """Count ``n`` steps run by a loop that steps the aircraft itself (the onset of a
+        scheduled damage is counted in these steps too)."""
+        self._steps += n
+
     def disturb(self, turbulence: str, seed: int) -> None:
         """Seed JSBSim's random generators and switch turbulence on: what follows the trim.
 
@@ -795,10 +821,11 @@ class Plant:
             j = max(0, fault[1] - self._steps)
             cmds = (None, None) if cmd_norm is None else (cmd_norm[:j], cmd_norm[j:])
             els = (None, None) if position is None else (position[:j], position[j:])
-            self._fault = None
             if j:
+                self._fault = None  # not in the steps before it
                 self.step(cmds[0], nodes, out[:j], els[0], drive)
-            self.damage(fault[0])
+                self._fault = fault
+            self.start_scheduled_damage()
             self.step(cmds[1], nodes, out[j:], els[1], drive)
             return
         self._steps += n
