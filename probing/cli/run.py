@@ -18,12 +18,13 @@ from probing.cli.common import (
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from probing.experiment.runners import runner_of
+
     scn = _load_scenario(args.scenario)
     _run_folder(args.out, scn)
-    if scn.simultaneous is not None:
-        return _run_simultaneous(scn, args)
-    if scn.manoeuvre is not None:
-        return _run_manoeuvre(scn, args)
+    special = {"simultaneous": _run_simultaneous, "manoeuvre": _run_manoeuvre}
+    if runner_of(scn).name in special:
+        return special[runner_of(scn).name](scn, args)
 
     def job() -> int:
         from probing.experiment.run import run_scenario
@@ -91,17 +92,13 @@ def _print_truth(scn: Any, out: Path) -> None:
 
 
 def _one_surface(scn: Any, path: Path, command: str) -> Any:
-    """``scn``, unless it probes several surfaces ([simultaneous]: ``probing run`` flies it)."""
-    if scn.simultaneous is not None:
-        raise UsageError(
-            f"{path}: probing {command} takes one probed surface; a [simultaneous] scenario "
-            f"is flown by probing run (its --truth flies each surface alone)"
-        )
-    if scn.manoeuvre is not None:
-        raise UsageError(
-            f"{path}: probing {command} flies a steady condition; a [manoeuvre] scenario is "
-            f"flown by probing run (with its single-pulse truth along the manoeuvre)"
-        )
+    """``scn``, unless its runner does not offer ``command`` (a [simultaneous] or a
+    [manoeuvre] scenario: ``probing run`` flies it)."""
+    from probing.experiment.runners import runner_of
+
+    refusal = runner_of(scn).refuses(command)
+    if refusal is not None:
+        raise UsageError(f"{path}: {refusal}")
     return scn
 
 

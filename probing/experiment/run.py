@@ -32,6 +32,7 @@ from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
 from probing.experiment.drift import drift_correction
 from probing.experiment.progress import progress_bar
+from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     OutputFolder,
@@ -460,7 +461,7 @@ def run_scenario(
     probing.sim.errors.TrimError, probing.sim.errors.DivergenceError
         On trim failure or divergence; no output file is left behind.
     """
-    if scn.simultaneous is not None or scn.manoeuvre is not None:
+    if runner_of(scn).name != "steady":
         raise ValueError("a [simultaneous] or [manoeuvre] scenario has its own runner")
     t_start = time.perf_counter()
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from probing.experiment.runners import runner_of
 from probing.experiment.scenario import (
     SECTIONS,
     Scenario,
@@ -195,11 +196,11 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         base = load_scenario(base_path)
     except ScenarioError as exc:
         raise ScenarioError("base", f"{base_rel}: {exc.field}: {exc.message}", source) from None
-    for section in ("simultaneous", "manoeuvre"):
-        if getattr(base, section) is not None:
-            raise ScenarioError(
-                "base", f"{base_rel}: a [{section}] scenario is flown by probing run", source
-            )
+    runner = runner_of(base)
+    if "sweep" not in runner.commands:
+        raise ScenarioError(
+            "base", f"{base_rel}: a [{runner.section}] scenario is flown by probing run", source
+        )
 
     tables: dict[str, dict[str, Any]] = {}
     for table in ("fixed", "grid", "zip"):
