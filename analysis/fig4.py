@@ -139,77 +139,94 @@ class Fig4Data:
     sweep: pd.DataFrame
 
 
-def collect(results: Path) -> Fig4Data:
-    """Read a Fig. 4 results folder (``manifest.json`` and the runs' Parquet files)."""
+def _read_manifest(results: Path) -> dict:
+    """The ``manifest.json`` of a Fig. 4 results folder (it must name the panels' folders)."""
     try:
         manifest = json.loads((results / "manifest.json").read_text())
-        folders = manifest["panels"]
+        manifest["panels"]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise NotAFig4FolderError(
             f"{results}: not a results folder of probing fig4 "
             f"(manifest.json: {exc.__class__.__name__}); run probing fig4 first"
         ) from None
-    base = read_run(results / folders[BASELINE])
-    h0 = base.h.mean(axis=0)
-    z0 = base.z.mean(axis=0)
-    panels = []
-    for key, letter in PANELS.items():
-        run = read_run(results / folders[key])
-        scn = run.scenario
-        nl = scn.build_nonlinearity()
-        a = scn.amplitude_deg
-        pg, pb = predicted_apparent(nl, a, scn.bit_duration_s)
-        g, shape = gain_and_shape(run.h.mean(axis=0), h0)
-        res = PanelResult(
-            key, letter, scn.nonlinearity_label, scn.describe_nonlinearity(), pg, pb, g, shape, run
-        )
-        res.measured_gain_z, res.shape_error_z = gain_and_shape(run.z.mean(axis=0), z0)
-        try:
-            zc = compensate(run.z, nl, a).mean(axis=0)
-        except NoApparentFormError:  # a rate limit: nothing to undo
-            pass
-        else:
-            res.compensated_z = zc
-            res.compensation_error = float(np.linalg.norm(zc - z0) / np.linalg.norm(z0))
-        panels.append(res)
-    remedy = remedy_row = None
-    if OFFSET_TWIN in folders and (results / folders[OFFSET_TWIN]).exists():
-        remedy = offset_removed(results / folders["b_saturation"], results / folders[OFFSET_TWIN])
-        sat = next(p for p in panels if p.key == "b_saturation")
-        g, shape = gain_and_shape(remedy.h.mean(axis=0), h0)
-        remedy_row = PanelResult(
-            "b_saturation_offset_removed",
-            "b'",
-            "saturation, offset twin subtracted",
-            sat.parameters,
-            sat.predicted_gain,
-            0.0,
-            g,
-            shape,
-            remedy,
-        )
-        # The remedy removes the offset b~ from the output: only the scale a~/a is left.
-        zr = remedy.z.mean(axis=0) / sat.predicted_gain
-        remedy_row.measured_gain_z, remedy_row.shape_error_z = gain_and_shape(
-            remedy.z.mean(axis=0), z0
-        )
-        remedy_row.compensated_z = zr
-        remedy_row.compensation_error = float(np.linalg.norm(zr - z0) / np.linalg.norm(z0))
+    return manifest
+
+
+def _panel_result(
+    key: str, letter: str, run: RunData, h0: np.ndarray, z0: np.ndarray
+) -> PanelResult:
+    """One panel's numbers: predicted and measured gain, shape error, compensated z."""
+    scn = run.scenario
+    nl = scn.build_nonlinearity()
+    a = scn.amplitude_deg
+    pg, pb = predicted_apparent(nl, a, scn.bit_duration_s)
+    g, shape = gain_and_shape(run.h.mean(axis=0), h0)
+    res = PanelResult(
+        key, letter, scn.nonlinearity_label, scn.describe_nonlinearity(), pg, pb, g, shape, run
+    )
+    res.measured_gain_z, res.shape_error_z = gain_and_shape(run.z.mean(axis=0), z0)
+    try:
+        zc = compensate(run.z, nl, a).mean(axis=0)
+    except NoApparentFormError:  # a rate limit: nothing to undo
+        pass
+    else:
+        res.compensated_z = zc
+        res.compensation_error = float(np.linalg.norm(zc - z0) / np.linalg.norm(z0))
+    return res
+
+
+def _remedy_row(
+    remedy: RunData, panels: list[PanelResult], h0: np.ndarray, z0: np.ndarray
+) -> PanelResult:
+    """The row of the remedy (saturation with the offset twin subtracted)."""
+    sat = next(p for p in panels if p.key == "b_saturation")
+    g, shape = gain_and_shape(remedy.h.mean(axis=0), h0)
+    remedy_row = PanelResult(
+        "b_saturation_offset_removed",
+        "b'",
+        "saturation, offset twin subtracted",
+        sat.parameters,
+        sat.predicted_gain,
+        0.0,
+        g,
+        shape,
+        remedy,
+    )
+    # The remedy removes the offset b~ from the output: only the scale a~/a is left.
+    zr = remedy.z.mean(axis=0) / sat.predicted_gain
+    remedy_row.measured_gain_z, remedy_row.shape_error_z = gain_and_shape(remedy.z.mean(axis=0), z0)
+    remedy_row.compensated_z = zr
+    remedy_row.compensation_error = float(np.linalg.norm(zr - z0) / np.linalg.norm(z0))
+    return remedy_row
+
+
+def _is_sweep_baseline(r: dict) -> bool:
+    """A rate-limit sweep run without a rate limit (its ratio is None or NaN)."""
+    return r["ratio"] is None or math.isnan(r["ratio"])
+
+
+def _read_sweep_runs(results: Path, manifest: dict) -> list[dict]:
+    """The rate-limit sweep's manifest entries with the mean h and z of each run present."""
     rows = []
     for entry in manifest.get("sweep", []):
         folder = results / "rate_limit_sweep" / entry["folder"]
         if folder.exists():
             run = read_run(folder)
             rows.append({**entry, "h": run.h.mean(axis=0), "z": run.z.mean(axis=0)})
+    return rows
+
+
+def _sweep_rows(rows: list[dict]) -> list[dict[str, object]]:
+    """Gain and shape error of each rate-limited run against its bit duration's baseline."""
     sweep_rows = []
     for t0 in sorted({r["bit_duration_s"] for r in rows}):
         group = [r for r in rows if r["bit_duration_s"] == t0]
-        base_rows = [r for r in group if r["ratio"] is None or math.isnan(r["ratio"])]
+        base_rows = [r for r in group if _is_sweep_baseline(r)]
         if not base_rows:
             continue
         hb, zb = base_rows[0]["h"], base_rows[0]["z"]
         for r in group:
-            if r["ratio"] is None or math.isnan(r["ratio"]):
+            if _is_sweep_baseline(r):
                 continue
             g, shape = gain_and_shape(r["h"], hb)
             gz, shape_z = gain_and_shape(r["z"], zb)
@@ -223,6 +240,25 @@ def collect(results: Path) -> Fig4Data:
                     "shape_error_z": shape_z,
                 }
             )
+    return sweep_rows
+
+
+def collect(results: Path) -> Fig4Data:
+    """Read a Fig. 4 results folder (``manifest.json`` and the runs' Parquet files)."""
+    manifest = _read_manifest(results)
+    folders = manifest["panels"]
+    base = read_run(results / folders[BASELINE])
+    h0 = base.h.mean(axis=0)
+    z0 = base.z.mean(axis=0)
+    panels = [
+        _panel_result(key, letter, read_run(results / folders[key]), h0, z0)
+        for key, letter in PANELS.items()
+    ]
+    remedy = remedy_row = None
+    if OFFSET_TWIN in folders and (results / folders[OFFSET_TWIN]).exists():
+        remedy = offset_removed(results / folders["b_saturation"], results / folders[OFFSET_TWIN])
+        remedy_row = _remedy_row(remedy, panels, h0, z0)
+    sweep_rows = _sweep_rows(_read_sweep_runs(results, manifest))
     return Fig4Data(
         manifest["set"],
         base,
