@@ -60,62 +60,101 @@ _NOTE_POSITIONS = [
 ]
 
 
+def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -> Any:
+    """The predicted curve of a panel; for the saturation, also the note on its offset.
+
+    Returns that note (a matplotlib text) or None.
+    """
+    if p.key == "b_saturation":
+        ax.plot(
+            lag,
+            p.predicted_gain * z0 * MRAD,
+            color=C_PRED,
+            ls="--",
+            lw=0.8,
+            label="(a~/a) x no nonlinearity",
+        )
+        offset = (_predicted_z(p, z0) - p.predicted_gain * z0).mean()
+        return ax.text(
+            0.98,
+            0.04,
+            f"steady-state offset\nb~·Σh of eq. (11):\n{offset * MRAD:+.2f} mrad (off scale)",
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=7,
+        )
+    if not isinstance(p.run.scenario.build_nonlinearity(), RateLimit):
+        ax.plot(
+            lag,
+            _predicted_z(p, z0) * MRAD,
+            color=C_PRED,
+            ls="--",
+            lw=0.8,
+            label="predicted, eq. (11)",
+        )
+    return None
+
+
+def _draw_panel(ax: Any, p: PanelResult, data: Fig4Data, z0: np.ndarray, lag: np.ndarray) -> Any:
+    """One nonlinearity's panel; returns the note on the saturation offset or None."""
+    ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+    note = _plot_prediction(ax, p, z0, lag)
+    ax.plot(lag, p.run.z.mean(axis=0) * MRAD, color=C_NL, lw=0.8, label="with nonlinearity")
+    if p.key == "b_saturation" and data.remedy is not None:
+        ax.plot(
+            lag,
+            data.remedy.z.mean(axis=0) * MRAD,
+            color=C_FIX,
+            lw=0.8,
+            label="offset twin subtracted",
+        )
+    ax.set_title(_title(p, data.remedy_row.measured_gain if data.remedy_row else None), loc="left")
+    ax.set_ylabel("z of pitch θ (mrad)")
+    if p.key == "b_saturation":
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(lo, hi + 0.7 * (hi - lo))
+        ax.legend(loc="upper center", ncol=2, frameon=False, fontsize=6.5)
+    else:
+        ax.legend(loc="best", frameon=False)
+    return note
+
+
+def _info_text(data: Fig4Data) -> str:
+    """The text of the last (information) panel: the set, the flight condition, the probe."""
+    base = data.baseline
+    scn = base.scenario
+    return (
+        f"Fig. 4 reproduction, set '{data.set_name}'\n"
+        f"aircraft {scn.model}, {scn.altitude_ft:g} ft, {scn.speed:g} "
+        f"{scn.speed_kind.removeprefix('speed_')}\n"
+        f"PRBS order {scn.order} (M = {scn.bits_per_period}), t0 = {scn.bit_duration_s:g} s,\n"
+        f"dt = {scn.dt_s:g} s, a = {scn.amplitude_deg:g} deg elevator\n"
+        f"z: probing output (eq. 5) of pitch angle θ,\n"
+        f"mean over {len(base.z)} settled periods; unprobed twin\n"
+        f"subtracted (drift reference)."
+        + (
+            "\nElevator through the GTM's 5 Hz servo (kept).\n\n"
+            if scn.model == "gtm_t2"
+            else "\n\n"
+        )
+        + "(b) the offset b~ is a step input: its transient\n"
+        "leaks into z.  Blue: the same run minus a twin\n"
+        "that receives only the constant b~ (no probe):\n"
+        "the scaled pulse response (a~/a) z0 is recovered."
+    )
+
+
 def _panels(data: Fig4Data) -> Any:
     base = data.baseline
     z0 = base.z.mean(axis=0)
     lag = base.lag_s
-    scn = base.scenario
     fig, axes = plt.subplots(4, 2, figsize=(7.0, 9.0), sharex=True, constrained_layout=True)
     offset_note = None
     for ax, p in zip(axes.flat, data.panels, strict=False):
-        ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
-        if p.key == "b_saturation":
-            ax.plot(
-                lag,
-                p.predicted_gain * z0 * MRAD,
-                color=C_PRED,
-                ls="--",
-                lw=0.8,
-                label="(a~/a) x no nonlinearity",
-            )
-            offset = (_predicted_z(p, z0) - p.predicted_gain * z0).mean()
-            offset_note = ax.text(
-                0.98,
-                0.04,
-                f"steady-state offset\nb~·Σh of eq. (11):\n{offset * MRAD:+.2f} mrad (off scale)",
-                transform=ax.transAxes,
-                ha="right",
-                va="bottom",
-                fontsize=7,
-            )
-        elif not isinstance(p.run.scenario.build_nonlinearity(), RateLimit):
-            ax.plot(
-                lag,
-                _predicted_z(p, z0) * MRAD,
-                color=C_PRED,
-                ls="--",
-                lw=0.8,
-                label="predicted, eq. (11)",
-            )
-        ax.plot(lag, p.run.z.mean(axis=0) * MRAD, color=C_NL, lw=0.8, label="with nonlinearity")
-        if p.key == "b_saturation" and data.remedy is not None:
-            ax.plot(
-                lag,
-                data.remedy.z.mean(axis=0) * MRAD,
-                color=C_FIX,
-                lw=0.8,
-                label="offset twin subtracted",
-            )
-        ax.set_title(
-            _title(p, data.remedy_row.measured_gain if data.remedy_row else None), loc="left"
-        )
-        ax.set_ylabel("z of pitch θ (mrad)")
-        if p.key == "b_saturation":
-            lo, hi = ax.get_ylim()
-            ax.set_ylim(lo, hi + 0.7 * (hi - lo))
-            ax.legend(loc="upper center", ncol=2, frameon=False, fontsize=6.5)
-        else:
-            ax.legend(loc="best", frameon=False)
+        note = _draw_panel(ax, p, data, z0, lag)
+        if note is not None:
+            offset_note = note
     if offset_note is not None:  # once every panel is drawn: the layout is final
         place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
     for ax in axes[-1]:
@@ -125,25 +164,7 @@ def _panels(data: Fig4Data) -> Any:
     info.text(
         0.0,
         1.0,
-        (
-            f"Fig. 4 reproduction, set '{data.set_name}'\n"
-            f"aircraft {scn.model}, {scn.altitude_ft:g} ft, {scn.speed:g} "
-            f"{scn.speed_kind.removeprefix('speed_')}\n"
-            f"PRBS order {scn.order} (M = {scn.bits_per_period}), t0 = {scn.bit_duration_s:g} s,\n"
-            f"dt = {scn.dt_s:g} s, a = {scn.amplitude_deg:g} deg elevator\n"
-            f"z: probing output (eq. 5) of pitch angle θ,\n"
-            f"mean over {len(base.z)} settled periods; unprobed twin\n"
-            f"subtracted (drift reference)."
-            + (
-                "\nElevator through the GTM's 5 Hz servo (kept).\n\n"
-                if scn.model == "gtm_t2"
-                else "\n\n"
-            )
-            + "(b) the offset b~ is a step input: its transient\n"
-            "leaks into z.  Blue: the same run minus a twin\n"
-            "that receives only the constant b~ (no probe):\n"
-            "the scaled pulse response (a~/a) z0 is recovered."
-        ),
+        _info_text(data),
         va="top",
         ha="left",
         transform=info.transAxes,
