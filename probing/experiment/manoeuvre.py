@@ -81,6 +81,71 @@ def _pulse_copy(
     return out[spb - 1 :: spb]
 
 
+def _truth(twin: ClosedLoop, nodes: list, m: int, spb: int, amplitude: float) -> np.ndarray:
+    """The single-pulse truth at the twin's present state: a pulsed and an unpulsed forked
+    copy fly on :data:`FOLD_PERIODS` periods; their difference per unit amplitude, folded
+    onto one period, (C, M)."""
+    copy = functools.partial(
+        _pulse_copy,
+        loop=twin,
+        nodes=nodes,
+        n_steps=FOLD_PERIODS * m * spb,
+        spb=spb,
+        amplitude=amplitude,
+    )
+    found = {o.index: o.get() for o in forked_map(copy, [True, False], jobs=2)}
+    pulse = (found[0] - found[1]) / amplitude  # (FOLD_PERIODS M, C)
+    return pulse.reshape(FOLD_PERIODS, m, -1).sum(axis=0).T  # folded, (C, M)
+
+
+def _append_period(
+    rows: dict[str, list],
+    errors: dict[str, list[float]],
+    scn: Scenario,
+    p: int,
+    mid_s: float,
+    achieved: float,
+    h_est: np.ndarray,
+    h_pulse: np.ndarray,
+) -> None:
+    """Append period ``p``'s rows (every channel, every tap) and its errors per channel."""
+    man = scn.manoeuvre
+    m = h_est.shape[1]
+    taps = np.arange(m, dtype=np.int32)
+    for j, c in enumerate(scn.channels):
+        rows["channel"] += [c] * m
+        rows["period"] += [p] * m
+        rows["time_mid_s"] += [mid_s] * m
+        rows["reference"] += [float(man.offset(np.array(mid_s)))] * m
+        rows["achieved"] += [achieved] * m
+        rows["tap"].append(taps)
+        rows["lag_s"].append(taps * scn.bit_duration_s)
+        rows["h_est"].append(h_est[j])
+        rows["h_pulse"].append(h_pulse[j])
+        errors[c].append(float(np.linalg.norm(h_est[j] - h_pulse[j]) / np.linalg.norm(h_pulse[j])))
+
+
+def _write_rows(scn: Scenario, out: str | Path, rows: dict[str, list], trim_result) -> Path:
+    """Write the rows to ``out/<name>/manoeuvre.parquet``; the run's folder."""
+    man = scn.manoeuvre
+    columns = {
+        k: np.concatenate(v) if k in ("tap", "lag_s", "h_est", "h_pulse") else np.array(v)
+        for k, v in rows.items()
+    }
+    columns["period"] = columns["period"].astype(np.int32)
+    folder = Path(out) / scn.name
+    meta = scenario_provenance(scn, trim_result)
+    with output_folder(folder, meta) as files:
+        writer = files.writer(
+            "manoeuvre.parquet",
+            list(scn.channels),
+            scn.surface_unit,
+            own_units={"reference": man.unit, "achieved": man.unit},
+        )
+        writer.write(columns)
+    return folder
+
+
 def run_manoeuvre(
     scn: Scenario,
     out: str | Path,
@@ -126,52 +191,15 @@ def run_manoeuvre(
             twin.step(None, nodes_t, y_t[:half])
             mid_s = (p * period + half) * scn.dt_s
             achieved = man.in_unit(achieved_node.get_double_value() - trimmed_value)
-            copy = functools.partial(
-                _pulse_copy,
-                loop=twin,
-                nodes=nodes_t,
-                n_steps=FOLD_PERIODS * period,
-                spb=spb,
-                amplitude=scn.amplitude_deg,
-            )
-            found = {o.index: o.get() for o in forked_map(copy, [True, False], jobs=2)}
+            h_pulse = _truth(twin, nodes_t, m, spb, scn.amplitude_deg)
             twin.step(None, nodes_t, y_t[half:])
             twin.plant.check_state()
             steps += (2 + 2 * FOLD_PERIODS) * period
             dy = (y_p - y_t)[spb - 1 :: spb]  # (M, C)
             _, _, h_est = cyclic_estimates(dy.T, reference, scn.amplitude_deg)  # (C, M)
-            pulse = (found[0] - found[1]) / scn.amplitude_deg  # (FOLD_PERIODS M, C)
-            h_pulse = pulse.reshape(FOLD_PERIODS, m, -1).sum(axis=0).T  # folded, (C, M)
-            taps = np.arange(m, dtype=np.int32)
-            for j, c in enumerate(channels):
-                rows["channel"] += [c] * m
-                rows["period"] += [p] * m
-                rows["time_mid_s"] += [mid_s] * m
-                rows["reference"] += [float(man.offset(np.array(mid_s)))] * m
-                rows["achieved"] += [achieved] * m
-                rows["tap"].append(taps)
-                rows["lag_s"].append(taps * scn.bit_duration_s)
-                rows["h_est"].append(h_est[j])
-                rows["h_pulse"].append(h_pulse[j])
-                errors[c].append(
-                    float(np.linalg.norm(h_est[j] - h_pulse[j]) / np.linalg.norm(h_pulse[j]))
-                )
+            _append_period(rows, errors, scn, p, mid_s, achieved, h_est, h_pulse)
             bar.advance()
-    columns = {
-        k: np.concatenate(v) if k in ("tap", "lag_s", "h_est", "h_pulse") else np.array(v)
-        for k, v in rows.items()
-    }
-    columns["period"] = columns["period"].astype(np.int32)
-    folder = Path(out) / scn.name
-    meta = scenario_provenance(scn, probed.plant.trim_result)
-    with output_folder(folder, meta) as files:
-        writer = files.writer(
-            "manoeuvre.parquet",
-            channels,
-            scn.surface_unit,
-            own_units={"reference": man.unit, "achieved": man.unit},
-        )
-        writer.write(columns)
+    folder = _write_rows(scn, out, rows, probed.plant.trim_result)
     return ManoeuvreResult(
         folder,
         {c: np.array(e) for c, e in errors.items()},
