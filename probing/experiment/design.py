@@ -135,29 +135,10 @@ def fewest_periods(scatter: Callable[[int], float], target: float, max_periods: 
     return hi
 
 
-def probe_shape(
-    request: DesignRequest,
-    *,
-    short_period_settling_s: float,
-    phugoid_settling_s: float,
-    surface_room_deg: tuple[float, float] | None = None,
-    max_order: int = 16,
-) -> ProbeShape:
-    """Order, bit duration and amplitude by the rules of the module docstring (pure).
-
-    ``surface_room_deg`` is how far the elevator can move below and above its trim (deg);
-    ``request`` holds values :meth:`DesignRequest.validate` accepts.
-
-    Raises
-    ------
-    DesignError
-        When no amplitude, bit duration or order meets every rule; the message names the
-        conflict.
-    """
-    r = request
-    reasons: dict[str, str] = {}
-    warnings: list[str] = []
-    # ---- amplitude
+def _amplitude_room(
+    r: DesignRequest, surface_room_deg: tuple[float, float] | None
+) -> tuple[float, str]:
+    """How far the amplitude may go (deg) and what limits it (for the messages)."""
     sat_room = math.inf
     if r.saturation_deg is not None:
         lo, up = r.saturation_deg
@@ -169,6 +150,14 @@ def probe_shape(
         sat_room = min(-lo, up)
     room = sat_room if surface_room_deg is None else min(sat_room, *surface_room_deg)
     limit = "saturation margin" if room == sat_room else "elevator's range about trim"
+    return room, limit
+
+
+def _amplitude(
+    r: DesignRequest, surface_room_deg: tuple[float, float] | None, reasons: dict[str, str]
+) -> float:
+    """The amplitude a (deg) by the amplitude rule; its reason goes into ``reasons``."""
+    room, limit = _amplitude_room(r, surface_room_deg)
     if r.deadband_deg is not None:
         lo, up = r.deadband_deg
         half = max(-lo, up)
@@ -195,7 +184,11 @@ def probe_shape(
         reasons["amplitude_deg"] = f"default {r.amplitude_deg:g} deg" + (
             f", capped by the {limit} {room:g} deg" if a < r.amplitude_deg else ""
         )
-    # ---- bit duration
+    return a
+
+
+def _bit_duration(r: DesignRequest, a: float, reasons: dict[str, str]) -> float:
+    """The bit duration t0 (s) by eq. (21); its reason goes into ``reasons``."""
     steps = 1
     if r.rate_limit_deg_s is not None:
         t_min = RateLimit(r.rate_limit_deg_s).shortest_bit_s(a)
@@ -207,13 +200,11 @@ def probe_shape(
         )
     else:
         reasons["bit_duration_s"] = "no rate limit: one simulation step per bit"
-    t0 = steps * r.dt_s
-    if math.isfinite(short_period_settling_s) and t0 > short_period_settling_s / 10:
-        warnings.append(
-            f"t0 = {t0:g} s is longer than a tenth of the short-period settling time "
-            f"({short_period_settling_s:.3g} s): the pulse response is coarsely resolved"
-        )
-    # ---- order
+    return steps * r.dt_s
+
+
+def _order(t0: float, short_period_settling_s: float, max_order: int) -> int:
+    """The smallest order from 3 whose period M t0 covers the short period's settling."""
     if not math.isfinite(short_period_settling_s):
         raise DesignError("the short period is not stable at this trim: no finite memory covers it")
     order = 3
@@ -224,6 +215,39 @@ def probe_shape(
                 f"covering {short_period_settling_s:.3g} s with t0 = {t0:g} s needs order > "
                 f"{max_order}"
             )
+    return order
+
+
+def probe_shape(
+    request: DesignRequest,
+    *,
+    short_period_settling_s: float,
+    phugoid_settling_s: float,
+    surface_room_deg: tuple[float, float] | None = None,
+    max_order: int = 16,
+) -> ProbeShape:
+    """Order, bit duration and amplitude by the rules of the module docstring (pure).
+
+    ``surface_room_deg`` is how far the elevator can move below and above its trim (deg);
+    ``request`` holds values :meth:`DesignRequest.validate` accepts.
+
+    Raises
+    ------
+    DesignError
+        When no amplitude, bit duration or order meets every rule; the message names the
+        conflict.
+    """
+    r = request
+    reasons: dict[str, str] = {}
+    warnings: list[str] = []
+    a = _amplitude(r, surface_room_deg, reasons)
+    t0 = _bit_duration(r, a, reasons)
+    if math.isfinite(short_period_settling_s) and t0 > short_period_settling_s / 10:
+        warnings.append(
+            f"t0 = {t0:g} s is longer than a tenth of the short-period settling time "
+            f"({short_period_settling_s:.3g} s): the pulse response is coarsely resolved"
+        )
+    order = _order(t0, short_period_settling_s, max_order)
     shape = ProbeShape(order, t0, a, reasons, warnings)
     reasons["order"] = (
         f"T = M t0 = {shape.memory_s:.3g} s >= short-period settling 4/(zeta wn) = "
