@@ -1,0 +1,629 @@
+"""The sections of a scenario file, each read and checked: the schema (:data:`SECTIONS`),
+:class:`ScenarioError`, the checks of one value, and one parser per section.
+
+:mod:`probing.experiment.scenario` builds the :class:`~probing.experiment.scenario.Scenario`
+from them; this module does not import it (a parser that needs the scenario read so far is
+given it as ``scn``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from probing.core.faults import FAULTS
+from probing.core.monitor import MonitorSettings
+from probing.core.multiplex import DESIGNS
+from probing.core.noise import ESTIMATORS
+from probing.core.nonlinearities import NONLINEARITIES, ParameterError
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
+from probing.sim.aircraft import find_aircraft
+from probing.sim.channels import CHANNEL_NAMES
+from probing.sim.errors import AircraftNotFoundError
+from probing.sim.flight import (
+    DAMAGE_CASES,
+    DAMAGE_MODEL,
+    MANOEUVRE_HOLDS,
+    SPEED_KINDS,
+    TURBULENCE_SEVERITY,
+    Control,
+    Manoeuvre,
+)
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACE_NAMES, SURFACES
+
+DRIFT_MODES = ("reference", "follow", "detrend", "none")
+#: Most periods a scenario may ask for.
+MAX_PERIODS = 100_000
+#: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
+_MAX_DEG, _MAX_DEG_S = 90.0, 1e6
+#: Section -> its fields (None: a top-level value).
+SECTIONS: dict[str, set[str] | None] = {
+    "name": None,
+    "aircraft": {"model"},
+    "condition": {"altitude_ft", *SPEED_KINDS, "gamma_deg", "bank_deg"},
+    "simulation": {"dt_s"},
+    "probe": {
+        "surface",
+        "order",
+        "bit_duration_s",
+        "amplitude_deg",
+        "amplitude_norm",
+        "periods",
+        "settle_periods",
+    },
+    "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
+    "output": {"channels", "drift", "detrend_order", "estimator"},
+    "disturbance": {"turbulence", "sensor_noise", "seed"},
+    "fault": {"type", "onset_s"}
+    | {n for t in FAULTS.values() for n in t.names}
+    | {n for t in NONLINEARITIES.values() for n in t.names},
+    "control": {f.name for f in dataclasses.fields(Control)},
+    "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
+    "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
+    "manoeuvre": {"hold", "start_s", "change_deg", "rate_deg_s", "change_kt", "rate_kt_s"},
+}
+#: Fault types of the ``[fault]`` section, from the registry :data:`probing.core.faults.FAULTS`.
+FAULT_TYPES = tuple(FAULTS)
+_REQUIRED = {
+    "aircraft": ("model",),
+    "condition": ("altitude_ft",),
+    "simulation": ("dt_s",),
+    "probe": ("order", "bit_duration_s", "periods", "settle_periods"),  # and the amplitude
+    "nonlinearity": ("type",),
+    "output": ("channels",),
+}
+
+
+class ScenarioError(ValueError):
+    """An invalid scenario: ``field`` names the offending entry."""
+
+    def __init__(self, field: str, message: str, source: str | None = None) -> None:
+        self.field = field
+        self.message = message
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{field}: {message}")
+
+
+#: Largest cross-talk a simultaneous design may be predicted to leave, as a fraction of the
+#: largest response in the channel (``simultaneous.max_crosstalk``'s default).
+DEFAULT_MAX_CROSSTALK = 0.02
+
+
+@dataclass(frozen=True)
+class Simultaneous:
+    """The ``[simultaneous]`` section: several surfaces probed in one flight.
+
+    Attributes
+    ----------
+    design : str
+        A key of :data:`probing.core.multiplex.DESIGNS`.
+    surfaces : tuple of str
+        Every probed surface, ``probe.surface`` first.
+    amplitudes : tuple of float
+        Their probe amplitudes, each in its surface's unit (deg, or normalised).
+    max_crosstalk : float
+        The design is refused if the linearisation leaves more cross-talk than this fraction
+        of the largest response of a channel (its memory condition).
+    """
+
+    design: str
+    surfaces: tuple[str, ...]
+    amplitudes: tuple[float, ...]
+    max_crosstalk: float = DEFAULT_MAX_CROSSTALK
+
+    def to_dict(self) -> dict[str, Any]:
+        """The section in its file layout."""
+        return {
+            "design": self.design,
+            "also_surfaces": list(self.surfaces[1:]),
+            "also_amplitudes": list(self.amplitudes[1:]),
+            "max_crosstalk": self.max_crosstalk,
+        }
+
+
+# ------------------------------------------------------------------ checks
+def field_label(key: str) -> str:
+    """A key as written into an error field: quoted if it could break the one-line message."""
+    return key if key and key.isprintable() else repr(key)
+
+
+def _number(
+    data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
+) -> float:
+    name = f"{section}.{key}" if section else key
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(name, f"must be a number, got {value!r}")
+    value = float(value)
+    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
+    if not ok:
+        bound = f"> {lo:g}" if lo_open else f">= {lo:g}"
+        raise ScenarioError(name, f"must be {bound} and <= {hi:g}, got {value:g}")
+    return value
+
+
+def _instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
+    """A time after trim (s) at which something starts: from 0 up to, not at, the run's end
+    (a fault or a manoeuvre starting as the run ends would never act)."""
+    value = _number(data, section, key, lo=0, hi=duration_s)
+    if value >= duration_s:
+        raise ScenarioError(f"{section}.{key}", f"must be before the run ends ({duration_s:g} s)")
+    return value
+
+
+def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
+    name = f"{section}.{key}"
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
+    if not lo <= value <= hi:
+        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value}")
+    return value
+
+
+def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
+    value = data[key]
+    if not isinstance(value, str) or value not in allowed:
+        raise ScenarioError(
+            f"{section}.{key}", f"must be one of {', '.join(allowed)}; got {value!r}"
+        )
+    return value
+
+
+def _check_keys(data: dict[str, Any]) -> None:
+    for key, value in data.items():
+        if key not in SECTIONS:
+            raise ScenarioError(field_label(key), f"unknown field; allowed: {', '.join(SECTIONS)}")
+        allowed = SECTIONS[key]
+        if allowed is None:
+            continue
+        if not isinstance(value, dict):
+            raise ScenarioError(key, "must be a table (a [section])")
+        for sub in value:
+            if sub not in allowed:
+                raise ScenarioError(
+                    f"{key}.{field_label(sub)}",
+                    f"unknown field; allowed: {', '.join(sorted(allowed))}",
+                )
+    if "name" not in data:
+        raise ScenarioError("name", "missing (a plain file name, also the output folder name)")
+    for section, keys in _REQUIRED.items():
+        if section not in data:
+            raise ScenarioError(section, "missing section")
+        for key in keys:
+            if key not in data[section]:
+                raise ScenarioError(f"{section}.{key}", "missing")
+
+
+def _manoeuvre(section: dict[str, Any], scn: Any) -> Manoeuvre:
+    """The ``[manoeuvre]`` section: which hold loop's reference ramps, by how much, how fast
+    and when; the loop must be closed, and the probe path linear."""
+    if "hold" not in section:
+        raise ScenarioError("manoeuvre.hold", f"missing (one of {', '.join(MANOEUVRE_HOLDS)})")
+    hold = _choice(section, "manoeuvre", "hold", tuple(MANOEUVRE_HOLDS))
+    unit = MANOEUVRE_HOLDS[hold][0]
+    own = {"hold", "start_s", f"change_{unit}", f"rate_{unit}_s"}
+    for key in section:
+        if key not in own:
+            raise ScenarioError(
+                f"manoeuvre.{key}", f"not a field of a {hold} manoeuvre: {', '.join(sorted(own))}"
+            )
+    for key in sorted(own):
+        if key not in section:
+            raise ScenarioError(f"manoeuvre.{key}", "missing")
+    limit = 60.0 if unit == "deg" else 200.0
+    change = _number(section, "manoeuvre", f"change_{unit}", lo=-limit, hi=limit)
+    rate = _number(section, "manoeuvre", f"rate_{unit}_s", lo=0, hi=100, lo_open=True)
+    duration_s = scn.total_steps * scn.dt_s
+    start = _instant_in_run(section, "manoeuvre", "start_s", duration_s)
+    if scn.control is None or not getattr(scn.control, f"{hold}_hold"):
+        raise ScenarioError(
+            "manoeuvre.hold", f"a {hold} manoeuvre needs [control] {hold}_hold = true"
+        )
+    _alone("manoeuvre", scn, ("nonlinearity", "fault", "monitor", "simultaneous"))
+    if scn.estimator != "cyclic":
+        raise ScenarioError(
+            "manoeuvre", 'needs output.estimator = "cyclic": each period is estimated alone'
+        )
+    return Manoeuvre(hold, change, rate, start)
+
+
+#: Largest probe amplitude in each surface unit: 10 deg, or half the throttle lever.
+AMPLITUDE_MAX = {"deg": 10.0, "norm": 0.5}
+
+
+def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
+    """The probe amplitude, named with the probed surface's unit (``amplitude_deg``, or
+    ``amplitude_norm`` for the throttle): deg up to 10, a throttle lever up to 0.5."""
+    key = f"amplitude_{unit}"
+    other = "amplitude_norm" if unit == "deg" else "amplitude_deg"
+    if other in probe:
+        raise ScenarioError(
+            f"probe.{other}", f"the {surface} is probed in {unit}: give probe.{key} instead"
+        )
+    if key not in probe:
+        raise ScenarioError(f"probe.{key}", "missing")
+    return _number(probe, "probe", key, lo=0, hi=AMPLITUDE_MAX[unit], lo_open=True)
+
+
+def _alone(section: str, scn: Any, without: tuple[str, ...]) -> None:
+    """``[section]`` is offered on a linear probe path only: none of the sections ``without``
+    (``nonlinearity`` counts when its type is not ``none``)."""
+    present = {
+        "nonlinearity": scn.nonlinearity != "none",
+        "fault": scn.fault_type != "none",
+        "control": scn.control is not None,
+        "monitor": scn.monitor is not None,
+        "simultaneous": scn.simultaneous is not None,
+    }
+    for name in without:
+        if present[name]:
+            raise ScenarioError(section, f"is offered without [{name}] (a linear probe path)")
+
+
+def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
+    """The ``[simultaneous]`` section: the surfaces probed besides ``probe.surface``, their
+    amplitudes (each in its surface's unit), the design, and what it offers only alone."""
+    section = data["simultaneous"]
+    for key in ("design", "also_surfaces", "also_amplitudes"):
+        if key not in section:
+            raise ScenarioError(f"simultaneous.{key}", "missing")
+    design = _choice(section, "simultaneous", "design", tuple(DESIGNS))
+    also, amplitudes = section["also_surfaces"], section["also_amplitudes"]
+    surfaces = [scn.surface, *also] if isinstance(also, list) else []
+    if (
+        not surfaces
+        or not also
+        or any(s not in SURFACE_NAMES for s in also)
+        or len(set(surfaces)) != len(surfaces)
+    ):
+        raise ScenarioError(
+            "simultaneous.also_surfaces",
+            f"must be a non-empty list of distinct surfaces from {', '.join(SURFACE_NAMES)}, "
+            f"without probe.surface ({scn.surface})",
+        )
+    if not isinstance(amplitudes, list) or len(amplitudes) != len(also):
+        raise ScenarioError(
+            "simultaneous.also_amplitudes",
+            f"must be a list of {len(also)} amplitude(s), one per surface, in its unit",
+        )
+    levels = [scn.amplitude_deg]
+    for surface, value in zip(also, amplitudes, strict=True):
+        hi = AMPLITUDE_MAX[SURFACES[surface].unit]  # each in its surface's unit
+        levels.append(
+            _number(
+                {surface: value}, "simultaneous.also_amplitudes", surface, lo=0, hi=hi, lo_open=True
+            )
+        )
+    max_crosstalk = (
+        _number(section, "simultaneous", "max_crosstalk", lo=0, hi=0.5, lo_open=True)
+        if "max_crosstalk" in section
+        else DEFAULT_MAX_CROSSTALK
+    )
+    _alone("simultaneous", scn, ("nonlinearity", "fault", "control", "monitor"))
+    if scn.drift not in ("reference", "none") or scn.estimator != "cyclic":
+        raise ScenarioError(
+            "simultaneous",
+            'needs output.estimator = "cyclic" and output.drift = "reference" or "none"',
+        )
+    return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
+
+
+def _check_baseline(scn: Any, windows: int, baseline: int, given: bool | None) -> None:
+    """A monitor's baseline must exceed ``windows + 1`` periods and leave one settled period
+    of the run to test.  ``given``: the section gave it (True), left it to its default
+    (False), or there is no ``[monitor]`` section at all (None)."""
+    settled = scn.periods - max(scn.settle_periods, scn.first_estimated_period)
+    if windows + 2 <= baseline < settled:
+        return
+    what = f"{baseline}" if given else f"the default, {baseline},"
+    missing = "" if given is not None else "the scenario has no [monitor] section, and "
+    raise ScenarioError(
+        "monitor.baseline_periods",
+        f"{missing}must be more than windows + 1 ({windows + 1}) and fewer than the run's "
+        f"{settled} settled periods; {what} is not",
+    )
+
+
+def _monitor(monitor: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
+    """The ``[monitor]`` section: the detector's settings, with a baseline that fits the run."""
+    if monitor is None:
+        return {}
+    defaults = MonitorSettings()
+    values: dict[str, Any] = {}
+    if "windows" in monitor:
+        values["windows"] = _integer(monitor, "monitor", "windows", lo=3, hi=64)
+    windows = values.get("windows", defaults.windows)
+    if "baseline_periods" in monitor:
+        values["baseline_periods"] = _integer(
+            monitor, "monitor", "baseline_periods", lo=1, hi=MAX_PERIODS
+        )
+    given = "baseline_periods" in monitor
+    _check_baseline(scn, windows, values.get("baseline_periods", defaults.baseline_periods), given)
+    if "false_alarms_per_hour" in monitor:
+        values["false_alarms_per_hour"] = _number(
+            monitor, "monitor", "false_alarms_per_hour", lo=0, hi=1e6, lo_open=True
+        )
+    if "shape_false_alarm" in monitor:
+        values["shape_false_alarm"] = _number(
+            monitor, "monitor", "shape_false_alarm", lo=0, hi=0.5, lo_open=True
+        )
+    for key in ("verdict_periods", "window_periods"):
+        if key in monitor:
+            values[key] = _integer(monitor, "monitor", key, lo=1, hi=1000)
+    if "surface" in monitor:
+        if not isinstance(monitor["surface"], bool):
+            raise ScenarioError(
+                "monitor.surface", f"must be true or false, got {monitor['surface']!r}"
+            )
+        channel = scn.surface_channel
+        if monitor["surface"] and (channel not in scn.channels or len(scn.channels) < 2):
+            raise ScenarioError(
+                "monitor.surface",
+                f"needs {channel} and at least one other channel in output.channels",
+            )
+        values["surface"] = monitor["surface"]
+    return {"monitor": MonitorSettings(**values)}
+
+
+def _control(control: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``[control]`` section: switches (booleans) and bandwidths, validated."""
+    if control is None:
+        return {}
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(Control):
+        if f.name not in control:
+            continue
+        value = control[f.name]
+        if f.type in ("bool", bool):
+            if not isinstance(value, bool):
+                raise ScenarioError(f"control.{f.name}", f"must be true or false, got {value!r}")
+            values[f.name] = value
+        elif f.name == "damping":
+            values[f.name] = _number(control, "control", f.name, lo=0.1, hi=2.0)
+        elif f.name == "integral_time_s":
+            values[f.name] = _number(control, "control", f.name, lo=0, hi=1000)
+        else:
+            values[f.name] = _number(control, "control", f.name, lo=0, hi=50, lo_open=True)
+    return {"control": Control(**values)}
+
+
+def _fault(fault: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
+    """The ``[fault]`` section, validated: a type, its own fields and its onset within the run."""
+    if not fault:
+        return {}
+    model, duration_s = scn.model, scn.total_steps * scn.dt_s
+    if "type" not in fault:
+        raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULTS)})")
+    kind = _choice(fault, "fault", "type", tuple(FAULTS))
+    entry = FAULTS[kind]
+    own = {"type", "onset_s", *entry.names}
+    for key in fault:
+        if key not in own and not entry.takes_nonlinearity:  # its parameters are checked below
+            raise ScenarioError(
+                f"fault.{field_label(key)}",
+                f"not a field of a {kind} fault (takes {', '.join(sorted(own - {'type'}))})",
+            )
+    for key in ("onset_s", *entry.names):
+        if key not in fault:
+            raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
+    onset = _instant_in_run(fault, "fault", "onset_s", duration_s)
+    values: dict[str, Any] = {}
+    for f in entry.fields:
+        if f.kind == "number":
+            values[f.name] = _number(fault, "fault", f.name, lo=f.lo, hi=f.hi)
+        elif f.kind == "damage_case":
+            values[f.name] = _damage_case(fault, model, kind, f.name)
+        elif f.kind == "channel":
+            values[f.name] = _output_channel(fault, f.name, scn.channels)
+        else:  # a nonlinearity: its type, and its own parameters beside it
+            others = ("type", "onset_s", *(n for n in entry.names if n != f.name))
+            nl_type, params = _nonlinearity(fault, section="fault", type_key=f.name, others=others)
+            if nl_type == "none":
+                raise ScenarioError(f"fault.{f.name}", "must name a nonlinearity, not none")
+            values.update({f.name: nl_type, **params})
+    return {"fault_type": kind, "fault_onset_s": onset, "fault_values": values}
+
+
+def _output_channel(fault: dict[str, Any], key: str, channels: tuple[str, ...]) -> str:
+    """A fault's channel: one of the scenario's output channels (``[output] channels``)."""
+    value = fault[key]
+    if not isinstance(value, str) or value not in channels:
+        raise ScenarioError(
+            f"fault.{key}",
+            f"must be one of the output channels ({', '.join(channels)}); got {value!r}",
+        )
+    return value
+
+
+def _damage_case(fault: dict[str, Any], model: str, kind: str, key: str = "case") -> int:
+    """The NASA damage case of a ``gtm_damage`` fault: 1..6 or its name, on the GTM only."""
+    if model != DAMAGE_MODEL:
+        raise ScenarioError("fault.type", f"{kind} exists for {DAMAGE_MODEL} only, not {model}")
+    case = fault[key]
+    names = {name: k for k, name in enumerate(DAMAGE_CASES, start=1)}
+    if isinstance(case, str) and case in names:
+        case = names[case]
+    elif isinstance(case, bool) or case not in range(1, len(DAMAGE_CASES) + 1):
+        raise ScenarioError(
+            f"fault.{key}", f"must be 1..{len(DAMAGE_CASES)} or one of {', '.join(names)}"
+        )
+    return int(case)
+
+
+def _nonlinearity(
+    nl_data: dict[str, Any],
+    section: str = "nonlinearity",
+    type_key: str = "type",
+    others: tuple[str, ...] = (),
+) -> tuple[str, dict[str, float]]:
+    """A nonlinearity's type and parameters (the ``[nonlinearity]`` section, or the fields of
+    a ``nonlinearity`` fault), validated by building the class.
+
+    The schema checks that each parameter is a number within the deflection range
+    (|x| <= 90 deg, rates up to 1e6 deg/s); every other rule (signs, the order of the edges)
+    is the class's own (:mod:`probing.core.nonlinearities`), whose error names the argument.
+    ``others`` are the section's fields that are not the nonlinearity's.
+    """
+    nl_type = _choice(nl_data, section, type_key, tuple(NONLINEARITIES))
+    kind = NONLINEARITIES[nl_type]
+    for key in nl_data:
+        if key != type_key and key not in others and key not in kind.names:
+            allowed = ", ".join(kind.names) if kind.names else "no parameters"
+            raise ScenarioError(
+                f"{section}.{field_label(key)}", f"not a parameter of {nl_type} (takes {allowed})"
+            )
+    params: dict[str, float] = {}
+    for p in kind.parameters:
+        if p.name not in nl_data:
+            raise ScenarioError(f"{section}.{p.name}", f"missing (required for {nl_type})")
+        hi = _MAX_DEG_S if p.unit == "deg/s" else _MAX_DEG
+        params[p.name] = _number(nl_data, section, p.name, lo=-hi, hi=hi)
+    try:
+        kind.build(params)
+    except ParameterError as exc:
+        param = kind.parameter(exc.argument)
+        names = {q.argument: q.name for q in kind.parameters}
+        raise ScenarioError(
+            f"{section}.{param.name}",
+            f"{exc.requirement(names)}, got {params[param.name]:g}",
+        ) from None
+    return nl_type, params
+
+
+# ------------------------------------------------------------- the sections, in file order
+def _aircraft(data: dict[str, Any]) -> str:
+    """The ``[aircraft]`` section: a model found among the aircraft files."""
+    model = data["aircraft"]["model"]
+    if not isinstance(model, str):
+        raise ScenarioError("aircraft.model", f"must be a string, got {model!r}")
+    try:
+        find_aircraft(model)  # looks at files only: no JSBSim is loaded
+    except AircraftNotFoundError as exc:
+        raise ScenarioError("aircraft.model", str(exc).replace("aircraft.model ", "")) from None
+    return model
+
+
+def _condition(cond: dict[str, Any]) -> dict[str, Any]:
+    """The ``[condition]`` section: altitude, exactly one speed, flight-path angle and bank."""
+    altitude = _number(cond, "condition", "altitude_ft", lo=0, hi=60000, lo_open=True)
+    speeds = [k for k in SPEED_KINDS if k in cond]
+    if len(speeds) != 1:
+        raise ScenarioError("condition", f"give exactly one of {', '.join(SPEED_KINDS)}")
+    kind = speeds[0]
+    speed = _number(cond, "condition", kind, lo=0, hi=SPEED_KINDS[kind].upper, lo_open=True)
+    gamma = _number(cond, "condition", "gamma_deg", lo=-30, hi=30) if "gamma_deg" in cond else 0.0
+    bank = _number(cond, "condition", "bank_deg", lo=-80, hi=80) if "bank_deg" in cond else 0.0
+    return {
+        "altitude_ft": altitude,
+        "speed_kind": kind,
+        "speed": speed,
+        "gamma_deg": gamma,
+        "bank_deg": bank,
+    }
+
+
+def _probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
+    """The ``[probe]`` section: surface, order, bit duration (whole steps of ``dt``),
+    amplitude and periods."""
+    surface = (
+        _choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else DEFAULT_SURFACE
+    )
+    order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
+    bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
+    try:
+        steps_per_bit(bit, dt)  # the probe's own rule
+    except ValueError:
+        raise ScenarioError(
+            "probe.bit_duration_s",
+            f"must be an integer multiple of simulation.dt_s ({dt:g}), got {bit:g}",
+        ) from None
+    amplitude = _amplitude(probe, SURFACES[surface].unit, surface)
+    periods = _integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
+    settle = _integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)
+    return {
+        "surface": surface,
+        "order": order,
+        "bit_duration_s": bit,
+        "amplitude_deg": amplitude,
+        "periods": periods,
+        "settle_periods": settle,
+    }
+
+
+def _output(out: dict[str, Any]) -> dict[str, Any]:
+    """The ``[output]`` section: channels, drift correction, detrending order, estimator."""
+    channels = out["channels"]
+    if (
+        not isinstance(channels, list)
+        or not channels
+        or any(not isinstance(c, str) or c not in CHANNEL_NAMES for c in channels)
+        or len(set(channels)) != len(channels)
+    ):
+        raise ScenarioError(
+            "output.channels",
+            f"must be a non-empty list of distinct names from {', '.join(CHANNEL_NAMES)}",
+        )
+    drift = _choice(out, "output", "drift", DRIFT_MODES) if "drift" in out else "reference"
+    detrend_order = (
+        _integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
+    )
+    estimator = (
+        _choice(out, "output", "estimator", tuple(ESTIMATORS))
+        if "estimator" in out
+        else "streaming"
+    )
+    return {
+        "channels": tuple(channels),
+        "drift": drift,
+        "detrend_order": detrend_order,
+        "estimator": estimator,
+    }
+
+
+def _disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, Any]:
+    """The ``[disturbance]`` section: turbulence, its seed, and sensor noise on output
+    channels."""
+    turbulence = (
+        _choice(dist, "disturbance", "turbulence", tuple(TURBULENCE_SEVERITY))
+        if "turbulence" in dist
+        else "none"
+    )
+    seed = _integer(dist, "disturbance", "seed", lo=0, hi=2**31 - 1) if "seed" in dist else 0
+    noise_in = dist.get("sensor_noise", {})
+    if not isinstance(noise_in, dict):
+        raise ScenarioError("disturbance.sensor_noise", "must be a table {channel = sigma}")
+    noise: dict[str, float] = {}
+    for ch in noise_in:
+        if ch not in channels:
+            raise ScenarioError(
+                f"disturbance.sensor_noise.{field_label(ch)}",
+                f"not an output channel (channels: {', '.join(channels)})",
+            )
+        noise[ch] = _number(noise_in, "disturbance.sensor_noise", ch, lo=0, hi=1e6)
+    return {"turbulence": turbulence, "sensor_noise": noise, "seed": seed}
+
+
+def _later_sections(data: dict[str, Any], scn: Any) -> Any:
+    """``scn`` (the scenario of the sections above) with the sections that depend on it:
+    ``[fault]``, ``[control]``, ``[monitor]``, ``[simultaneous]`` and ``[manoeuvre]``."""
+    changes = {
+        **_fault(data.get("fault"), scn),
+        **_control(data.get("control")),
+    }
+    if scn.drift == "follow" and not (changes.get("control") and changes["control"].active):
+        raise ScenarioError(
+            "output.drift", "follow needs an autopilot ([control] with a loop switched on)"
+        )
+    if changes:
+        scn = dataclasses.replace(scn, **changes)
+    monitor = _monitor(data.get("monitor"), scn)
+    scn = dataclasses.replace(scn, **monitor) if monitor else scn
+    if "simultaneous" in data:
+        scn = dataclasses.replace(scn, simultaneous=_simultaneous(data, scn))
+    if "manoeuvre" in data:
+        scn = dataclasses.replace(scn, manoeuvre=_manoeuvre(data["manoeuvre"], scn))
+    return scn
