@@ -22,32 +22,34 @@ from probing.core.faults import FAULTS, FaultType, onset_step
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
-from probing.experiment.scenario_sections import (
-    AMPLITUDE_MAX as AMPLITUDE_MAX,
-)
-from probing.experiment.scenario_sections import (
+from probing.experiment.scenario_schema import (
     DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
 )
-from probing.experiment.scenario_sections import (
+from probing.experiment.scenario_schema import (
     DRIFT_MODES,
     MAX_PERIODS,
     SECTIONS,
     ScenarioError,
     Simultaneous,
+    _check_keys,
+    _number,
+    field_label,
+)
+from probing.experiment.scenario_schema import (
+    FAULT_TYPES as FAULT_TYPES,
+)
+from probing.experiment.scenario_sections import (
+    AMPLITUDE_MAX as AMPLITUDE_MAX,
+)
+from probing.experiment.scenario_sections import (
     _aircraft,
     _check_baseline,
-    _check_keys,
     _condition,
     _disturbance,
     _later_sections,
     _nonlinearity,
-    _number,
     _output,
     _probe,
-    field_label,
-)
-from probing.experiment.scenario_sections import (
-    FAULT_TYPES as FAULT_TYPES,
 )
 from probing.sim.flight import SPEED_KINDS, ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES

@@ -9,8 +9,6 @@ given it as ``scn``).
 from __future__ import annotations
 
 import dataclasses
-import math
-from dataclasses import dataclass
 from typing import Any
 
 from probing.core.faults import FAULTS
@@ -19,6 +17,20 @@ from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
+from probing.experiment.scenario_schema import (
+    _MAX_DEG,
+    _MAX_DEG_S,
+    DEFAULT_MAX_CROSSTALK,
+    DRIFT_MODES,
+    MAX_PERIODS,
+    ScenarioError,
+    Simultaneous,
+    _choice,
+    _instant_in_run,
+    _integer,
+    _number,
+    field_label,
+)
 from probing.sim.aircraft import find_aircraft
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
@@ -32,170 +44,6 @@ from probing.sim.flight import (
     Manoeuvre,
 )
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACE_NAMES, SURFACES
-
-DRIFT_MODES = ("reference", "follow", "detrend", "none")
-#: Most periods a scenario may ask for.
-MAX_PERIODS = 100_000
-#: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
-_MAX_DEG, _MAX_DEG_S = 90.0, 1e6
-#: Section -> its fields (None: a top-level value).
-SECTIONS: dict[str, set[str] | None] = {
-    "name": None,
-    "aircraft": {"model"},
-    "condition": {"altitude_ft", *SPEED_KINDS, "gamma_deg", "bank_deg"},
-    "simulation": {"dt_s"},
-    "probe": {
-        "surface",
-        "order",
-        "bit_duration_s",
-        "amplitude_deg",
-        "amplitude_norm",
-        "periods",
-        "settle_periods",
-    },
-    "nonlinearity": {"type"} | {n for t in NONLINEARITIES.values() for n in t.names},
-    "output": {"channels", "drift", "detrend_order", "estimator"},
-    "disturbance": {"turbulence", "sensor_noise", "seed"},
-    "fault": {"type", "onset_s"}
-    | {n for t in FAULTS.values() for n in t.names}
-    | {n for t in NONLINEARITIES.values() for n in t.names},
-    "control": {f.name for f in dataclasses.fields(Control)},
-    "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
-    "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
-    "manoeuvre": {"hold", "start_s", "change_deg", "rate_deg_s", "change_kt", "rate_kt_s"},
-}
-#: Fault types of the ``[fault]`` section, from the registry :data:`probing.core.faults.FAULTS`.
-FAULT_TYPES = tuple(FAULTS)
-_REQUIRED = {
-    "aircraft": ("model",),
-    "condition": ("altitude_ft",),
-    "simulation": ("dt_s",),
-    "probe": ("order", "bit_duration_s", "periods", "settle_periods"),  # and the amplitude
-    "nonlinearity": ("type",),
-    "output": ("channels",),
-}
-
-
-class ScenarioError(ValueError):
-    """An invalid scenario: ``field`` names the offending entry."""
-
-    def __init__(self, field: str, message: str, source: str | None = None) -> None:
-        self.field = field
-        self.message = message
-        self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{field}: {message}")
-
-
-#: Largest cross-talk a simultaneous design may be predicted to leave, as a fraction of the
-#: largest response in the channel (``simultaneous.max_crosstalk``'s default).
-DEFAULT_MAX_CROSSTALK = 0.02
-
-
-@dataclass(frozen=True)
-class Simultaneous:
-    """The ``[simultaneous]`` section: several surfaces probed in one flight.
-
-    Attributes
-    ----------
-    design : str
-        A key of :data:`probing.core.multiplex.DESIGNS`.
-    surfaces : tuple of str
-        Every probed surface, ``probe.surface`` first.
-    amplitudes : tuple of float
-        Their probe amplitudes, each in its surface's unit (deg, or normalised).
-    max_crosstalk : float
-        The design is refused if the linearisation leaves more cross-talk than this fraction
-        of the largest response of a channel (its memory condition).
-    """
-
-    design: str
-    surfaces: tuple[str, ...]
-    amplitudes: tuple[float, ...]
-    max_crosstalk: float = DEFAULT_MAX_CROSSTALK
-
-    def to_dict(self) -> dict[str, Any]:
-        """The section in its file layout."""
-        return {
-            "design": self.design,
-            "also_surfaces": list(self.surfaces[1:]),
-            "also_amplitudes": list(self.amplitudes[1:]),
-            "max_crosstalk": self.max_crosstalk,
-        }
-
-
-# ------------------------------------------------------------------ checks
-def field_label(key: str) -> str:
-    """A key as written into an error field: quoted if it could break the one-line message."""
-    return key if key and key.isprintable() else repr(key)
-
-
-def _number(
-    data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
-) -> float:
-    name = f"{section}.{key}" if section else key
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(name, f"must be a number, got {value!r}")
-    value = float(value)
-    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-    if not ok:
-        bound = f"> {lo:g}" if lo_open else f">= {lo:g}"
-        raise ScenarioError(name, f"must be {bound} and <= {hi:g}, got {value:g}")
-    return value
-
-
-def _instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
-    """A time after trim (s) at which something starts: from 0 up to, not at, the run's end
-    (a fault or a manoeuvre starting as the run ends would never act)."""
-    value = _number(data, section, key, lo=0, hi=duration_s)
-    if value >= duration_s:
-        raise ScenarioError(f"{section}.{key}", f"must be before the run ends ({duration_s:g} s)")
-    return value
-
-
-def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
-    name = f"{section}.{key}"
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
-    if not lo <= value <= hi:
-        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value}")
-    return value
-
-
-def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
-    value = data[key]
-    if not isinstance(value, str) or value not in allowed:
-        raise ScenarioError(
-            f"{section}.{key}", f"must be one of {', '.join(allowed)}; got {value!r}"
-        )
-    return value
-
-
-def _check_keys(data: dict[str, Any]) -> None:
-    for key, value in data.items():
-        if key not in SECTIONS:
-            raise ScenarioError(field_label(key), f"unknown field; allowed: {', '.join(SECTIONS)}")
-        allowed = SECTIONS[key]
-        if allowed is None:
-            continue
-        if not isinstance(value, dict):
-            raise ScenarioError(key, "must be a table (a [section])")
-        for sub in value:
-            if sub not in allowed:
-                raise ScenarioError(
-                    f"{key}.{field_label(sub)}",
-                    f"unknown field; allowed: {', '.join(sorted(allowed))}",
-                )
-    if "name" not in data:
-        raise ScenarioError("name", "missing (a plain file name, also the output folder name)")
-    for section, keys in _REQUIRED.items():
-        if section not in data:
-            raise ScenarioError(section, "missing section")
-        for key in keys:
-            if key not in data[section]:
-                raise ScenarioError(f"{section}.{key}", "missing")
 
 
 def _manoeuvre(section: dict[str, Any], scn: Any) -> Manoeuvre:
