@@ -496,13 +496,7 @@ def run_scenario(
         with_reference = rig.twin is not None or rig.follower is not None
         ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
         with output_folder(folder, rig.metadata()) as outputs:
-            per = scn.surface_unit
-            w_probe = outputs.writer("probing.parquet", channels, per)
-            w_ts = (
-                outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
-                if timeseries
-                else None
-            )
+            w_probe, w_ts = _writers(outputs, scn, channels, ts_schema, timeseries)
             if observer is not None:
                 observer.open(outputs)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
@@ -524,6 +518,27 @@ def run_scenario(
                     writer.add_metadata(metadata(ended=rig.ended))
             if observer is not None:
                 observer.finish()
+    return _run_result(rig, folder, settled, lag_s, t_start)
+
+
+def _writers(
+    outputs: OutputFolder, scn: Scenario, channels: list[str], ts_schema: Any, timeseries: bool
+) -> tuple[Any, Any]:
+    """The writers of ``probing.parquet`` and (when ``timeseries``) ``timeseries.parquet``."""
+    per = scn.surface_unit
+    w_probe = outputs.writer("probing.parquet", channels, per)
+    w_ts = (
+        outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
+        if timeseries
+        else None
+    )
+    return w_probe, w_ts
+
+
+def _run_result(
+    rig: _Rig, folder: Path, settled: SettledMean, lag_s: np.ndarray, t_start: float
+) -> RunResult:
+    """What a finished run hands back (``t_start``: when it began, for ``wall_s``)."""
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,
