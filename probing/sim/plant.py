@@ -551,18 +551,7 @@ class Plant:
             fdm.run_ic()
             return np.array([node.get_double_value() for node in accelerations])
 
-        x0 = np.array(
-            [
-                math.radians(start.alpha_deg),
-                math.radians(start.turn_rate_deg_s),
-                *(float(fdm[prop]) for prop in controls),
-                start.throttle_norm,
-            ]
-        )
-        # alpha within +-90 deg, the turn rate within +-180 deg/s, the commands within range
-        upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
-        lower = -upper
-        lower[-1] = 0.0  # throttle 0..1
+        x0, lower, upper = _turn_trim_start(fdm, start, controls)
         # Levenberg-Marquardt (MINPACK) rather than the bounded trust-region method: MINPACK
         # does its own linear algebra, so the trim is the same bytes whatever BLAS kernel
         # the processor gets (the bounded method's solves differed in the last digits).  It
@@ -579,6 +568,13 @@ class Plant:
         )
         accelerations_at(solution.x)  # leave the aircraft at the solution
         trimmed = TurnState.read(fdm)
+        self._check_turn_trim(trimmed, where, gamma_deg=gamma_deg, bank_deg=bank_deg)
+        return TurnTrim(jsbsim=start, trimmed=trimmed, evaluations=int(solution.nfev))
+
+    def _check_turn_trim(
+        self, trimmed: TurnState, where: str, *, gamma_deg: float, bank_deg: float
+    ) -> None:
+        """Refuse a turn trim that left an acceleration or is not the asked state."""
         asked = (
             abs(trimmed.beta_deg) < 1e-9
             and abs(trimmed.phi_deg - bank_deg) < 1e-9
@@ -592,7 +588,6 @@ class Plant:
                     + f" at beta_deg = {trimmed.beta_deg:.3g}"
                 )
             )
-        return TurnTrim(jsbsim=start, trimmed=trimmed, evaluations=int(solution.nfev))
 
     def damage(self, case: int) -> None:
         """Switch a damage case on (0: none), effective from the next step: NASA's GTM cases
@@ -1000,3 +995,23 @@ def _one_speed(
         raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
     ((kind, speed),) = given.items()
     return kind, speed
+
+
+def _turn_trim_start(
+    fdm: Any, start: TurnState, controls: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The start of the zero-sideslip turn trim (alpha, turn rate, the controls, throttle
+    from JSBSim's turn trim) and its bounds."""
+    x0 = np.array(
+        [
+            math.radians(start.alpha_deg),
+            math.radians(start.turn_rate_deg_s),
+            *(float(fdm[prop]) for prop in controls),
+            start.throttle_norm,
+        ]
+    )
+    # alpha within +-90 deg, the turn rate within +-180 deg/s, the commands within range
+    upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
+    lower = -upper
+    lower[-1] = 0.0  # throttle 0..1
+    return x0, lower, upper
