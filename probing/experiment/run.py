@@ -275,15 +275,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
                 cmd = drive.command(trim + q)
                 rig.plant.step(cmd, rig.nodes, out[span], surface[span], drive)
             try:
-                rig.plant.check_state()
-                if rig.follower:
-                    rig.follower.replay(commands[span], rig.follower_nodes, ref[span])
-                    try:
-                        rig.follower.plant.check_state()
-                    except DivergenceError as exc:
-                        raise DivergenceError(
-                            f"the nominal twin flying our commands: {exc}"
-                        ) from None
+                _check_period(rig, commands, ref, span)
             except DivergenceError as exc:
                 if not rig.stop_on_divergence:
                     raise
@@ -295,9 +287,7 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
         if k == 0:
             return
         rig.periods_flown = first + k
-        measured = out[:rows] + rng.standard_normal((rows, n_ch)) * sigma
-        if sensor_fault is not None:  # on what the aircraft measures, not on its reference
-            sensor_fault.apply(measured, scn.channels, first * n_steps, scn.dt_s)
+        measured = _measured(out[:rows], rng, sigma, sensor_fault, scn, first * n_steps)
         yield _Chunk(
             first,
             k,
@@ -309,6 +299,35 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
         )
         if rig.ended:
             return
+
+
+def _measured(
+    out: np.ndarray,
+    rng: np.random.Generator,
+    sigma: np.ndarray,
+    sensor_fault: Any,
+    scn: Scenario,
+    first_step: int,
+) -> np.ndarray:
+    """A chunk's outputs ``(rows, C)`` with sensor noise and the sensor fault (on what the
+    aircraft measures, not on its reference) from step ``first_step`` on."""
+    rows, n_ch = out.shape
+    measured = out + rng.standard_normal((rows, n_ch)) * sigma
+    if sensor_fault is not None:
+        sensor_fault.apply(measured, scn.channels, first_step, scn.dt_s)
+    return measured
+
+
+def _check_period(rig: _Rig, commands: np.ndarray | None, ref: np.ndarray, span: slice) -> None:
+    """After a period: check the plant's state; with a follower, have it replay the period's
+    commands into ``ref`` and check its state too (raises DivergenceError)."""
+    rig.plant.check_state()
+    if rig.follower:
+        rig.follower.replay(commands[span], rig.follower_nodes, ref[span])
+        try:
+            rig.follower.plant.check_state()
+        except DivergenceError as exc:
+            raise DivergenceError(f"the nominal twin flying our commands: {exc}") from None
 
 
 class _FaultOnset:
@@ -477,13 +496,7 @@ def run_scenario(
         with_reference = rig.twin is not None or rig.follower is not None
         ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
         with output_folder(folder, rig.metadata()) as outputs:
-            per = scn.surface_unit
-            w_probe = outputs.writer("probing.parquet", channels, per)
-            w_ts = (
-                outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
-                if timeseries
-                else None
-            )
+            w_probe, w_ts = _writers(outputs, scn, channels, ts_schema, timeseries)
             if observer is not None:
                 observer.open(outputs)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
@@ -505,6 +518,27 @@ def run_scenario(
                     writer.add_metadata(metadata(ended=rig.ended))
             if observer is not None:
                 observer.finish()
+    return _run_result(rig, folder, settled, lag_s, t_start)
+
+
+def _writers(
+    outputs: OutputFolder, scn: Scenario, channels: list[str], ts_schema: Any, timeseries: bool
+) -> tuple[Any, Any]:
+    """The writers of ``probing.parquet`` and (when ``timeseries``) ``timeseries.parquet``."""
+    per = scn.surface_unit
+    w_probe = outputs.writer("probing.parquet", channels, per)
+    w_ts = (
+        outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
+        if timeseries
+        else None
+    )
+    return w_probe, w_ts
+
+
+def _run_result(
+    rig: _Rig, folder: Path, settled: SettledMean, lag_s: np.ndarray, t_start: float
+) -> RunResult:
+    """What a finished run hands back (``t_start``: when it began, for ``wall_s``)."""
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,

@@ -439,12 +439,7 @@ class Plant:
             "bank_deg": bank_deg,
             "longitudinal": longitudinal,
         }
-        speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
-        speeds["mach"] = mach
-        given = {k: v for k, v in speeds.items() if v is not None}
-        if len(given) != 1:
-            raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
-        ((kind, speed),) = given.items()
+        kind, speed = _one_speed(speed_kcas, speed_ktas, speed_keas, mach)
         fdm = self.fdm
         jsbsim.set_logger(self.log)
         self.log.take()
@@ -458,6 +453,23 @@ class Plant:
         where = f"{self.model} at altitude_ft = {altitude_ft:g}, {kind} = {speed:g}"
         if gamma_deg or bank_deg:
             where += f", gamma_deg = {gamma_deg:g}, bank_deg = {bank_deg:g}"
+        self._jsbsim_trim(where, bank_deg=bank_deg, longitudinal=longitudinal)
+        self.turn_trim = None
+        if bank_deg:
+            self.turn_trim = self._trim_zero_sideslip(where, gamma_deg=gamma_deg, bank_deg=bank_deg)
+        fdm.set_dt(self.dt_s)
+        if fdm["gear/gear-pos-norm"] > 0.0:
+            raise TrimError(f"gear still down after trim for {where}")
+        self.trim_result = self._trimmed_state(bank_deg=bank_deg, longitudinal=longitudinal)
+        self._drives = {}
+        self.drive(DEFAULT_SURFACE)  # calibrated right after the trim, as it always was
+        self.drive(surface)  # before the gusts: its calibration steps the FCS
+        self.disturb(self.turbulence, self.seed)
+        return self.trim_result
+
+    def _jsbsim_trim(self, where: str, *, bank_deg: float, longitudinal: bool) -> None:
+        """Run the initial conditions and JSBSim's trim (turn, longitudinal or full)."""
+        fdm = self.fdm
         try:
             if not fdm.run_ic():
                 raise TrimError(self._with_log(f"could not initialise {where}"))
@@ -465,13 +477,11 @@ class Plant:
             fdm.do_trim(TRIM_TURN if bank_deg else mode)
         except RuntimeError as exc:  # jsbsim.TrimFailureError and its BaseError kin
             raise TrimError(self._with_log(f"trim failed for {where}: {exc}")) from None
-        self.turn_trim = None
-        if bank_deg:
-            self.turn_trim = self._trim_zero_sideslip(where, gamma_deg=gamma_deg, bank_deg=bank_deg)
-        fdm.set_dt(self.dt_s)
-        if fdm["gear/gear-pos-norm"] > 0.0:
-            raise TrimError(f"gear still down after trim for {where}")
-        self.trim_result = TrimResult(
+
+    def _trimmed_state(self, *, bank_deg: float, longitudinal: bool) -> TrimResult:
+        """The trimmed state, read from JSBSim."""
+        fdm = self.fdm
+        return TrimResult(
             altitude_ft=float(fdm["position/h-sl-ft"]),
             speed_kcas=float(fdm["velocities/vc-kts"]),
             speed_keas=float(fdm["velocities/ve-kts"]),
@@ -485,11 +495,6 @@ class Plant:
             throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
             mode="turn" if bank_deg else ("longitudinal" if longitudinal else "full"),
         )
-        self._drives = {}
-        self.drive(DEFAULT_SURFACE)  # calibrated right after the trim, as it always was
-        self.drive(surface)  # before the gusts: its calibration steps the FCS
-        self.disturb(self.turbulence, self.seed)
-        return self.trim_result
 
     def _trim_zero_sideslip(self, where: str, *, gamma_deg: float, bank_deg: float) -> TurnTrim:
         """From JSBSim's turn trim, the same steady turn at zero sideslip, as NASA's
@@ -546,18 +551,7 @@ class Plant:
             fdm.run_ic()
             return np.array([node.get_double_value() for node in accelerations])
 
-        x0 = np.array(
-            [
-                math.radians(start.alpha_deg),
-                math.radians(start.turn_rate_deg_s),
-                *(float(fdm[prop]) for prop in controls),
-                start.throttle_norm,
-            ]
-        )
-        # alpha within +-90 deg, the turn rate within +-180 deg/s, the commands within range
-        upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
-        lower = -upper
-        lower[-1] = 0.0  # throttle 0..1
+        x0, lower, upper = _turn_trim_start(fdm, start, controls)
         # Levenberg-Marquardt (MINPACK) rather than the bounded trust-region method: MINPACK
         # does its own linear algebra, so the trim is the same bytes whatever BLAS kernel
         # the processor gets (the bounded method's solves differed in the last digits).  It
@@ -574,6 +568,13 @@ class Plant:
         )
         accelerations_at(solution.x)  # leave the aircraft at the solution
         trimmed = TurnState.read(fdm)
+        self._check_turn_trim(trimmed, where, gamma_deg=gamma_deg, bank_deg=bank_deg)
+        return TurnTrim(jsbsim=start, trimmed=trimmed, evaluations=int(solution.nfev))
+
+    def _check_turn_trim(
+        self, trimmed: TurnState, where: str, *, gamma_deg: float, bank_deg: float
+    ) -> None:
+        """Refuse a turn trim that left an acceleration or is not the asked state."""
         asked = (
             abs(trimmed.beta_deg) < 1e-9
             and abs(trimmed.phi_deg - bank_deg) < 1e-9
@@ -587,7 +588,6 @@ class Plant:
                     + f" at beta_deg = {trimmed.beta_deg:.3g}"
                 )
             )
-        return TurnTrim(jsbsim=start, trimmed=trimmed, evaluations=int(solution.nfev))
 
     def damage(self, case: int) -> None:
         """Switch a damage case on (0: none), effective from the next step: NASA's GTM cases
@@ -979,3 +979,39 @@ def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
         if flight.trimmed_damage not in SYMMETRIC_DAMAGE or flight.bank_deg:
             raise
         return plant.trim(flight.altitude_ft, **speed, **angles, longitudinal=True)
+
+
+def _one_speed(
+    speed_kcas: float | None,
+    speed_ktas: float | None,
+    speed_keas: float | None,
+    mach: float | None,
+) -> tuple[str, float]:
+    """The one speed given to :meth:`Plant.trim`: its kind and value."""
+    speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
+    speeds["mach"] = mach
+    given = {k: v for k, v in speeds.items() if v is not None}
+    if len(given) != 1:
+        raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
+    ((kind, speed),) = given.items()
+    return kind, speed
+
+
+def _turn_trim_start(
+    fdm: Any, start: TurnState, controls: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The start of the zero-sideslip turn trim (alpha, turn rate, the controls, throttle
+    from JSBSim's turn trim) and its bounds."""
+    x0 = np.array(
+        [
+            math.radians(start.alpha_deg),
+            math.radians(start.turn_rate_deg_s),
+            *(float(fdm[prop]) for prop in controls),
+            start.throttle_norm,
+        ]
+    )
+    # alpha within +-90 deg, the turn rate within +-180 deg/s, the commands within range
+    upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
+    lower = -upper
+    lower[-1] = 0.0  # throttle 0..1
+    return x0, lower, upper

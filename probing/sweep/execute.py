@@ -74,8 +74,6 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
     anything unexpected, ``skipped`` when the folder already existed), ``message``,
     ``wall_s``.
     """
-    from probing.experiment.monitor import monitor_scenario
-    from probing.experiment.run import run_scenario
     from probing.sim.errors import DivergenceError, TrimError
 
     final = Path(task.target)
@@ -85,48 +83,15 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     t0 = time.perf_counter()
-    monitored = None
     try:
-        if task.monitor:
-            monitored = monitor_scenario(
-                task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
-            )
-            result = monitored.run
-        else:
-            result = run_scenario(
-                task.scenario,
-                final.parent,
-                progress=False,
-                folder=tmp,
-                aircraft=aircraft,
-                keep_settled=True,
-            )
+        result, monitored = _fly_task(task, final, tmp, aircraft)
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
     except Exception as exc:  # recorded, reported, and the sweep goes on
         status, message = "error", f"{exc.__class__.__name__}: {exc}"
     else:
         wall = time.perf_counter() - t0
-        info = {
-            "kind": task.kind,
-            "point_id": task.run_id,
-            "status": "done",
-            "wall_s": wall,
-            "steps_simulated": result.steps_simulated,
-            "scenario": task.scenario.to_dict(),
-        }
-        if monitored is not None:
-            info["monitor"] = monitored.facts()
-        else:
-            # Statistics of the first channel, computed here, in parallel, for the summary.
-            info["settled"] = settled_stats(tmp, task.scenario, result.settled)
-            info["predicted"] = predictions(task.scenario) if task.kind == "point" else {}
-        write_json_atomic(tmp / POINT_FILE, info, compact=True)
-        try:
-            os.rename(tmp, final)
-        except OSError:  # another worker finished the same run first: keep theirs
-            shutil.rmtree(tmp, ignore_errors=True)
-        Path(task.failed_file).unlink(missing_ok=True)
+        _store_done(task, final, tmp, result, monitored, wall)
         return {**record, "status": "done", "wall_s": wall}
     shutil.rmtree(tmp, ignore_errors=True)
     wall = time.perf_counter() - t0
@@ -141,6 +106,55 @@ def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[s
         },
     )
     return {**record, "status": status, "message": message, "wall_s": wall}
+
+
+def _fly_task(
+    task: _Task, final: Path, tmp: Path, aircraft: TrimmedAircraft | None
+) -> tuple[Any, Any]:
+    """Fly a task's scenario into ``tmp``: the run's result, and the monitor's (or None)."""
+    from probing.experiment.monitor import monitor_scenario
+    from probing.experiment.run import run_scenario
+
+    if task.monitor:
+        monitored = monitor_scenario(
+            task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
+        )
+        return monitored.run, monitored
+    result = run_scenario(
+        task.scenario,
+        final.parent,
+        progress=False,
+        folder=tmp,
+        aircraft=aircraft,
+        keep_settled=True,
+    )
+    return result, None
+
+
+def _store_done(
+    task: _Task, final: Path, tmp: Path, result: Any, monitored: Any, wall: float
+) -> None:
+    """Write a finished run's ``point.json``, move its folder into place, clear its failure."""
+    info = {
+        "kind": task.kind,
+        "point_id": task.run_id,
+        "status": "done",
+        "wall_s": wall,
+        "steps_simulated": result.steps_simulated,
+        "scenario": task.scenario.to_dict(),
+    }
+    if monitored is not None:
+        info["monitor"] = monitored.facts()
+    else:
+        # Statistics of the first channel, computed here, in parallel, for the summary.
+        info["settled"] = settled_stats(tmp, task.scenario, result.settled)
+        info["predicted"] = predictions(task.scenario) if task.kind == "point" else {}
+    write_json_atomic(tmp / POINT_FILE, info, compact=True)
+    try:
+        os.rename(tmp, final)
+    except OSError:  # another worker finished the same run first: keep theirs
+        shutil.rmtree(tmp, ignore_errors=True)
+    Path(task.failed_file).unlink(missing_ok=True)
 
 
 def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:

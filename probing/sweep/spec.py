@@ -149,26 +149,8 @@ def _label(table: str, key: str) -> str:
     return f'{table}["{key}"]' if key.isprintable() else f"{table}[{key!r}]"
 
 
-def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sweep:
-    """Validate a parsed sweep file and resolve every point.
-
-    Parameters
-    ----------
-    data : dict
-        The parsed TOML.
-    path : path
-        The sweep file (``base`` is relative to its folder; also the error prefix).
-    text : str
-        The file text, kept for provenance.
-
-    Raises
-    ------
-    ScenarioError
-        For the first problem: an unknown key, an empty or mismatched list, a bad base, or a
-        point that is not a valid scenario (the message names the point).
-    """
-    path = Path(path)
-    source = str(path)
+def _check_header(data: dict[str, Any], source: str) -> tuple[str, str, str]:
+    """Check the top-level keys, ``name``, ``description`` and ``kind``; return the last three."""
     for key in data:
         if key not in _TOP_KEYS:
             raise ScenarioError(
@@ -188,6 +170,11 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         raise ScenarioError(
             "kind", f"must be one of {', '.join(SWEEP_KINDS)}; got {kind!r}", source
         )
+    return name, description, kind
+
+
+def _load_base(data: dict[str, Any], path: Path, source: str) -> Scenario:
+    """Load the ``base`` scenario (relative to the sweep file) and check a sweep flies it."""
     base_rel = data.get("base")
     if not isinstance(base_rel, str) or not base_rel:
         raise ScenarioError("base", "missing: a scenario file, relative to the sweep file", source)
@@ -201,7 +188,14 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         raise ScenarioError(
             "base", f"{base_rel}: a [{runner.section}] scenario is flown by probing run", source
         )
+    return base
 
+
+def _read_tables(
+    data: dict[str, Any], source: str
+) -> tuple[dict[str, dict[str, Any]], dict[str, str], int]:
+    """Check ``[fixed]``, ``[grid]`` and ``[zip]``; return them, the table of each key and the
+    number of zip rows (1 without a zip)."""
     tables: dict[str, dict[str, Any]] = {}
     for table in ("fixed", "grid", "zip"):
         value = data.get(table, {})
@@ -230,14 +224,66 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         raise ScenarioError(
             "grid", "a sweep needs at least one varied field in [grid] or [zip]", source
         )
-
-    grid_keys = list(tables["grid"])
-    zip_keys = list(tables["zip"])
-    n_zip = zip_lengths.pop() if zip_keys else 1
+    n_zip = zip_lengths.pop() if tables["zip"] else 1
     n_points = math.prod(len(v) for v in tables["grid"].values()) * n_zip
     if n_points > MAX_POINTS:
         raise ScenarioError("grid", f"{n_points} points; at most {MAX_POINTS} allowed", source)
+    return tables, seen, n_zip
 
+
+def _point_scenario(
+    base: Scenario,
+    changes: dict[str, Any],
+    values: dict[str, Any],
+    index: int,
+    seen: dict[str, str],
+    source: str,
+) -> Scenario:
+    """The base scenario with one point's changes; an invalid point names its values."""
+    try:
+        return base.replace(changes)
+    except ScenarioError as exc:
+        where = ", ".join(f"{k}={v!r}" for k, v in values.items())
+        table = seen.get(exc.field)
+        label = _label(table, exc.field) if table else exc.field
+        raise ScenarioError(label, f"{exc.message} (point {index}: {where})", source) from None
+
+
+def _check_monitor_point(scn: Scenario, values: dict[str, Any], index: int, source: str) -> None:
+    """Check that a point of a monitor sweep has valid monitor settings."""
+    try:
+        scn.monitor_settings()
+    except ScenarioError as exc:
+        where = ", ".join(f"{k}={v!r}" for k, v in values.items())
+        raise ScenarioError(exc.field, f"{exc.message} (point {index}: {where})", source) from None
+
+
+def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sweep:
+    """Validate a parsed sweep file and resolve every point.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML.
+    path : path
+        The sweep file (``base`` is relative to its folder; also the error prefix).
+    text : str
+        The file text, kept for provenance.
+
+    Raises
+    ------
+    ScenarioError
+        For the first problem: an unknown key, an empty or mismatched list, a bad base, or a
+        point that is not a valid scenario (the message names the point).
+    """
+    path = Path(path)
+    source = str(path)
+    name, description, kind = _check_header(data, source)
+    base = _load_base(data, path, source)
+    tables, seen, n_zip = _read_tables(data, source)
+
+    grid_keys = list(tables["grid"])
+    zip_keys = list(tables["zip"])
     combos = itertools.product(*(tables["grid"][k] for k in grid_keys))
     points: list[SweepPoint] = []
     by_id: dict[str, int] = {}
@@ -245,13 +291,7 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         values = dict(zip(grid_keys, combo, strict=True))
         values.update({k: tables["zip"][k][row] for k in zip_keys})
         changes = {**tables["fixed"], **values, "name": name}
-        try:
-            scn = base.replace(changes)
-        except ScenarioError as exc:
-            where = ", ".join(f"{k}={v!r}" for k, v in values.items())
-            table = seen.get(exc.field)
-            label = _label(table, exc.field) if table else exc.field
-            raise ScenarioError(label, f"{exc.message} (point {index}: {where})", source) from None
+        scn = _point_scenario(base, changes, values, index, seen, source)
         pid = scn.digest()
         if pid in by_id:
             raise ScenarioError(
@@ -262,13 +302,7 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         by_id[pid] = index
         ref = scn if scn.nonlinearity == "none" else scn.replace({"nonlinearity.type": "none"})
         if kind == "monitor":
-            try:
-                scn.monitor_settings()
-            except ScenarioError as exc:
-                where = ", ".join(f"{k}={v!r}" for k, v in values.items())
-                raise ScenarioError(
-                    exc.field, f"{exc.message} (point {index}: {where})", source
-                ) from None
+            _check_monitor_point(scn, values, index, source)
         points.append(SweepPoint(index, values, scn, pid, ref, ref.digest()))
     return Sweep(
         name=name,

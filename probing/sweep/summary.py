@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +27,7 @@ from probing.experiment.storage import (
     read_settled,
     units,
 )
-from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
+from probing.sweep.spec import POINT_FILE, Sweep, SweepPoint, point_folder, sweep_folders
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -166,63 +167,79 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
 
     rows = []
     for p in sweep.points:
-        scn = p.scenario
-        channel = scn.channels[0]
-        nl = scn.build_nonlinearity()
-        gain_pred, offset_pred = predicted_apparent(nl, scn.amplitude_deg, scn.bit_duration_s)
-        row: dict[str, Any] = {"index": p.index, "point_id": p.point_id}
-        row.update({k: p.values[k] for k in sweep.fields})
-        row.update(
-            status="missing",
-            message="",
-            channel=channel,
-            predicted_gain=gain_pred,
-            predicted_offset_deg=offset_pred,
-            rate_ratio=(
-                nl.ratio(scn.amplitude_deg, scn.bit_duration_s)
-                if isinstance(nl, RateLimit)
-                else math.nan
-            ),
-            measured_gain=math.nan,
-            shape_error=math.nan,
-            h_rms=math.nan,
-            h_stderr=math.nan,
-            h_stderr_naive=math.nan,
-            predicted_z_stderr=math.nan,
-            predicted_h_stderr=math.nan,
-            predicted_gain_stderr=math.nan,
-            predicted_h_bias=math.nan,
-            wall_s=math.nan,
-            steps_simulated=0,
-            reference_id=p.reference_id,
-        )
+        row = _blank_row(sweep, p)
         folder = point_folder(points_dir, p.point_id)
         failed_file = failed_dir / f"{p.point_id}.json"
         if (folder / POINT_FILE).exists():
-            info = json.loads((folder / POINT_FILE).read_text())
-            row.update(
-                status="done", wall_s=info["wall_s"], steps_simulated=info["steps_simulated"]
-            )
-            stats = _stats(folder, scn)
-            predicted = info.get("predicted", {}).get(channel) or {}
-            for key in ("z_stderr", "h_stderr", "gain_stderr", "h_bias"):
-                row[f"predicted_{key}"] = _number(predicted.get(key))
-            n_p, m = stats["periods"], scn.bits_per_period
-            if n_p:
-                h = np.asarray(stats["h_mean"], dtype=float)
-                row["h_rms"] = float(np.sqrt(np.mean(h**2)))
-                if stats["h_spread"] is not None:
-                    row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
-                sigma = scn.sensor_noise.get(channel, 0.0)
-                row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
-                h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
-                if h0 is not None and np.dot(h0, h0) > 0:
-                    row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
+            _fill_done_row(row, folder, p, mean_h)
         elif failed_file.exists():
             info = json.loads(failed_file.read_text())
             row.update(status=info["status"], message=info["message"], wall_s=info["wall_s"])
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _blank_row(sweep: Sweep, p: SweepPoint) -> dict[str, Any]:
+    """A point's row before its run is read: its values, predictions and ``missing``."""
+    scn = p.scenario
+    channel = scn.channels[0]
+    nl = scn.build_nonlinearity()
+    gain_pred, offset_pred = predicted_apparent(nl, scn.amplitude_deg, scn.bit_duration_s)
+    row: dict[str, Any] = {"index": p.index, "point_id": p.point_id}
+    row.update({k: p.values[k] for k in sweep.fields})
+    row.update(
+        status="missing",
+        message="",
+        channel=channel,
+        predicted_gain=gain_pred,
+        predicted_offset_deg=offset_pred,
+        rate_ratio=(
+            nl.ratio(scn.amplitude_deg, scn.bit_duration_s)
+            if isinstance(nl, RateLimit)
+            else math.nan
+        ),
+        measured_gain=math.nan,
+        shape_error=math.nan,
+        h_rms=math.nan,
+        h_stderr=math.nan,
+        h_stderr_naive=math.nan,
+        predicted_z_stderr=math.nan,
+        predicted_h_stderr=math.nan,
+        predicted_gain_stderr=math.nan,
+        predicted_h_bias=math.nan,
+        wall_s=math.nan,
+        steps_simulated=0,
+        reference_id=p.reference_id,
+    )
+    return row
+
+
+def _fill_done_row(
+    row: dict[str, Any],
+    folder: Path,
+    p: SweepPoint,
+    mean_h: Callable[[str, Scenario], np.ndarray | None],
+) -> None:
+    """Fill a finished point's row from its run folder (``mean_h`` gives a reference's h)."""
+    scn = p.scenario
+    channel = row["channel"]
+    info = json.loads((folder / POINT_FILE).read_text())
+    row.update(status="done", wall_s=info["wall_s"], steps_simulated=info["steps_simulated"])
+    stats = _stats(folder, scn)
+    predicted = info.get("predicted", {}).get(channel) or {}
+    for key in ("z_stderr", "h_stderr", "gain_stderr", "h_bias"):
+        row[f"predicted_{key}"] = _number(predicted.get(key))
+    n_p, m = stats["periods"], scn.bits_per_period
+    if n_p:
+        h = np.asarray(stats["h_mean"], dtype=float)
+        row["h_rms"] = float(np.sqrt(np.mean(h**2)))
+        if stats["h_spread"] is not None:
+            row["h_stderr"] = stats["h_spread"] / math.sqrt(n_p)
+        sigma = scn.sensor_noise.get(channel, 0.0)
+        row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
+        h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
+        if h0 is not None and np.dot(h0, h0) > 0:
+            row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
 
 
 def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
