@@ -38,6 +38,7 @@ import numpy as np
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.design_request import DesignInputError, DesignRequest, detectable_stderr
+from probing.experiment.design_runs import noise_free_reference, turbulence_residual
 from probing.experiment.noise import ChannelPrediction, predict, scatter_models
 from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
@@ -262,48 +263,6 @@ def probe_shape(
     return shape
 
 
-def turbulence_residual(scn: Scenario, seeds: int) -> dict[str, np.ndarray]:
-    """The turbulence the reference twin does not cancel, as realisations per channel.
-
-    The twin flies the same gusts, so measured - reference holds only what the gusts do to
-    the aircraft's response to the probe: a random perturbation of h itself, growing as the
-    gusts move the aircraft away from its trim, so neither stationary nor additive, and no
-    autocovariance says what it does to one direction of h (the gain's).  It is measured:
-    noise-free runs of ``scn`` as long as it is, at ``seeds`` seeds (1000, 1001, ...) in its
-    turbulence, minus the same run in calm air, bit samples from the run's start.
-
-    Returns
-    -------
-    dict
-        Channel -> array (seeds, periods x M), the channel's unit.
-    """
-    from probing.experiment.batch import run_grouped
-
-    base = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "reference"})
-    runs = [base.replace({"disturbance.turbulence": "none", "name": "calm"})]
-    runs += [base.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}) for k in range(seeds)]
-    deviations: list[np.ndarray] = [np.empty(0)] * len(runs)
-    for i, outcome in run_grouped(runs, lambda s: s, _deviation):  # one load and trim
-        deviations[i] = outcome.get()
-    calm, gusts = deviations[0], np.array(deviations[1:])
-    bits = (gusts - calm)[:, scn.steps_per_bit - 1 :: scn.steps_per_bit]
-    return {channel: bits[:, :, j] for j, channel in enumerate(scn.channels)}
-
-
-def _deviation(scn: Scenario, aircraft: Any) -> np.ndarray:
-    """Measured minus reference of a run, every step, (steps, channels)."""
-    import tempfile
-
-    import pandas as pd
-
-    from probing.experiment.run import run_scenario
-
-    with tempfile.TemporaryDirectory(prefix="probing-turbulence-") as tmp:
-        result = run_scenario(scn, tmp, progress=False, aircraft=aircraft)  # twin: stored first
-        ts = pd.read_parquet(result.out_dir / "timeseries.parquet")
-    return np.stack([ts[c] - ts[f"{c}_reference"] for c in scn.channels], axis=1)
-
-
 def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenario]:
     """Validate the request, trim and linearise the aircraft, apply the rules, predict.
 
@@ -342,7 +301,7 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     target = request.target
     estimator, scores = _estimator(request, scn, gusts, target)
     scn = _scenario(request, base, shape, estimator, 4)
-    reference = _noise_free_reference(scn)
+    reference = noise_free_reference(scn)
     pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[request.channel]
     if target is not None:
         scn, reference, pred = _meet(request, shape, scn, reference, gusts, target)
@@ -502,7 +461,7 @@ def _meet(
         done = periods in tried or periods == scn.settled_periods
         tried.add(periods)
         scn = _with_periods(scn, periods)
-        reference = _noise_free_reference(scn)
+        reference = noise_free_reference(scn)
         pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
         if done or len(tried) >= 6:
             break
@@ -510,28 +469,9 @@ def _meet(
         grow = (_score(pred, kind) / goal) ** 2
         periods = min(limit, max(scn.settled_periods + 1, math.ceil(scn.settled_periods * grow)))
         scn = _with_periods(scn, periods)
-        reference = _noise_free_reference(scn)
+        reference = noise_free_reference(scn)
         pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
     return scn, reference, pred
-
-
-def _noise_free_reference(scn: Scenario) -> dict[str, np.ndarray]:
-    """Mean settled h of a noise-free, calm run of ``scn`` without its nonlinearity: what the
-    gain is measured against (the slow modes' bias included, as a baseline flight has it)."""
-    import tempfile
-
-    from probing.experiment.run import run_scenario
-
-    bare = scn.replace(
-        {
-            "name": "design-reference",
-            "nonlinearity.type": "none",
-            "disturbance.sensor_noise": {},
-            "disturbance.turbulence": "none",
-        }
-    )
-    with tempfile.TemporaryDirectory(prefix="probing-design-") as tmp:
-        return run_scenario(bare, tmp, progress=False).h_est
 
 
 def _too_tight(

@@ -250,7 +250,7 @@ def scatter_models(
     """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
     noise plus ``extra_acov`` (channel -> autocovariance of stationary noise on the bit
     samples) plus ``extra_samples`` (channel -> realisations (K, n) of further noise on the bit
-    samples from the run's start, e.g. :func:`probing.experiment.design.turbulence_residual`)
+    samples from the run's start, e.g. :func:`probing.experiment.design_runs.turbulence_residual`)
     through the scenario's estimator and drift mode."""
     detrend_order = scn.detrend_order if scn.detrends else None
     estimator = _estimator_model(
@@ -300,7 +300,7 @@ def predict(
     extra_samples : mapping, optional
         Channel -> realisations (K, n) of further noise on the bit samples from the run's
         start, at least as long as the run (output units): turbulence the twin does not
-        cancel, measured by :func:`probing.experiment.design.turbulence_residual`.
+        cancel, measured by :func:`probing.experiment.design_runs.turbulence_residual`.
     linear : LinearResponse, optional
         The linearisation to use (default: :func:`linear_model` of the scenario's flight).
     reference : mapping, optional

@@ -156,6 +156,10 @@ class ClosedLoop:
             raise ValueError(f"a {manoeuvre.hold} manoeuvre needs {manoeuvre.hold}_hold")
         self.manoeuvre = manoeuvre
 
+    # The one function over 60 lines of code, on purpose: its loop runs once per simulation
+    # step (~20 us each), so the loops, the fault and the damage onset are inlined with every
+    # lookup bound to a local beforehand; a call per loop per step would cost more than the
+    # step's own Python work (docs/benchmarks.md, "Step-loop efficiency").
     def step(
         self,
         probe: np.ndarray | None,
