@@ -31,6 +31,7 @@ __all__ = [
     "Manoeuvre",
     "SpeedKind",
     "check_damage_case",
+    "one_speed",
 ]
 
 #: The model with NASA's damage cases, and the cases in NASA's order (``damage/case`` 1..6).
@@ -318,3 +319,20 @@ class Flight:
     def to_dict(self) -> dict[str, Any]:
         """Plain values, for keys and metadata."""
         return asdict(self)
+
+
+def one_speed(
+    speed_kcas: float | None,
+    speed_ktas: float | None,
+    speed_keas: float | None,
+    mach: float | None,
+) -> tuple[str, float]:
+    """The one speed given (to :meth:`probing.sim.plant.Plant.trim`): its kind and value;
+    ValueError unless exactly one is given."""
+    speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
+    speeds["mach"] = mach
+    given = {k: v for k, v in speeds.items() if v is not None}
+    if len(given) != 1:
+        raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
+    ((kind, speed),) = given.items()
+    return kind, speed

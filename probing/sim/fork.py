@@ -22,7 +22,9 @@ import hashlib
 import json
 from pathlib import Path
 
+from probing.sim import drive as _drive_module
 from probing.sim import plant as _plant_module
+from probing.sim import turn_trim as _turn_trim_module
 from probing.sim.aircraft import aircraft_digest, jsbsim_version
 from probing.sim.flight import Flight
 from probing.sim.plant import Plant, trim_flight
@@ -32,7 +34,12 @@ __all__ = ["TrimmedAircraft", "trim_key", "trim_spec"]
 
 @functools.cache
 def _plant_source() -> str:
-    return hashlib.sha256(Path(_plant_module.__file__).read_bytes()).hexdigest()
+    """SHA-256 of the code a trim's numbers come from: the plant, its surface drive and the
+    turn trim at zero sideslip."""
+    digest = hashlib.sha256()
+    for module in (_plant_module, _drive_module, _turn_trim_module):
+        digest.update(Path(module.__file__).read_bytes())
+    return digest.hexdigest()
 
 
 def trim_spec(flight: Flight) -> dict:

@@ -14,6 +14,7 @@ import numpy as np
 
 from probing.core.convolution import causal_convolve
 from probing.sim.channels import CHANNELS
+from probing.sim.drive import actuator_pulse_response
 from probing.sim.modes import LongitudinalModes
 from probing.sim.plant import Plant
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
@@ -162,7 +163,7 @@ def linear_response(
     phi, p, r) added for the aileron and rudder, and the channels among them.
 
     The realised surface follows the asked one through the model's actuator, measured on the
-    plant itself (:meth:`~probing.sim.plant.Plant.actuator_pulse_response`); the plant is
+    plant itself (:func:`~probing.sim.drive.actuator_pulse_response`); the plant is
     stepped for that, so use it for nothing else afterwards.  The altitude, heading and
     position states are left out: they integrate the others (the
     full model has an eigenvalue at 1, so no periodic steady state) and feed back only
@@ -184,5 +185,5 @@ def linear_response(
     c = np.asarray(lin["C"])[np.ix_(rows, x)]
     d = np.asarray(lin["D"])[rows, iu] / gain
     ad, bd = zoh(a_mat, b_mat, plant.dt_s)
-    actuator = plant.actuator_pulse_response(surface=surface)  # last: it steps the plant
+    actuator = actuator_pulse_response(plant, surface=surface)  # last: it steps the plant
     return LinearResponse(ad, bd[:, 0], c, d, covered, actuator)

@@ -2,27 +2,20 @@
 throttle).
 
 A :class:`Plant` loads an aircraft from its sanitised copy (:mod:`probing.sim.aircraft`),
-trims it, and steps it with the position of one surface (:mod:`probing.sim.surfaces`: the
-elevator by default, the aileron, rudder or throttle) given in the surface's unit.  The
-command-to-position mapping of the model's flight-control system is measured on the model
-itself (integration suspended) and inverted (:class:`SurfaceDrive`), so the surface is
-exactly where it is asked to be, whatever the model's scaling.
-
-JSBSim's messages go to a logger of this module (:class:`JSBSimLog`), never to stdout; the
-warnings and errors among them are added to the :class:`~probing.sim.errors.TrimError` a
-failed trim raises.
+trims it, and steps it with the position of one surface (:mod:`probing.sim.surfaces`) in
+the surface's unit, through the model's own command-to-position map, measured and inverted
+(:mod:`probing.sim.drive`).  A turn is trimmed at zero sideslip (:mod:`probing.sim.turn_trim`).
+JSBSim's messages go to :class:`~probing.sim.jsbsim_log.JSBSimLog`, never to stdout; its
+warnings and errors are added to the :class:`~probing.sim.errors.TrimError` a trim raises.
 """
 
 from __future__ import annotations
 
-import bisect
-import collections
 import functools
 import math
 import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
@@ -31,6 +24,7 @@ import numpy as np
 from probing.core.forked import can_fork, forked_map
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
+from probing.sim.drive import SurfaceDrive, calibrate
 from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
 from probing.sim.flight import (
     DAMAGE_MODEL,
@@ -39,8 +33,11 @@ from probing.sim.flight import (
     TURBULENCE_SEVERITY,
     Flight,
     check_damage_case,
+    one_speed,
 )
+from probing.sim.jsbsim_log import JSBSimLog
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES, Surface
+from probing.sim.turn_trim import TurnState, TurnTrim, trim_zero_sideslip
 
 __all__ = [
     "ELEVATOR_CMD",
@@ -59,60 +56,8 @@ ELEVATOR_CMD = SURFACES["elevator"].command
 ELEVATOR_POS_DEG = SURFACES["elevator"].position
 
 
-class JSBSimLog(jsbsim.FGLogger):
-    """JSBSim's log records, kept instead of printed: nothing of JSBSim reaches stdout.
-
-    Records below ``WARN`` (debug chatter, reports JSBSim would print on stdout) are
-    dropped; the latest ``keep`` warnings and errors are kept for error messages.
-    """
-
-    def __init__(self, keep: int = 20) -> None:
-        super().__init__()
-        self._level = jsbsim.LogLevel.BULK
-        self._parts: list[str] = []
-        self.records: collections.deque[str] = collections.deque(maxlen=keep)
-
-    def set_level(self, level: jsbsim.LogLevel) -> None:
-        self._level, self._parts = level, []
-
-    def file_location(self, filename: str, line: int) -> None:
-        pass
-
-    def message(self, message: str) -> None:
-        self._parts.append(message)
-
-    def format(self, format: jsbsim.LogFormat) -> None:
-        pass
-
-    def flush(self) -> None:
-        if jsbsim.LogLevel.WARN <= self._level <= jsbsim.LogLevel.FATAL:
-            text = " ".join("".join(self._parts).split())
-            if text:
-                self.records.append(text)
-        self._parts = []
-
-    def take(self) -> str:
-        """The kept records as one line (``"; "``-joined), and forget them."""
-        text = "; ".join(self.records)
-        self.records.clear()
-        return text
-
-
 #: JSBSim's trim modes (FGTrim): longitudinal, full, and the turn (bank set, turn rate from it).
 TRIM_LONGITUDINAL, TRIM_FULL, TRIM_TURN = 0, 1, 5
-#: JSBSim's body-axis accelerations, the six a trim zeroes: (property, name with its unit).
-ACCELERATIONS = (
-    ("accelerations/udot-ft_sec2", "udot_ft_s2"),
-    ("accelerations/vdot-ft_sec2", "vdot_ft_s2"),
-    ("accelerations/wdot-ft_sec2", "wdot_ft_s2"),
-    ("accelerations/pdot-rad_sec2", "pdot_rad_s2"),
-    ("accelerations/qdot-rad_sec2", "qdot_rad_s2"),
-    ("accelerations/rdot-rad_sec2", "rdot_rad_s2"),
-)
-#: The largest acceleration (ft/s^2 or rad/s^2) a zero-sideslip turn trim may leave; JSBSim's
-#: own trim stops at 1e-3 ft/s^2 and 1e-4 rad/s^2.
-TURN_TRIM_TOLERANCE = 1e-8
-#: The model's property that switches NASA's damage cases (``probing.sim.flight``).
 DAMAGE_PROPERTY = "damage/case"
 
 
@@ -136,198 +81,6 @@ class TrimResult:
     def to_dict(self) -> dict[str, float]:
         """Plain dict, for metadata."""
         return asdict(self)
-
-
-@dataclass(frozen=True)
-class TurnState:
-    """A steady turn as JSBSim has it: attitude, turn rate, controls and the six body-axis
-    accelerations (which are zero when it is trimmed).
-
-    Attributes
-    ----------
-    alpha_deg, beta_deg, phi_deg, theta_deg, gamma_deg : float
-        Angle of attack, sideslip, bank, pitch and flight-path angle, deg.
-    speed_keas : float
-        Equivalent airspeed, kt.
-    turn_rate_deg_s : float
-        Rate of change of heading, deg/s.
-    elevator_deg, aileron_deg, rudder_deg : float
-        Surface positions, deg (the aileron is the right one: positive rolls left).
-    throttle_norm : float
-        Throttle of the first engine (every engine has the same).
-    accelerations : dict
-        ``udot_ft_s2``, ``vdot_ft_s2``, ``wdot_ft_s2`` (ft/s^2) and ``pdot_rad_s2``,
-        ``qdot_rad_s2``, ``rdot_rad_s2`` (rad/s^2): JSBSim's own, read from its properties.
-    """
-
-    alpha_deg: float
-    beta_deg: float
-    phi_deg: float
-    theta_deg: float
-    gamma_deg: float
-    speed_keas: float
-    turn_rate_deg_s: float
-    elevator_deg: float
-    aileron_deg: float
-    rudder_deg: float
-    throttle_norm: float
-    accelerations: dict[str, float]
-
-    @classmethod
-    def read(cls, fdm: jsbsim.FGFDMExec) -> TurnState:
-        """The state ``fdm`` is in now."""
-        return cls(
-            alpha_deg=float(fdm["aero/alpha-deg"]),
-            beta_deg=float(fdm["aero/beta-deg"]),
-            phi_deg=float(fdm["attitude/phi-deg"]),
-            theta_deg=float(fdm["attitude/theta-deg"]),
-            gamma_deg=float(fdm["flight-path/gamma-deg"]),
-            speed_keas=float(fdm["velocities/ve-kts"]),
-            turn_rate_deg_s=math.degrees(fdm["velocities/psidot-rad_sec"]),
-            elevator_deg=float(fdm[ELEVATOR_POS_DEG]),
-            aileron_deg=float(fdm[SURFACES["aileron"].position]),
-            rudder_deg=float(fdm[SURFACES["rudder"].position]),
-            throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
-            accelerations={name: float(fdm[prop]) for prop, name in ACCELERATIONS},
-        )
-
-    @property
-    def worst_acceleration(self) -> float:
-        """The largest of the six accelerations in magnitude (ft/s^2 or rad/s^2)."""
-        return max(abs(a) for a in self.accelerations.values())
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict, for metadata."""
-        return asdict(self)
-
-
-@dataclass(frozen=True)
-class TurnTrim:
-    """How a steady turn was trimmed: JSBSim's turn trim (sideslip free), then the same turn
-    at zero sideslip, as NASA's ``trimgtm.m`` trims it (:meth:`Plant.trim`).
-
-    Attributes
-    ----------
-    jsbsim : TurnState
-        Where JSBSim's turn trim (FGTrim ``tTurn``) left the aircraft: the start.
-    trimmed : TurnState
-        The zero-sideslip trim the aircraft is left in.
-    evaluations : int
-        JSBSim evaluations the solver used.
-    """
-
-    jsbsim: TurnState
-    trimmed: TurnState
-    evaluations: int
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict, for metadata."""
-        return asdict(self)
-
-
-class SurfaceDrive:
-    """One surface of a trimmed plant, driven by its position: the model's command-to-position
-    map, measured on the model's own flight-control system and inverted.
-
-    The stock models map the (normalised) command to the surface through piecewise-linear
-    components (clip, zero-centred aerosurface_scale, possibly asymmetric, a trim added);
-    sampled at their breakpoints the map is exact between samples, so its inverse by linear
-    interpolation is exact too.  Only the strictly monotonic part is kept (clipped ends are
-    flat and cannot be inverted).
-
-    Attributes
-    ----------
-    surface : Surface
-        What is driven (:data:`probing.sim.surfaces.SURFACES`).
-    trim_position : float
-        The position at the trim, in the surface's unit.
-    trim_command : float
-        The normalised command at the trim.
-    """
-
-    def __init__(
-        self,
-        surface: Surface,
-        nodes: list,
-        pos_node: object,
-        trim_position: float,
-        trim_command: float,
-        map_cmd: np.ndarray,
-        map_pos: np.ndarray,
-    ) -> None:
-        self.surface = surface
-        self.nodes = nodes
-        self.pos_node = pos_node
-        self.trim_position = trim_position
-        self.trim_command = trim_command
-        self.map_cmd, self.map_pos = map_cmd, map_pos  # sorted by position
-        self._cmd_list, self._pos_list = map_cmd.tolist(), map_pos.tolist()
-        order = np.argsort(map_cmd)
-        self._cmd_sorted, self._pos_by_cmd = map_cmd[order], map_pos[order]
-        self._by_cmd = (self._cmd_sorted.tolist(), self._pos_by_cmd.tolist())
-        if len(nodes) == 1:
-            self.set = nodes[0].set_double_value  # the one write of a step
-        else:
-            setters = [n.set_double_value for n in nodes]
-
-            def set_all(value: float) -> None:
-                for write in setters:
-                    write(value)
-
-            self.set = set_all
-
-    @property
-    def range(self) -> tuple[float, float]:
-        """Positions reachable through the command (the surface's unit)."""
-        return float(self.map_pos[0]), float(self.map_pos[-1])
-
-    def command(self, position: np.ndarray) -> np.ndarray:
-        """Normalised commands that put the surface exactly at ``position`` (its unit).
-
-        Raises
-        ------
-        ValueError
-            If a position is outside :attr:`range`.
-        """
-        position = np.asarray(position, dtype=np.float64)
-        lo, hi = self.range
-        if position.size and (position.min() < lo or position.max() > hi):
-            what = "deflection" if self.surface.unit == "deg" else "position"
-            raise ValueError(
-                f"{self.surface.name} {what} {position.min():.6g}..{position.max():.6g} "
-                f"{self.surface.unit} is outside the model's range {lo:.6g}..{hi:.6g} "
-                f"{self.surface.unit}"
-            )
-        return np.interp(position, self.map_pos, self.map_cmd)
-
-    def command_clipped(self, position: float) -> float:
-        """The normalised command for one ``position``, clipped to the range: the same map
-        and the same bits as :meth:`command` (``numpy.interp``'s own formula), for a loop
-        that computes its command one step at a time."""
-        return _interp_clipped(position, self._pos_list, self._cmd_list)
-
-    def position_of(self, command: float) -> float:
-        """The position the model gives a normalised ``command`` (the forward map; beyond the
-        invertible part, the position at its end), for a loop that commands the surface
-        one step at a time in normalised units."""
-        return _interp_clipped(command, *self._by_cmd)
-
-    def gain_per_norm(self) -> float:
-        """Local slope d(position)/d(command) at the trimmed command (unit per unit command)."""
-        cmd, pos = self._cmd_sorted, self._pos_by_cmd  # the map is kept sorted by position
-        i = int(np.clip(np.searchsorted(cmd, self.trim_command), 1, cmd.size - 1))
-        return float((pos[i] - pos[i - 1]) / (cmd[i] - cmd[i - 1]))
-
-
-def _interp_clipped(x: float, xs: list[float], ys: list[float]) -> float:
-    """Piecewise-linear ``ys`` over increasing ``xs`` at one ``x``, clipped to the ends:
-    ``numpy.interp``'s own formula, for one value at a time without building an array."""
-    s = min(max(x, xs[0]), xs[-1])
-    if s == xs[-1]:
-        return ys[-1]
-    j = bisect.bisect_right(xs, s) - 1  # xs[j] <= s < xs[j + 1]
-    slope = (ys[j + 1] - ys[j]) / (xs[j + 1] - xs[j])
-    return slope * (s - xs[j]) + ys[j]
 
 
 class Plant:
@@ -439,7 +192,7 @@ class Plant:
             "bank_deg": bank_deg,
             "longitudinal": longitudinal,
         }
-        kind, speed = _one_speed(speed_kcas, speed_ktas, speed_keas, mach)
+        kind, speed = one_speed(speed_kcas, speed_ktas, speed_keas, mach)
         fdm = self.fdm
         jsbsim.set_logger(self.log)
         self.log.take()
@@ -497,97 +250,16 @@ class Plant:
         )
 
     def _trim_zero_sideslip(self, where: str, *, gamma_deg: float, bank_deg: float) -> TurnTrim:
-        """From JSBSim's turn trim, the same steady turn at zero sideslip, as NASA's
-        ``trimgtm.m`` trims it: the six body-axis accelerations zero at the asked bank,
-        flight-path angle and speed with beta = 0, the turn rate free.
-
-        JSBSim's turn trim (FGTrim ``tTurn``) sets the turn rate to g tan(bank) / V and zeroes
-        the side acceleration with the sideslip; NASA holds the sideslip at 0 and frees the
-        turn rate.  The unknowns here are alpha, the turn rate, the pitch trim, aileron,
-        rudder and throttle (every engine alike, as JSBSim's trim sets them); each guess is
-        set through JSBSim's initial conditions (attitude, body velocity at beta = 0, the
-        body rates of a steady turn at constant bank and pitch) and evaluated with
-        ``run_ic`` (time step 0: servos at their commands), the way FGTrim evaluates its
-        own; :func:`scipy.optimize.least_squares` zeroes JSBSim's six accelerations.  The
-        side force then sets the turn rate, the rudder and aileron the yaw and roll
-        balance at beta = 0.  The aircraft is left in the solution.
-
-        Raises
-        ------
-        TrimError
-            If an acceleration is left above :data:`TURN_TRIM_TOLERANCE`, or the state is not
-            the asked one (a control at its stop, or one without authority: the rudder
-            of damage cases 1 and 2).
-        """
-        from scipy.optimize import least_squares  # only a turn needs it
-
-        fdm = self.fdm
-        start = TurnState.read(fdm)
-        speed_fps = float(fdm["ic/vt-fps"])
-        psi_rad = float(fdm["attitude/psi-rad"])
-        phi_rad, gamma_rad = math.radians(bank_deg), math.radians(gamma_deg)
-        throttles = [f"fcs/throttle-cmd-norm[{i}]" for i in range(self.engine_count())]
-        controls = ("fcs/pitch-trim-cmd-norm", "fcs/aileron-cmd-norm", "fcs/rudder-cmd-norm")
-        accelerations = [self._pm.get_node(prop) for prop, _ in ACCELERATIONS]
-
-        def accelerations_at(x: np.ndarray) -> np.ndarray:
-            alpha, turn_rate = float(x[0]), float(x[1])
-            # sin(gamma) = cos(alpha) sin(theta) - sin(alpha) cos(phi) cos(theta) at beta = 0
-            a, b = math.cos(alpha), math.sin(alpha) * math.cos(phi_rad)
-            theta = math.atan2(b, a) + math.asin(math.sin(gamma_rad) / math.hypot(a, b))
-            fdm["ic/phi-rad"] = phi_rad  # the attitude first, then the body velocity in it
-            fdm["ic/theta-rad"] = theta
-            fdm["ic/psi-true-rad"] = psi_rad
-            fdm["ic/u-fps"] = speed_fps * math.cos(alpha)
-            fdm["ic/v-fps"] = 0.0
-            fdm["ic/w-fps"] = speed_fps * math.sin(alpha)
-            fdm["ic/p-rad_sec"] = -turn_rate * math.sin(theta)
-            fdm["ic/q-rad_sec"] = turn_rate * math.cos(theta) * math.sin(phi_rad)
-            fdm["ic/r-rad_sec"] = turn_rate * math.cos(theta) * math.cos(phi_rad)
-            for prop, value in zip(controls, x[2:5], strict=True):
-                fdm[prop] = float(value)
-            for prop in throttles:
-                fdm[prop] = float(x[5])
-            fdm.run_ic()
-            return np.array([node.get_double_value() for node in accelerations])
-
-        x0, lower, upper = _turn_trim_start(fdm, start, controls)
-        # Levenberg-Marquardt (MINPACK) rather than the bounded trust-region method: MINPACK
-        # does its own linear algebra, so the trim is the same bytes whatever BLAS kernel
-        # the processor gets (the bounded method's solves differed in the last digits).  It
-        # takes no bounds: the start lies within them and the checks below refuse a
-        # solution outside the asked state.
-        solution = least_squares(
-            accelerations_at,
-            np.clip(x0, lower, upper),
-            method="lm",
-            x_scale=0.01,
-            xtol=1e-15,
-            ftol=1e-15,
-            gtol=1e-15,
+        """The steady turn at zero sideslip from JSBSim's turn trim
+        (:func:`probing.sim.turn_trim.trim_zero_sideslip`); the aircraft is left in it."""
+        return trim_zero_sideslip(
+            self.fdm,
+            self.engine_count(),
+            where,
+            self._with_log,
+            gamma_deg=gamma_deg,
+            bank_deg=bank_deg,
         )
-        accelerations_at(solution.x)  # leave the aircraft at the solution
-        trimmed = TurnState.read(fdm)
-        self._check_turn_trim(trimmed, where, gamma_deg=gamma_deg, bank_deg=bank_deg)
-        return TurnTrim(jsbsim=start, trimmed=trimmed, evaluations=int(solution.nfev))
-
-    def _check_turn_trim(
-        self, trimmed: TurnState, where: str, *, gamma_deg: float, bank_deg: float
-    ) -> None:
-        """Refuse a turn trim that left an acceleration or is not the asked state."""
-        asked = (
-            abs(trimmed.beta_deg) < 1e-9
-            and abs(trimmed.phi_deg - bank_deg) < 1e-9
-            and abs(trimmed.gamma_deg - gamma_deg) < 1e-9
-        )
-        if trimmed.worst_acceleration > TURN_TRIM_TOLERANCE or not asked:
-            raise TrimError(
-                self._with_log(
-                    f"turn trim at zero sideslip failed for {where}: accelerations "
-                    + ", ".join(f"{k} {v:.3g}" for k, v in trimmed.accelerations.items())
-                    + f" at beta_deg = {trimmed.beta_deg:.3g}"
-                )
-            )
 
     def damage(self, case: int) -> None:
         """Switch a damage case on (0: none), effective from the next step: NASA's GTM cases
@@ -734,45 +406,9 @@ class Plant:
         return [pm.get_node(p) for p in props], pm.get_node(surface.position)
 
     def _calibrate(self, surface: Surface) -> SurfaceDrive:
-        """Measure ``surface``'s command -> position on the model's own FCS (see
-        :class:`SurfaceDrive`)."""
-        fdm, pm = self.fdm, self._pm
-        nodes, pos_node = self._nodes_of(surface)
-        cmd0 = nodes[0].get_double_value()
-        pos0 = pos_node.get_double_value()
-        lo, hi = surface.command_range
-        grid = np.linspace(lo, hi, 401)
-        kinks = [cmd0]
-        if surface.trim_command is not None and pm.hasNode(surface.trim_command):
-            trim = float(fdm[surface.trim_command])
-            kinks = [-trim, 1.0 - trim, -1.0 - trim, cmd0]
-        kinks = np.array(kinks)
-        grid = np.unique(np.concatenate((grid, kinks[(kinks >= lo) & (kinks <= hi)])))
-        setters = [n.set_double_value for n in nodes]
-        get_pos, run = pos_node.get_double_value, fdm.run
-
-        def position_at(cmd: float) -> float:
-            for write in setters:
-                write(cmd)
-            run()  # integration suspended: evaluates the FCS only
-            return get_pos()
-
-        time0 = fdm.get_sim_time()
-        fdm.suspend_integration()
-        try:
-            position = np.array([position_at(c) for c in grid])
-            back = position_at(cmd0)
-        finally:
-            fdm.resume_integration()
-            fdm.set_sim_time(time0)
-        if not math.isclose(back, pos0, rel_tol=0, abs_tol=1e-12):
-            raise RuntimeError(f"{surface.name} calibration changed the trimmed position")
-        if position[-1] < position[0]:
-            grid, position = grid[::-1], position[::-1]
-        keep = np.concatenate(([True], np.diff(position) > 0))
-        if keep.sum() < 2:
-            raise ValueError(f"no command moves the {surface.name} of {self.model}")
-        return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, grid[keep], position[keep])
+        """Measure ``surface``'s command -> position on the model's own FCS
+        (:func:`probing.sim.drive.calibrate`)."""
+        return calibrate(self.fdm, surface, *self._nodes_of(surface), self.model)
 
     # ----------------------------------------------------------------- step
     def channel_nodes(self, channels: list[str]) -> list:
@@ -925,24 +561,6 @@ class Plant:
         self.fdm.set_dt(self.dt_s)
         return result
 
-    def actuator_pulse_response(
-        self, n_steps: int = 200, height: float = 1e-3, surface: str = DEFAULT_SURFACE
-    ) -> np.ndarray:
-        """The realised surface after each step for a one-step pulse of the asked position,
-        per unit asked (1 at step 0 and 0 after for a surface without actuator dynamics; the
-        GTM's 5 Hz servos spread it over about 0.2 s).
-
-        The pulse is small (``height``, in the surface's unit) so a rate limit does not act.
-        The plant is stepped: use it for nothing else afterwards.
-        """
-        drive = self.drive(surface)
-        position = np.full(n_steps, drive.trim_position)
-        position[0] += height
-        out = np.empty((n_steps, 0))
-        realised = np.empty(n_steps)
-        self.step(drive.command(position), [], out, realised, drive)
-        return (realised - drive.trim_position) / height
-
 
 def _calibration(surface: str, plant: Plant) -> tuple[float, float, np.ndarray, np.ndarray]:
     """The trimmed position and command and the map of ``surface`` on ``plant`` (calibrated
@@ -979,39 +597,3 @@ def trim_flight(plant: Plant, flight: Flight) -> TrimResult:
         if flight.trimmed_damage not in SYMMETRIC_DAMAGE or flight.bank_deg:
             raise
         return plant.trim(flight.altitude_ft, **speed, **angles, longitudinal=True)
-
-
-def _one_speed(
-    speed_kcas: float | None,
-    speed_ktas: float | None,
-    speed_keas: float | None,
-    mach: float | None,
-) -> tuple[str, float]:
-    """The one speed given to :meth:`Plant.trim`: its kind and value."""
-    speeds = {"speed_kcas": speed_kcas, "speed_ktas": speed_ktas, "speed_keas": speed_keas}
-    speeds["mach"] = mach
-    given = {k: v for k, v in speeds.items() if v is not None}
-    if len(given) != 1:
-        raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
-    ((kind, speed),) = given.items()
-    return kind, speed
-
-
-def _turn_trim_start(
-    fdm: Any, start: TurnState, controls: tuple[str, ...]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The start of the zero-sideslip turn trim (alpha, turn rate, the controls, throttle
-    from JSBSim's turn trim) and its bounds."""
-    x0 = np.array(
-        [
-            math.radians(start.alpha_deg),
-            math.radians(start.turn_rate_deg_s),
-            *(float(fdm[prop]) for prop in controls),
-            start.throttle_norm,
-        ]
-    )
-    # alpha within +-90 deg, the turn rate within +-180 deg/s, the commands within range
-    upper = np.array([math.pi / 2, math.pi, 1.0, 1.0, 1.0, 1.0])
-    lower = -upper
-    lower[-1] = 0.0  # throttle 0..1
-    return x0, lower, upper

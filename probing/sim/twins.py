@@ -38,7 +38,9 @@ from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.sim import aircraft as _aircraft_module
 from probing.sim import channels as _channels_module
 from probing.sim import control as _control_module
+from probing.sim import drive as _drive_module
 from probing.sim import plant as _plant_module
+from probing.sim import turn_trim as _turn_trim_module
 from probing.sim.aircraft import cache_dir
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
@@ -74,9 +76,17 @@ def twin_cache_dir() -> Path:
 @functools.cache
 def _source_digest() -> str:
     """SHA-256 of the code that defines the twin's numbers: the plant (trim, stepping), the
-    aircraft's sanitising, the channel table, the autopilot and this module."""
+    aircraft's sanitising, the channel table, the surface drive, the turn trim, the autopilot
+    and this module."""
     digest = hashlib.sha256()
-    modules = (_aircraft_module, _channels_module, _plant_module, _control_module)
+    modules = (
+        _aircraft_module,
+        _channels_module,
+        _plant_module,
+        _drive_module,
+        _turn_trim_module,
+        _control_module,
+    )
     for path in (*(Path(m.__file__) for m in modules), Path(__file__)):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
