@@ -53,8 +53,8 @@ MUTATIONS = [
     ),
     (
         "probing/sim/plant.py",
-        "round(flight.damage_onset_s / self.dt_s))",
-        "round(flight.damage_onset_s / self.dt_s) + 1)",
+        "onset_step(flight.damage_onset_s, self.dt_s))",
+        "onset_step(flight.damage_onset_s, self.dt_s) + 1)",
         "tests/sim/test_plant.py::test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset",
     ),
     (

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from probing.core.faults import FAULTS, FaultType, onset_step
+from probing.core.faults import FAULTS, FaultType
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
@@ -211,11 +211,6 @@ class Scenario:
         return self.fault_kind.build(self.fault_onset_s, self.fault_values)
 
     @property
-    def fault_onset_step(self) -> int:
-        """The first step the fault acts in (the step that starts at ``fault_onset_s``)."""
-        return onset_step(self.fault_onset_s, self.dt_s)
-
-    @property
     def actuator_fault(self) -> ActuatorFault | None:
         """The probed surface's actuator fault (``effectiveness``, ``stuck``), or None."""
         return self.build_fault("actuator")
@@ -244,7 +239,7 @@ class Scenario:
     def stepped_one_by_one(self) -> bool:
         """True if the run steps one step at a time (:class:`probing.sim.control.ClosedLoop`):
         an autopilot or an actuator fault acts between the probe and the surface."""
-        return self.flight.closed_loop or self.actuator_fault is not None
+        return self.flight.closed_loop or self._fault_acts("actuator")
 
     def build_nonlinearity(self) -> Nonlinearity | None:
         """The scenario's nonlinearity (parameters in deg, deg/s), or None for ``none``."""

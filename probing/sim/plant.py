@@ -21,6 +21,7 @@ os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
 import numpy as np
 
+from probing.core.faults import onset_step
 from probing.core.forked import can_fork, forked_map
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
@@ -279,7 +280,7 @@ class Plant:
         self._steps = 0
         self._fault = None
         if flight.damage_onset_s is not None:
-            self._fault = (flight.damage_case, round(flight.damage_onset_s / self.dt_s))
+            self._fault = (flight.damage_case, onset_step(flight.damage_onset_s, self.dt_s))
 
     @property
     def steps_run(self) -> int:

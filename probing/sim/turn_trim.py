@@ -17,8 +17,6 @@ from probing.sim.surfaces import SURFACES
 
 __all__ = ["ACCELERATIONS", "TURN_TRIM_TOLERANCE", "TurnState", "TurnTrim", "trim_zero_sideslip"]
 
-ELEVATOR_POS_DEG = SURFACES["elevator"].position
-
 
 ACCELERATIONS = (
     ("accelerations/udot-ft_sec2", "udot_ft_s2"),
@@ -80,7 +78,7 @@ class TurnState:
             gamma_deg=float(fdm["flight-path/gamma-deg"]),
             speed_keas=float(fdm["velocities/ve-kts"]),
             turn_rate_deg_s=math.degrees(fdm["velocities/psidot-rad_sec"]),
-            elevator_deg=float(fdm[ELEVATOR_POS_DEG]),
+            elevator_deg=float(fdm[SURFACES["elevator"].position]),
             aileron_deg=float(fdm[SURFACES["aileron"].position]),
             rudder_deg=float(fdm[SURFACES["rudder"].position]),
             throttle_norm=float(fdm["fcs/throttle-cmd-norm[0]"]),
