@@ -14,8 +14,8 @@ baseline) points at the actuator side; a change of shape points at the airframe.
 2. **Baseline.**  The first ``baseline_periods`` periods B give the mean v0 and the sample
    covariance S (B - 1 degrees of freedom): learned from the flight itself, with nothing
    assumed about the noise but that periods are independent and Gaussian.
-3. **Detection.**  After every later period, the mean of the last n <= W periods (``window``
-   W; n grows to W after the baseline) is tested two ways:
+3. **Detection.**  After every later period, the mean of the last n <= W periods
+   (``window_periods`` W; n grows to W after the baseline) is tested two ways:
 
    * Hotelling's T^2 of d = mean(v) - v0, T^2 = d' S^-1 d / (1/n + 1/B), which under no
      change is exactly (B - 1) K / (B - K) F(K, B - K): any change;
@@ -48,7 +48,7 @@ baseline) points at the actuator side; a change of shape points at the airframe.
      inside the t interval of 0) has failed: nothing reaches the airframe, and the verdict is
      the actuator's.
 
-   ``shape_change`` is that statistic over its ``shape_alpha`` threshold: above 1 the
+   ``shape_change`` is that statistic over its ``shape_false_alarm`` threshold: above 1 the
    airframe changed beyond the noise.  An alarmed period is ``"airframe"`` if it did,
    ``"actuator"`` otherwise.
 
@@ -65,11 +65,19 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
-__all__ = ["ChangeDetector", "Decision", "MonitorSettings", "flight_verdict", "window_matrix"]
+__all__ = [
+    "ChangeDetector",
+    "Decision",
+    "MonitorSettings",
+    "SettingError",
+    "flight_verdict",
+    "window_matrix",
+]
 
 #: Smallest p-value reported (its -log10, 300, caps the statistic).
 _P_FLOOR = 1e-300
@@ -161,6 +169,141 @@ class _Hotelling:
         return n * k / (n - k + 1) * float(fdtri(k, n - k + 1, 1.0 - alpha))
 
 
+class SettingError(ValueError):
+    """A ``[monitor]`` setting out of its bounds, in one line.
+
+    Parameters
+    ----------
+    field : str
+        The setting's name (a field of :class:`MonitorSettings`).
+    message : str
+        What is allowed and what was given (``must be an integer from 3 to 64, got 2``).
+    """
+
+    def __init__(self, field: str, message: str) -> None:
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message}")
+
+
+class _Bound(NamedTuple):
+    """A setting's kind (``"integer"``, ``"number"`` or ``"bool"``) and range: from ``lo``
+    (excluded if ``lo_open``) to ``hi``, each None for no bound."""
+
+    kind: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+
+
+#: Every setting's bounds, checked by :class:`MonitorSettings` itself and nowhere else.
+#: ``baseline_periods`` is bounded by ``windows`` (more than ``windows + 1``, checked after
+#: the fields) and by the run's settled periods (checked where the run is known).
+_BOUNDS: dict[str, _Bound] = {
+    "baseline_periods": _Bound("integer"),
+    "false_alarms_per_hour": _Bound("number", 0.0, 1e6, lo_open=True),
+    "windows": _Bound("integer", 3, 64),  # gain, offset and at least one shape direction
+    "shape_false_alarm": _Bound("number", 0.0, 0.5, lo_open=True),
+    "verdict_periods": _Bound("integer", 1, 1000),
+    "window_periods": _Bound("integer", 1, 1000),
+    "surface": _Bound("bool"),
+}
+
+
+def _checked(name: str, value: object) -> object:
+    """``value`` if it is within setting ``name``'s bounds (a number as a float).
+
+    Raises
+    ------
+    SettingError
+        If it is not, or is not of the setting's kind (a bool is no integer or number).
+    """
+    bound = _BOUNDS[name]
+    if bound.kind == "bool":
+        if not isinstance(value, bool):
+            raise SettingError(name, f"must be true or false, got {value!r}")
+        return value
+    if bound.kind == "integer":
+        if bound.lo is None:
+            allowed = "an integer"
+        else:
+            allowed = f"an integer from {bound.lo} to {bound.hi}"
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SettingError(name, f"must be {allowed}, got {value!r}")
+        if bound.lo is not None and not bound.lo <= value <= bound.hi:
+            raise SettingError(name, f"must be {allowed}, got {value}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SettingError(name, f"must be a number, got {value!r}")
+    value = float(value)
+    above = value > bound.lo if bound.lo_open else value >= bound.lo
+    if not (math.isfinite(value) and above and value <= bound.hi):
+        lowest = f"> {bound.lo:g}" if bound.lo_open else f">= {bound.lo:g}"
+        raise SettingError(name, f"must be {lowest} and <= {bound.hi:g}, got {value:g}")
+    return value
+
+
+@dataclass(frozen=True)
+class MonitorSettings:
+    """The ``[monitor]`` section: how the detector learns and decides.
+
+    Attributes
+    ----------
+    baseline_periods : int
+        Settled periods learned as the baseline before testing.
+    false_alarms_per_hour : float
+        The false-alarm rate the thresholds are set for, alarms per flight hour (all
+        channels together: each gets an equal share).
+    windows : int
+        Tap windows K of the reduction.
+    shape_false_alarm : float
+        Probability that an unchanged shape is called changed (the isolation test's level).
+    verdict_periods : int
+        Periods, from a channel's first alarm on, that its isolation test rests on (the
+        channel's verdict once they are in).
+    window_periods : int
+        Periods averaged into each test (``probing design``'s settled periods for its
+        target).
+    surface : bool
+        Isolate with the measured elevator deflection (channel ``elevator_deg``, an
+        instrument, not monitored itself) instead of the gain-and-offset rule.
+
+    Raises
+    ------
+    SettingError
+        If a field is out of its bounds (:data:`_BOUNDS`: windows 3 to 64, probabilities and
+        rates above 0, shape_false_alarm up to 0.5, period counts from 1 to 1000, integers
+        that are ints and not bools, surface a bool), or the baseline is not more than
+        ``windows + 1`` periods (a covariance of the K windows with a degree of freedom to
+        spare).  Numbers are kept as floats.
+    """
+
+    baseline_periods: int = 50
+    false_alarms_per_hour: float = 0.1
+    windows: int = 6
+    shape_false_alarm: float = 0.01
+    verdict_periods: int = 3
+    window_periods: int = 1
+    surface: bool = False
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            object.__setattr__(self, f.name, _checked(f.name, getattr(self, f.name)))
+        if self.baseline_periods <= self.windows + 1:
+            raise SettingError(
+                "baseline_periods",
+                f"must be more than windows + 1 ({self.windows + 1}), got {self.baseline_periods}",
+            )
+
+    def alpha(self, period_s: float, channels: int) -> float:
+        """False-alarm probability per period and channel (the rate shared out equally)."""
+        return min(0.5, self.false_alarms_per_hour * period_s / 3600.0 / channels)
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain values, for metadata."""
+        return dataclasses.asdict(self)
+
+
 class ChangeDetector:
     """The detector of one channel (see the module docstring).
 
@@ -168,52 +311,34 @@ class ChangeDetector:
     ----------
     m : int
         Taps per period.
-    baseline_periods : int
-        Periods learned before testing (B > windows + 1).
+    settings : MonitorSettings
+        The ``[monitor]`` settings, valid by construction: ``baseline_periods`` B learned
+        before testing, ``windows`` K, ``window_periods`` W averaged into each test,
+        ``shape_false_alarm`` (the isolation test's level, kept as ``shape_alpha``),
+        ``verdict_periods`` (the periods after the first alarm that isolate, kept as
+        ``isolation_periods``) and ``surface`` (isolate with the surface's measured deflection,
+        ``update(h, surface)``, instead of the gain-and-offset rule).
     alpha : float
-        False-alarm probability per period (0 < alpha < 1).
-    windows : int
-        K, the number of tap windows (>= 3: gain, offset and at least one shape direction).
-    shape_alpha : float
-        Probability that an unchanged airframe is called changed.
-    window : int
-        W, the periods averaged into each test (1: every period alone).
-    surface : bool
-        Isolate with the surface's measured deflection (``update(h, surface)``) instead of
-        the gain-and-offset rule.
+        False-alarm probability per period (0 < alpha < 1; :meth:`MonitorSettings.alpha`).
+
+    Raises
+    ------
+    ValueError
+        If ``alpha`` is not in (0, 1), or there are more windows than taps.
     """
 
-    def __init__(
-        self,
-        m: int,
-        baseline_periods: int,
-        alpha: float,
-        windows: int = 6,
-        shape_alpha: float = 0.01,
-        window: int = 1,
-        surface: bool = False,
-        isolation_periods: int = 3,
-    ) -> None:
-        if isolation_periods < 1:
-            raise ValueError(f"isolation_periods must be >= 1, got {isolation_periods}")
-        if window < 1:
-            raise ValueError(f"window must be >= 1, got {window}")
-        if windows < 3:
-            raise ValueError(f"windows must be >= 3, got {windows}")
-        if baseline_periods <= windows + 1:
-            raise ValueError(
-                f"baseline_periods must exceed windows + 1 ({windows + 1}), got {baseline_periods}"
-            )
-        for name, p in (("alpha", alpha), ("shape_alpha", shape_alpha)):
-            if not 0.0 < p < 1.0:
-                raise ValueError(f"{name} must be in (0, 1), got {p}")
-        self.w = window_matrix(m, windows)
-        self.m, self.k, self.b = m, windows, baseline_periods
-        self.alpha, self.shape_alpha, self.surface = alpha, shape_alpha, surface
+    def __init__(self, m: int, settings: MonitorSettings, alpha: float) -> None:
+        if not 0.0 < alpha < 1.0:
+            raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+        self.settings = settings
+        self.w = window_matrix(m, settings.windows)
+        self.m, self.k, self.b = m, settings.windows, settings.baseline_periods
+        self.alpha, self.shape_alpha = alpha, settings.shape_false_alarm
+        self.surface = settings.surface
         self.threshold = -math.log10(alpha)
         self._baseline: list[tuple[np.ndarray, np.ndarray | None]] = []
         self._recent: collections.deque[tuple[np.ndarray, np.ndarray | None]] = collections.deque(
-            maxlen=window
+            maxlen=settings.window_periods
         )
         self._v: _Hotelling | None = None  # the channel's reduced estimates
         self._r: _Hotelling | None = None  # the airframe residuals (with the surface)
@@ -222,23 +347,27 @@ class ChangeDetector:
         #: the periods from the first alarm on, up to ``isolation_periods``: what isolates
         self._since_alarm: list[tuple[np.ndarray, np.ndarray | None]] = []
         self._alarmed = False
-        self.isolation_periods = isolation_periods
+        self.isolation_periods = settings.verdict_periods
 
     @classmethod
     def from_settings(cls, m: int, settings: MonitorSettings, alpha: float) -> ChangeDetector:
-        """The detector a ``[monitor]`` section describes (the one place its settings' names
-        meet the detector's), for a channel with false-alarm probability ``alpha`` per
-        period (:meth:`MonitorSettings.alpha`)."""
-        return cls(
-            m,
-            settings.baseline_periods,
-            alpha,
-            windows=settings.windows,
-            shape_alpha=settings.shape_false_alarm,
-            window=settings.window_periods,
-            surface=settings.surface,
-            isolation_periods=settings.verdict_periods,
-        )
+        """The detector a ``[monitor]`` section describes.
+
+        Parameters
+        ----------
+        m : int
+            Taps per period.
+        settings : MonitorSettings
+            The section's settings (checked when they were made).
+        alpha : float
+            The channel's false-alarm probability per period (:meth:`MonitorSettings.alpha`).
+
+        Returns
+        -------
+        ChangeDetector
+            The channel's detector, learning its baseline.
+        """
+        return cls(m, settings, alpha)
 
     @property
     def learning(self) -> bool:
@@ -372,49 +501,6 @@ class ChangeDetector:
             self._r = _Hotelling(residuals @ self.w.T)
             self._s = _Hotelling(ss @ self.w.T)
         self._baseline = []
-
-
-@dataclass(frozen=True)
-class MonitorSettings:
-    """The ``[monitor]`` section: how the detector learns and decides.
-
-    Attributes
-    ----------
-    baseline_periods : int
-        Settled periods learned as the baseline before testing.
-    false_alarms_per_hour : float
-        The false-alarm rate the thresholds are set for, alarms per flight hour (all
-        channels together: each gets an equal share).
-    windows : int
-        Tap windows K of the reduction.
-    shape_false_alarm : float
-        Probability that an unchanged shape is called changed (the isolation test's level).
-    verdict_periods : int
-        Periods, from a channel's first alarm on, that its isolation test rests on (the
-        channel's verdict once they are in).
-    window_periods : int
-        Periods averaged into each test (``probing design``'s settled periods for its
-        target).
-    surface : bool
-        Isolate with the measured elevator deflection (channel ``elevator_deg``, an
-        instrument, not monitored itself) instead of the gain-and-offset rule.
-    """
-
-    baseline_periods: int = 50
-    false_alarms_per_hour: float = 0.1
-    windows: int = 6
-    shape_false_alarm: float = 0.01
-    verdict_periods: int = 3
-    window_periods: int = 1
-    surface: bool = False
-
-    def alpha(self, period_s: float, channels: int) -> float:
-        """False-alarm probability per period and channel (the rate shared out equally)."""
-        return min(0.5, self.false_alarms_per_hour * period_s / 3600.0 / channels)
-
-    def to_dict(self) -> dict[str, float]:
-        """Plain values, for metadata."""
-        return dataclasses.asdict(self)
 
 
 def flight_verdict(verdicts: Sequence[str]) -> str:

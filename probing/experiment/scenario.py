@@ -232,7 +232,7 @@ class Scenario:
         if self.monitor is not None:
             return self.monitor
         settings = MonitorSettings()
-        _check_baseline(self, settings.windows, settings.baseline_periods, given=None)
+        _check_baseline(self, settings, given=None)
         return settings
 
     @property

@@ -12,7 +12,7 @@ import dataclasses
 from typing import Any
 
 from probing.core.faults import FAULTS
-from probing.core.monitor import MonitorSettings
+from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
@@ -160,12 +160,13 @@ def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
     return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
 
 
-def _check_baseline(scn: Any, windows: int, baseline: int, given: bool | None) -> None:
-    """A monitor's baseline must exceed ``windows + 1`` periods and leave one settled period
-    of the run to test.  ``given``: the section gave it (True), left it to its default
-    (False), or there is no ``[monitor]`` section at all (None)."""
+def _check_baseline(scn: Any, settings: MonitorSettings, given: bool | None) -> None:
+    """A monitor's baseline must leave one settled period of the run to test (its bound by
+    ``windows`` is :class:`MonitorSettings`' own).  ``given``: the section gave it (True),
+    left it to its default (False), or there is no ``[monitor]`` section at all (None)."""
+    windows, baseline = settings.windows, settings.baseline_periods
     settled = scn.periods - max(scn.settle_periods, scn.first_estimated_period)
-    if windows + 2 <= baseline < settled:
+    if baseline < settled:
         return
     what = f"{baseline}" if given else f"the default, {baseline},"
     missing = "" if given is not None else "the scenario has no [monitor] section, and "
@@ -177,44 +178,24 @@ def _check_baseline(scn: Any, windows: int, baseline: int, given: bool | None) -
 
 
 def _monitor(monitor: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
-    """The ``[monitor]`` section: the detector's settings, with a baseline that fits the run."""
+    """The ``[monitor]`` section: the detector's settings (each checked by
+    :class:`MonitorSettings` itself), with a baseline that fits the run and the surface's
+    channel among the outputs if it isolates."""
     if monitor is None:
         return {}
-    defaults = MonitorSettings()
-    values: dict[str, Any] = {}
-    if "windows" in monitor:
-        values["windows"] = _integer(monitor, "monitor", "windows", lo=3, hi=64)
-    windows = values.get("windows", defaults.windows)
-    if "baseline_periods" in monitor:
-        values["baseline_periods"] = _integer(
-            monitor, "monitor", "baseline_periods", lo=1, hi=MAX_PERIODS
+    try:
+        settings = MonitorSettings(**monitor)
+    except SettingError as exc:
+        default = "" if exc.field in monitor else " (the default)"
+        raise ScenarioError(f"monitor.{exc.field}", f"{exc.message}{default}") from None
+    _check_baseline(scn, settings, given="baseline_periods" in monitor)
+    channel = scn.surface_channel
+    if settings.surface and (channel not in scn.channels or len(scn.channels) < 2):
+        raise ScenarioError(
+            "monitor.surface",
+            f"needs {channel} and at least one other channel in output.channels",
         )
-    given = "baseline_periods" in monitor
-    _check_baseline(scn, windows, values.get("baseline_periods", defaults.baseline_periods), given)
-    if "false_alarms_per_hour" in monitor:
-        values["false_alarms_per_hour"] = _number(
-            monitor, "monitor", "false_alarms_per_hour", lo=0, hi=1e6, lo_open=True
-        )
-    if "shape_false_alarm" in monitor:
-        values["shape_false_alarm"] = _number(
-            monitor, "monitor", "shape_false_alarm", lo=0, hi=0.5, lo_open=True
-        )
-    for key in ("verdict_periods", "window_periods"):
-        if key in monitor:
-            values[key] = _integer(monitor, "monitor", key, lo=1, hi=1000)
-    if "surface" in monitor:
-        if not isinstance(monitor["surface"], bool):
-            raise ScenarioError(
-                "monitor.surface", f"must be true or false, got {monitor['surface']!r}"
-            )
-        channel = scn.surface_channel
-        if monitor["surface"] and (channel not in scn.channels or len(scn.channels) < 2):
-            raise ScenarioError(
-                "monitor.surface",
-                f"needs {channel} and at least one other channel in output.channels",
-            )
-        values["surface"] = monitor["surface"]
-    return {"monitor": MonitorSettings(**values)}
+    return {"monitor": settings}
 
 
 def _control(control: dict[str, Any] | None) -> dict[str, Any]:

@@ -11,15 +11,29 @@ import math
 import numpy as np
 import pytest
 
-from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict, window_matrix
+from probing.core.monitor import (
+    ChangeDetector,
+    MonitorSettings,
+    SettingError,
+    flight_verdict,
+    window_matrix,
+)
 
 M = 63
 H0 = np.exp(-np.arange(M) / 8.0) * np.sin(np.arange(M) / 3.0 + 0.5)  # a made-up response
 SIGMA = 0.05
 
 
-def _learned(rng: np.random.Generator, baseline: int = 30, **kwargs) -> ChangeDetector:
-    det = ChangeDetector(M, baseline, **kwargs)
+def _detector(alpha: float, **settings) -> ChangeDetector:
+    """A detector of M taps with ``alpha`` per period and the ``[monitor]`` ``settings``
+    (the defaults otherwise)."""
+    return ChangeDetector.from_settings(M, MonitorSettings(**settings), alpha)
+
+
+def _learned(
+    rng: np.random.Generator, alpha: float, baseline: int = 30, **kwargs
+) -> ChangeDetector:
+    det = _detector(alpha, baseline_periods=baseline, **kwargs)
     for _ in range(baseline):
         assert det.update(H0 + SIGMA * rng.standard_normal(M)).verdict == "none"
     assert not det.learning
@@ -33,7 +47,7 @@ def test_false_alarms_per_period_are_alpha(window):
     rng = np.random.default_rng(1)
     alpha, alarms, tests = 0.02, 0, 0
     for _ in range(400):
-        det = _learned(rng, alpha=alpha, windows=6, window=window)
+        det = _learned(rng, alpha, windows=6, window_periods=window)
         for _ in range(10):
             alarms += det.update(H0 + SIGMA * rng.standard_normal(M)).alarm
             tests += 1
@@ -50,7 +64,7 @@ def test_each_test_alone_is_exact_even_on_a_short_baseline(window):
     below = np.zeros(2)
     tests = 6000
     for _ in range(tests):
-        det = _learned(rng, baseline=8, alpha=0.01, windows=3, window=window)
+        det = _learned(rng, 0.01, baseline=8, windows=3, window_periods=window)
         mean = np.mean([H0 + SIGMA * rng.standard_normal(M) for _ in range(window)], axis=0)
         below += np.array(det._p_values(det.w @ mean, window)) < 0.05
     band = 3 * np.sqrt(0.05 * 0.95 / tests)
@@ -64,7 +78,7 @@ def test_a_gain_and_offset_keep_the_shape_test_at_its_level_and_the_gain_is_esti
     rng = np.random.default_rng(2)
     shape_alpha, calls, n, gains = 0.05, 0, 0, []
     for _ in range(1000):
-        det = _learned(rng, alpha=0.2, windows=6, shape_alpha=shape_alpha, isolation_periods=3)
+        det = _learned(rng, 0.2, windows=6, shape_false_alarm=shape_alpha, verdict_periods=3)
         while not det.isolated:
             d = det.update(0.8 * H0 + 0.004 + SIGMA * rng.standard_normal(M))
             gains.append(d.gain_change)
@@ -76,7 +90,7 @@ def test_a_gain_and_offset_keep_the_shape_test_at_its_level_and_the_gain_is_esti
 
 def test_a_shape_change_is_airframe_and_a_gain_change_actuator():
     rng = np.random.default_rng(3)
-    det = _learned(rng, alpha=1e-4)
+    det = _learned(rng, 1e-4)
     gain = det.update(0.5 * H0 + SIGMA * rng.standard_normal(M))
     assert (
         gain.alarm
@@ -89,7 +103,7 @@ def test_a_shape_change_is_airframe_and_a_gain_change_actuator():
 
 
 def test_an_exactly_repeating_baseline_does_not_break_the_detector():
-    det = ChangeDetector(M, 10, 0.01, windows=4)
+    det = _detector(0.01, baseline_periods=10, windows=4)
     for _ in range(10):
         det.update(H0)
     assert not det.update(H0).alarm  # a floor keeps S invertible
@@ -97,7 +111,7 @@ def test_an_exactly_repeating_baseline_does_not_break_the_detector():
 
 
 def test_unestimated_periods_are_skipped():
-    det = ChangeDetector(M, 10, 0.01, windows=4)
+    det = _detector(0.01, baseline_periods=10, windows=4)
     d = det.update(np.full(M, np.nan))
     assert d.verdict == "none" and np.isnan(d.statistic) and det.learning
 
@@ -110,19 +124,15 @@ def test_window_matrix_sums_growing_windows_and_keeps_white_noise_white():
     assert np.all((w > 0).sum(axis=0) == 1)  # every tap in exactly one window
 
 
-@pytest.mark.parametrize(
-    ("kwargs", "message"),
-    [
-        ({"windows": 2}, "windows"),
-        ({"baseline_periods": 7, "windows": 6}, "baseline_periods"),
-        ({"alpha": 0.0}, "alpha"),
-        ({"window": 0}, "window"),
-    ],
-)
-def test_bad_settings_are_refused(kwargs, message):
-    args = {"m": M, "baseline_periods": 30, "alpha": 0.01} | kwargs
-    with pytest.raises(ValueError, match=message):
-        ChangeDetector(**args)
+@pytest.mark.parametrize("alpha", [0.0, 1.0, -0.1])
+def test_an_alpha_outside_zero_to_one_is_refused(alpha):
+    """alpha, computed from the rate and not a setting, is the detector's one check."""
+    with pytest.raises(ValueError, match="alpha"):
+        _detector(alpha)
+
+
+def test_an_alpha_just_below_one_is_accepted():
+    assert _detector(0.999).learning
 
 
 def test_alpha_shares_the_rate_out_per_period_and_channel():
@@ -151,9 +161,9 @@ SLOW = np.exp(-np.arange(M) / 16.0) * np.sin(np.arange(M) / 3.0 + 0.5)  # dampin
 
 
 def _isolating(
-    rng: np.random.Generator, baseline: int = 40, sigma: float = SIGMA, **kwargs
+    rng: np.random.Generator, alpha: float, baseline: int = 40, sigma: float = SIGMA, **kwargs
 ) -> ChangeDetector:
-    det = ChangeDetector(M, baseline, surface=True, **kwargs)
+    det = _detector(alpha, baseline_periods=baseline, surface=True, **kwargs)
     y, s = _closed_loop(H0, 1.0, 0.3)
     for _ in range(baseline):
         det.update(y + sigma * rng.standard_normal(M), s + sigma * rng.standard_normal(M))
@@ -168,22 +178,22 @@ def test_with_the_surface_a_weaker_actuator_in_closed_loop_is_an_actuator_fault(
     sigma = SIGMA / 5  # the closed loop hides much of an airframe change: a quieter sensor
     weak_y, weak_s = _closed_loop(H0, 0.5, 0.3)
     slow_y, slow_s = _closed_loop(SLOW, 1.0, 0.3)
-    shape_only = ChangeDetector(M, 40, 1e-4)
+    shape_only = _detector(1e-4, baseline_periods=40)
     y, _ = _closed_loop(H0, 1.0, 0.3)
     for _ in range(40):
         shape_only.update(y + sigma * rng.standard_normal(M))
     assert shape_only.update(weak_y + sigma * rng.standard_normal(M)).verdict == "airframe"
     verdicts = {"weak": [], "slow": []}
     for _ in range(20):
-        det = _isolating(rng, sigma=sigma, alpha=1e-4)
+        det = _isolating(rng, 1e-4, sigma=sigma)
         noise = sigma * rng.standard_normal((2, M))
         verdicts["weak"].append(det.update(weak_y + noise[0], weak_s + noise[1]).verdict)
-        det = _isolating(rng, sigma=sigma, alpha=1e-4)
+        det = _isolating(rng, 1e-4, sigma=sigma)
         verdicts["slow"].append(det.update(slow_y + noise[0], slow_s + noise[1]).verdict)
     assert verdicts["weak"].count("actuator") >= 19
     assert verdicts["slow"].count("airframe") == 20
     # a stuck surface answers the probe no more, and nothing then reaches the airframe
-    det = _isolating(rng, sigma=sigma, alpha=1e-4)
+    det = _isolating(rng, 1e-4, sigma=sigma)
     stuck = det.update(sigma * rng.standard_normal(M), sigma * rng.standard_normal(M))
     assert stuck.alarm and stuck.verdict == "actuator"
 
@@ -196,7 +206,7 @@ def test_the_surface_test_keeps_its_level_under_an_actuator_change():
     shape_alpha, calls, n = 0.05, 0, 0
     y, s = _closed_loop(H0, 0.7, 0.3)
     for _ in range(800):
-        det = _isolating(rng, alpha=0.2, shape_alpha=shape_alpha, isolation_periods=3)
+        det = _isolating(rng, 0.2, shape_false_alarm=shape_alpha, verdict_periods=3)
         while not det.isolated:
             d = det.update(y + SIGMA * rng.standard_normal(M), s + SIGMA * rng.standard_normal(M))
         calls += d.shape_change > 1.0
@@ -205,7 +215,7 @@ def test_the_surface_test_keeps_its_level_under_an_actuator_change():
 
 
 def test_a_surface_detector_needs_the_surface():
-    det = ChangeDetector(M, 10, 0.01, windows=4, surface=True)
+    det = _detector(0.01, baseline_periods=10, windows=4, surface=True)
     with pytest.raises(ValueError, match="surface"):
         det.update(H0)
 
@@ -218,7 +228,7 @@ def test_isolation_rests_on_exactly_the_periods_after_the_first_alarm():
     Truth: what was fed, period by period (a gain change keeps the shape, eqs. 10-12)."""
     rng = np.random.default_rng(11)
     sigma = SIGMA / 5
-    det = ChangeDetector(M, 30, 1e-4, isolation_periods=3)
+    det = _detector(1e-4, baseline_periods=30, verdict_periods=3)
     for _ in range(30):
         det.update(H0 + sigma * rng.standard_normal(M))
     first = det.update(0.5 * H0 + sigma * rng.standard_normal(M))
@@ -233,7 +243,7 @@ def test_isolation_rests_on_exactly_the_periods_after_the_first_alarm():
     assert later.shape_change == decided[-1].shape_change  # the same three periods
     assert later.verdict == "actuator"
     # the fourth period alone is a shape change: had it been averaged in, it would show
-    alone = ChangeDetector(M, 30, 1e-4, isolation_periods=3)
+    alone = _detector(1e-4, baseline_periods=30, verdict_periods=3)
     for _ in range(30):
         alone.update(H0 + sigma * rng.standard_normal(M))
     assert alone.update(SLOW + sigma * rng.standard_normal(M)).verdict == "airframe"
@@ -245,7 +255,7 @@ def test_isolation_leaves_out_the_alarmed_period_itself():
     the shape statistic that of the gain-changed period alone."""
     rng = np.random.default_rng(12)
     sigma = SIGMA / 5
-    det = ChangeDetector(M, 30, 1e-4, isolation_periods=1)
+    det = _detector(1e-4, baseline_periods=30, verdict_periods=1)
     for _ in range(30):
         det.update(H0 + sigma * rng.standard_normal(M))
     onset = det.update(SLOW + sigma * rng.standard_normal(M))
@@ -259,7 +269,13 @@ def _surface_detector(rng: np.random.Generator, shape_alpha: float) -> tuple:
     """A surface-isolating detector learned on 40 periods; the baseline's reduced surface
     responses, computed here (mean and covariance by numpy)."""
     baseline, windows = 40, 6
-    det = ChangeDetector(M, baseline, 1e-3, windows=windows, shape_alpha=shape_alpha, surface=True)
+    det = _detector(
+        1e-3,
+        baseline_periods=baseline,
+        windows=windows,
+        shape_false_alarm=shape_alpha,
+        surface=True,
+    )
     y, s = _closed_loop(H0, 1.0, 0.3)
     ss = s + SIGMA * rng.standard_normal((baseline, M))
     for row in ss:
@@ -299,28 +315,94 @@ def test_a_surface_is_lost_inside_the_two_sided_t_interval_of_zero(t_ratio, lost
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "message"),
+    ("settings", "field"),
     [
-        ({"windows": 3, "baseline_periods": 5}, None),  # the least: windows + 2 periods
-        ({"windows": 3, "baseline_periods": 4}, "baseline_periods"),
-        ({"isolation_periods": 1}, None),
-        ({"isolation_periods": 0}, "isolation_periods"),
-        ({"window": 1}, None),
-        ({"alpha": 1.0}, "alpha"),
-        ({"alpha": 0.999}, None),
-        ({"shape_alpha": 0.0}, "shape_alpha"),
-        ({"shape_alpha": 1.0}, "shape_alpha"),
+        ({"windows": 2}, "windows"),  # gain, offset and one shape direction need 3
+        ({"windows": 3, "baseline_periods": 5}, None),
+        ({"windows": 64, "baseline_periods": 66}, None),
+        ({"windows": 65, "baseline_periods": 67}, "windows"),
+        ({"windows": 3, "baseline_periods": 4}, "baseline_periods"),  # == windows + 1
+        ({"windows": 6, "baseline_periods": 7}, "baseline_periods"),
+        ({"windows": 6, "baseline_periods": 8}, None),  # the least: windows + 2
+        ({"baseline_periods": 0}, "baseline_periods"),
+        ({"false_alarms_per_hour": 0.0}, "false_alarms_per_hour"),
+        ({"false_alarms_per_hour": -1}, "false_alarms_per_hour"),
+        ({"false_alarms_per_hour": 1e-12}, None),
+        ({"false_alarms_per_hour": 1e6}, None),
+        ({"false_alarms_per_hour": 1.000001e6}, "false_alarms_per_hour"),
+        ({"false_alarms_per_hour": math.inf}, "false_alarms_per_hour"),
+        ({"false_alarms_per_hour": math.nan}, "false_alarms_per_hour"),
+        ({"shape_false_alarm": 0.0}, "shape_false_alarm"),
+        ({"shape_false_alarm": 1e-12}, None),
+        ({"shape_false_alarm": 0.5}, None),
+        ({"shape_false_alarm": 0.5000001}, "shape_false_alarm"),
+        ({"verdict_periods": 0}, "verdict_periods"),
+        ({"verdict_periods": 1}, None),
+        ({"verdict_periods": 1000}, None),
+        ({"verdict_periods": 1001}, "verdict_periods"),
+        ({"window_periods": 0}, "window_periods"),
+        ({"window_periods": 1}, None),
+        ({"window_periods": 1000}, None),
+        ({"window_periods": 1001}, "window_periods"),
     ],
 )
-def test_settings_on_either_side_of_their_bounds(kwargs, message):
-    """The least baseline (windows + 2), one isolation period, one period per test and an
-    alpha just below 1 are accepted; one fewer, none, and probabilities of 0 or 1 are not."""
-    args = {"m": M, "baseline_periods": 30, "alpha": 0.01} | kwargs
-    if message is None:
-        assert ChangeDetector(**args).learning
+def test_each_setting_on_either_side_of_its_bounds(settings, field):
+    """Each bound lives in MonitorSettings: the value on its edge (or the least above an
+    open one) is accepted, the next one out refused with a SettingError naming the field."""
+    if field is None:
+        made = MonitorSettings(**settings)
+        assert all(getattr(made, k) == v for k, v in settings.items())
     else:
-        with pytest.raises(ValueError, match=message):
-            ChangeDetector(**args)
+        with pytest.raises(SettingError) as info:
+            MonitorSettings(**settings)
+        assert info.value.field == field
+        assert isinstance(info.value, ValueError)
+        assert str(info.value).startswith(f"{field}: must be ")
+        assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("settings", "field"),
+    [
+        ({"windows": True}, "windows"),
+        ({"baseline_periods": True}, "baseline_periods"),
+        ({"verdict_periods": False}, "verdict_periods"),
+        ({"window_periods": 2.0}, "window_periods"),
+        ({"windows": "6"}, "windows"),
+        ({"false_alarms_per_hour": True}, "false_alarms_per_hour"),
+        ({"shape_false_alarm": "0.01"}, "shape_false_alarm"),
+        ({"surface": 1}, "surface"),
+        ({"surface": "true"}, "surface"),
+    ],
+)
+def test_a_setting_of_the_wrong_kind_is_refused(settings, field):
+    """Integers are ints (a bool or a float is not one), numbers are not bools or strings,
+    surface is a bool."""
+    with pytest.raises(SettingError) as info:
+        MonitorSettings(**settings)
+    assert info.value.field == field
+
+
+def test_the_messages_say_what_is_allowed_and_what_was_given():
+    cases = {
+        "windows": ({"windows": 2}, "must be an integer from 3 to 64, got 2"),
+        "baseline_periods": (
+            {"windows": 6, "baseline_periods": 7},
+            "must be more than windows + 1 (7), got 7",
+        ),
+        "shape_false_alarm": ({"shape_false_alarm": 0.6}, "must be > 0 and <= 0.5, got 0.6"),
+        "surface": ({"surface": "yes"}, "must be true or false, got 'yes'"),
+    }
+    for field, (settings, message) in cases.items():
+        with pytest.raises(SettingError) as info:
+            MonitorSettings(**settings)
+        assert (info.value.field, info.value.message) == (field, message)
+
+
+def test_numbers_are_kept_as_floats():
+    """A whole rate (TOML's ``1``) is the float 1.0, as the metadata has always had it."""
+    made = MonitorSettings(false_alarms_per_hour=1)
+    assert type(made.false_alarms_per_hour) is float and made.false_alarms_per_hour == 1.0
 
 
 def test_the_false_alarm_probability_per_period_is_capped_at_a_half():

@@ -412,6 +412,63 @@ def test_a_monitor_baseline_fits_between_its_windows_and_the_settled_periods(
         assert info.value.field == "monitor.baseline_periods"
 
 
+@pytest.mark.parametrize(
+    ("monitor", "field", "message"),
+    [
+        ({"windows": 2}, "windows", "must be an integer from 3 to 64, got 2"),
+        ({"windows": 65}, "windows", "must be an integer from 3 to 64, got 65"),
+        ({"windows": True}, "windows", "must be an integer from 3 to 64, got True"),
+        (
+            {"windows": 3, "baseline_periods": 4},
+            "baseline_periods",
+            "must be more than windows + 1 (4), got 4",
+        ),
+        (
+            {"windows": 60},
+            "baseline_periods",
+            "must be more than windows + 1 (61), got 50 (the default)",
+        ),
+        ({"false_alarms_per_hour": 0}, "false_alarms_per_hour", "must be > 0 and <= 1e+06, got 0"),
+        (
+            {"shape_false_alarm": 0.5000001},
+            "shape_false_alarm",
+            "must be > 0 and <= 0.5, got 0.5",
+        ),
+        ({"verdict_periods": 0}, "verdict_periods", "must be an integer from 1 to 1000, got 0"),
+        ({"window_periods": 1001}, "window_periods", "must be an integer from 1 to 1000, got 1001"),
+        ({"surface": "yes"}, "surface", "must be true or false, got 'yes'"),
+        (  # what needs the run: a baseline that leaves a settled period to test
+            {"windows": 3, "baseline_periods": 6},
+            "baseline_periods",
+            "must be more than windows + 1 (4) and fewer than the run's 6 settled periods; "
+            "6 is not",
+        ),
+    ],
+)
+def test_a_bad_monitor_setting_is_one_line_naming_its_field(
+    monitor: dict, field: str, message: str
+) -> None:
+    """The bounds are MonitorSettings' own; the scenario turns its SettingError into a
+    ScenarioError naming ``monitor.<field>``, in one line, and adds what needs the run."""
+    from conftest import base_scenario
+
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(base_scenario(monitor=monitor))  # 8 periods, 2 settling
+    assert info.value.field == f"monitor.{field}"
+    assert str(info.value) == f"monitor.{field}: {message}"
+
+
+def test_a_monitor_on_the_surface_needs_its_channel_in_the_outputs() -> None:
+    from conftest import base_scenario
+
+    data = base_scenario(monitor={"windows": 3, "baseline_periods": 5, "surface": True})
+    with pytest.raises(ScenarioError, match="needs elevator_deg") as info:
+        parse_scenario(data)
+    assert info.value.field == "monitor.surface"
+    data["output"]["channels"].append("elevator_deg")
+    assert parse_scenario(data).monitor.surface is True
+
+
 def test_the_scenarios_probe_is_built_once_and_follows_replace() -> None:
     """scn.probe is the [probe] section's Probe (built once); a replaced scenario has its
     own; steps per bit and the period come from it."""
