@@ -116,6 +116,10 @@ def _cmd_truth(args: argparse.Namespace) -> int:
 def _cmd_monitor(args: argparse.Namespace) -> int:
     from probing.experiment.scenario import ScenarioError
 
+    if (args.scenario is None) == (args.replay is None):
+        raise UsageError("monitor: give a scenario, or --replay LOG (not both)")
+    if args.replay is not None:
+        return _replay(args)
     scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
     try:
         scn.monitor_settings()
@@ -127,10 +131,31 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         from probing.experiment.monitor import monitor_scenario
 
         result = monitor_scenario(scn, args.out, timeseries=args.timeseries)
-        print(f"{scn.name}: {result.line()} -> {result.run.out_dir / 'monitor.parquet'}")
+        print(f"{scn.name}: {result.line()} -> {result.out_dir / 'monitor.parquet'}")
         return 0
 
     return _simulating(job, str(args.scenario))
+
+
+def _replay(args: argparse.Namespace) -> int:
+    """``probing monitor --replay LOG``: the monitor recomputed from a flight's log."""
+    from probing.experiment.monitor import ReplayError, logged_scenario, replay_monitor
+    from probing.experiment.storage import StoredFileError, read_footer
+
+    if args.timeseries:
+        raise UsageError("monitor --replay: a log has no timeseries to write")
+    try:
+        scn, _ = logged_scenario(args.replay, read_footer(args.replay))
+    except (ReplayError, StoredFileError) as exc:
+        raise UsageError(str(exc)) from None
+    _run_folder(args.out, scn)
+
+    def job() -> int:
+        result = replay_monitor(args.replay, args.out)
+        print(f"{scn.name} (replayed): {result.line()} -> {result.out_dir / 'monitor.parquet'}")
+        return 0
+
+    return _simulating(job, str(args.replay))
 
 
 def register(sub: Subcommands) -> None:
@@ -159,7 +184,18 @@ def register(sub: Subcommands) -> None:
         "fly a scenario probing continuously; after every period a change detector writes "
         "monitor.parquet (docs/monitoring.md)",
     )
-    _scenario_arguments(monitor)
+    monitor.add_argument(
+        "scenario", type=_path, nargs="?", help="scenario TOML file (docs/scenarios.md)"
+    )
+    monitor.add_argument(
+        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )
+    monitor.add_argument(
+        "--replay",
+        type=_path,
+        metavar="LOG",
+        help="recompute the monitor from a flight's sensors.parquet alone (no scenario)",
+    )
     monitor.add_argument(
         "--timeseries", action="store_true", help="also write timeseries.parquet (large)"
     )

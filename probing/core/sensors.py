@@ -243,6 +243,11 @@ class Sensor:
             held = math.floor(held / self._quantum) * self._quantum
         self._held = held
 
+    @property
+    def output(self) -> float:
+        """The measurement held now (after :meth:`reset`: the noise-free one of its value)."""
+        return self._held
+
     def step(self, value: float, noise: float) -> float:
         """One simulation step: the measurement of the true value ``value`` after the step.
 

@@ -17,6 +17,7 @@ from probing.sim.channels import unit_of
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
+    "AUTOPILOT_COLUMNS",
     "CHANNEL_UNIT",
     "MANOEUVRE_SCHEMA",
     "MONITOR_SCHEMA",
@@ -29,6 +30,7 @@ __all__ = [
     "OutputFile",
     "field",
     "probing_block",
+    "sensors_schema",
     "timeseries_schema",
     "units",
 ]
@@ -110,6 +112,33 @@ def timeseries_schema(
     return pa.schema(fields)
 
 
+#: The autopilot's commands a flight records (``sensors.parquet``): the elevator's from trim
+#: (before the probe), the aileron's and every engine's throttle (normalised, absolute).
+AUTOPILOT_COLUMNS = ("autopilot_elevator_deg", "autopilot_aileron_norm", "autopilot_throttle_norm")
+
+
+def sensors_schema(
+    channels: Sequence[str], autopilot: bool, surface: str = DEFAULT_SURFACE
+) -> pa.Schema:
+    """``sensors.parquet``: what the flight computer recorded, one row per simulation step:
+    the probe it injected (the probed surface's unit), with ``autopilot`` the autopilot's
+    commands (:data:`AUTOPILOT_COLUMNS`), and every sensor's measurement under its channel
+    name, in the channel's unit.  Nothing of the simulation's truth."""
+    u = SURFACES[surface].unit
+    fields = [
+        field("time_s", pa.float64(), "s", "time after trim, at the end of the step"),
+        field(f"probe_{u}", pa.float64(), u, "the probe injected, a sigma, relative to trim"),
+    ]
+    if autopilot:
+        fields += [
+            field(AUTOPILOT_COLUMNS[0], pa.float64(), "deg", "the autopilot's elevator, from trim"),
+            field(AUTOPILOT_COLUMNS[1], pa.float64(), "1", "the autopilot's aileron command"),
+            field(AUTOPILOT_COLUMNS[2], pa.float64(), "1", "the autopilot's throttle command"),
+        ]
+    fields += [field(c, pa.float64(), unit_of(c), "measured by its sensor") for c in channels]
+    return pa.schema(fields)
+
+
 MANOEUVRE_SCHEMA = pa.schema(
     [
         field("channel", pa.string(), "", "output channel (its name carries its unit)"),
@@ -182,6 +211,13 @@ OUTPUT_FILES: dict[str, OutputFile] = {
             "timeseries.parquet",
             "the run step by step: probe, nonlinearity output, realised surface, measured "
             "outputs (sensor noise added) and the unprobed twin's outputs",
+            None,
+        ),
+        OutputFile(
+            "sensors.parquet",
+            "what the flight computer recorded, step by step: the probe it injected, the "
+            "autopilot's commands and every sensor's measurement; probing monitor --replay "
+            "recomputes the monitor from it alone",
             None,
         ),
         OutputFile(

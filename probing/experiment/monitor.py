@@ -13,19 +13,33 @@ metadata the first alarm and the flight's verdict (``docs/monitoring.md``).
 
 from __future__ import annotations
 
+import json
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
 import numpy as np
+import pyarrow.parquet as pq
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
-from probing.experiment.run import RunResult, run_scenario
-from probing.experiment.scenario import Scenario
-from probing.experiment.storage import MONITOR_SCHEMA, AtomicParquetWriter, OutputFolder, metadata
+from probing.experiment.onboard import Onboard, open_reference_twin, reference_source
+from probing.experiment.progress import progress_bar
+from probing.experiment.run import CHUNK_STEPS, RunResult, run_scenario
+from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
+from probing.experiment.storage import (
+    MONITOR_SCHEMA,
+    AtomicParquetWriter,
+    OutputFolder,
+    metadata,
+    output_folder,
+    probing_block,
+    read_footer,
+    read_schema,
+)
 from probing.sim.fork import TrimmedAircraft
 
-__all__ = ["MonitorResult", "monitor_scenario"]
+__all__ = ["MonitorResult", "ReplayError", "logged_scenario", "monitor_scenario", "replay_monitor"]
 
 
 @dataclass
@@ -34,8 +48,8 @@ class MonitorResult:
 
     Attributes
     ----------
-    run : RunResult
-        The flight's run.
+    run : RunResult or None
+        The flight's run (None for a replay of its log).
     first_alarm_s : float or None
         Time after the trim of the end of the first alarmed period, s (None: no alarm).
     first_alarm_period : int or None
@@ -46,14 +60,17 @@ class MonitorResult:
         False-alarm probability per period and channel the thresholds are set for.
     ended : str or None
         Why the flight ended before its last period (a divergence), or None.
+    out_dir : pathlib.Path or None
+        The folder of ``monitor.parquet``.
     """
 
-    run: RunResult
+    run: RunResult | None
     first_alarm_s: float | None
     first_alarm_period: int | None
     verdict: str
     alpha: float
     ended: str | None = None
+    out_dir: Path | None = None
 
     def facts(self) -> dict[str, float | int | str | None]:
         """The result as plain JSON values (a sweep point's record)."""
@@ -151,14 +168,15 @@ class _Monitor:
         """The end of the first alarmed period after the trim, s."""
         return None if self.first_alarm is None else (self.first_alarm + 1) * self.period_s
 
-    def result(self, run: RunResult) -> MonitorResult:
+    def result(self, run: RunResult | None, out_dir: Path, ended: str | None) -> MonitorResult:
         return MonitorResult(
             run,
             self._first_alarm_s(),
             self.first_alarm,
             flight_verdict(self.verdicts),
             self.alpha,
-            run.ended,
+            ended,
+            out_dir,
         )
 
 
@@ -208,5 +226,107 @@ def monitor_scenario(
         timeseries=timeseries,
         nominal_twin=True,
         stop_on_divergence=True,
+        record=True,
     )
-    return monitor.result(run)
+    return monitor.result(run, run.out_dir, run.ended)
+
+
+class ReplayError(ValueError):
+    """A log that cannot be replayed; the message names it and why."""
+
+
+#: The metadata of a log that belongs to the log alone, not to what is computed from it.
+_LOG_ONLY = (b"probing.description", b"probing.units", b"probing.trim_measured")
+
+
+def replay_monitor(
+    log: str | Path,
+    out: str | Path,
+    *,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+    folder: str | Path | None = None,
+    twin_cache: bool = True,
+) -> MonitorResult:
+    """Recompute a monitored flight's ``monitor.parquet`` and ``probing.parquet`` from its
+    log (``sensors.parquet``) alone, into ``out/<name>/`` (or ``folder``).
+
+    The log's own metadata gives the scenario and the sensors' reading of the trim; its
+    rows go through the same :class:`~probing.experiment.onboard.Onboard` and detectors,
+    in the same chunks, as the live flight's, so the tables are equal bit for bit.  An
+    ``oracle`` reference needs the simulated atmosphere: it is flown again from the
+    scenario (simulation only, as live).
+
+    Raises
+    ------
+    ReplayError
+        If the file is not a monitored flight's log, or its drift mode cannot be replayed
+        (``follow``: its twin flew alongside the aircraft).
+    probing.experiment.storage.StoredFileError
+        If the file cannot be read.
+    """
+    log = Path(log)
+    meta = read_footer(log)
+    scn, baseline = logged_scenario(log, meta)
+    settings = scn.monitor_settings()
+    monitor = _Monitor(scn, settings)
+    probe = scn.probe
+    m = probe.length
+    period_steps = m * probe.steps_per_bit(scn.dt_s)
+    chunk_periods = max(1, CHUNK_STEPS // period_steps)  # the live flight's chunks
+    folder = Path(folder) if folder is not None else Path(out) / scn.name
+    lag_s = np.arange(m) * probe.bit_duration_s
+    ended = meta.get(b"probing.ended")
+    kept = {k: v for k, v in meta.items() if k not in _LOG_ONLY}
+    twin = open_reference_twin(scn, nominal=True, use_cache=twin_cache)
+    with twin or nullcontext():
+        onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)
+        with output_folder(folder, kept) as outputs:
+            w_probe = outputs.writer("probing.parquet", list(scn.channels), scn.surface_unit)
+            monitor.open(outputs)
+            rows = pq.ParquetFile(log).iter_batches(batch_size=chunk_periods * period_steps)
+            with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
+                first = 0
+                for batch in rows:
+                    chunk = {c: batch.column(c).to_numpy() for c in batch.schema.names}
+                    count = batch.num_rows // period_steps
+                    est, _, _ = onboard.estimates(chunk, first)
+                    if est.periods.size:
+                        w_probe.write(
+                            probing_block(
+                                list(scn.channels), est.periods, lag_s, est.z, est.zeta, est.h
+                            )
+                        )
+                    monitor.update(est.periods, est.h, est.z)
+                    first += count
+                    bar.advance(count)
+            if ended is not None:
+                for writer in outputs.writers:
+                    writer.add_metadata({b"probing.ended": ended})
+            monitor.finish()
+    return monitor.result(None, folder, None if ended is None else ended.decode())
+
+
+def logged_scenario(log: Path, meta: dict[bytes, bytes]) -> tuple[Scenario, np.ndarray]:
+    """The scenario a log was flown with and the sensors' reading of the trim."""
+    resolved = meta.get(b"probing.scenario")
+    trim = meta.get(b"probing.trim_measured")
+    digest = meta.get(b"probing.scenario_digest")
+    if resolved is None or trim is None or digest is None:
+        raise ReplayError(f"{log}: not the sensors.parquet of a monitored flight")
+    try:
+        scn = parse_scenario(json.loads(resolved), source=str(log))
+    except (ScenarioError, ValueError) as exc:
+        raise ReplayError(f"{log}: its scenario: {exc}") from None
+    if scn.digest() != digest.decode():
+        raise ReplayError(f"{log}: its scenario does not match its digest")
+    if scn.drift == "follow":
+        raise ReplayError(
+            f"{log}: drift follow flew its twin alongside the aircraft; it cannot be replayed"
+        )
+    names = set(read_schema(log).names)
+    missing = [c for c in scn.channels if c not in names]
+    if missing:
+        raise ReplayError(f"{log}: no column {', '.join(missing)}")
+    measured = json.loads(trim)
+    return scn, np.array([measured[c] for c in scn.channels], dtype=float)

@@ -30,7 +30,13 @@ import numpy as np
 from probing.core.faults import onset_step
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
-from probing.experiment.drift import drift_correction
+from probing.experiment.layouts import AUTOPILOT_COLUMNS, sensors_schema
+from probing.experiment.onboard import (
+    Onboard,
+    calm_nominal,
+    open_reference_twin,
+    reference_source,
+)
 from probing.experiment.progress import progress_bar
 from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
@@ -48,8 +54,9 @@ from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, SurfaceDrive, TrimResult, make_plant
+from probing.sim.sensing import Sensing
 from probing.sim.surfaces import SURFACES
-from probing.sim.twins import ReferenceTwin, open_twin
+from probing.sim.twins import ReferenceTwin
 
 __all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
 
@@ -133,6 +140,7 @@ class _Rig:
     follower: ClosedLoop | None = None  # drift "follow": the nominal twin flying our commands
     follower_nodes: list | None = None
     periods_flown: int = 0
+    sensing: Sensing | None = None  # the aircraft's sensors ([sensors]): what it measures
 
     @classmethod
     def build(
@@ -146,22 +154,31 @@ class _Rig:
         flight = scn.flight
         power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
-        loop = None
-        if scn.stepped_one_by_one:
+        loop = sensing = None
+        suite = getattr(scn, "sensors", None)
+        if suite is not None:
+            sensing = Sensing(plant, suite, scn.seed, scn.build_fault("sensor"))
+        if scn.stepped_one_by_one or sensing is not None:
             loop = ClosedLoop(
-                plant, scn.control or Control(), power, scn.actuator_fault, scn.surface
+                plant,
+                scn.control or Control(),
+                power,
+                scn.actuator_fault,
+                scn.surface,
+                sensing=sensing,
             )
         nodes = plant.channel_nodes(list(scn.channels))
-        y_trim = np.array([n.get_double_value() for n in nodes])
-        twin = None
-        if scn.uses_twin:
-            twin_flight = flight.nominal if nominal_twin else flight
-            twin = open_twin(twin_flight, scn.channels, scn.total_steps, use_cache=twin_cache)
+        if sensing is not None:  # the sensors' reading of the trim
+            y_trim = np.array([sensing.current[sensing.index(c)] for c in scn.channels])
+        else:
+            y_trim = np.array([n.get_double_value() for n in nodes])
+        twin = open_reference_twin(scn, nominal=nominal_twin, use_cache=twin_cache)
         follower = follower_nodes = None
         if scn.follows:
             try:
-                second = aircraft.second_for(flight) if aircraft else None
-                second = second or make_plant(flight.nominal)
+                calm = calm_nominal(flight)  # a model flying our commands knows no gusts
+                second = aircraft.second_for(calm) if aircraft else None
+                second = second or make_plant(calm)
             except BaseException:
                 if twin is not None:
                     twin.close(success=False)  # its temporary file goes
@@ -182,6 +199,7 @@ class _Rig:
             nominal_twin,
             follower=follower,
             follower_nodes=follower_nodes,
+            sensing=sensing,
         )
 
     @property
@@ -233,13 +251,14 @@ class _Chunk:
     nl_out: np.ndarray  # (rows,) probe after the nonlinearity, the surface's unit
     surface: np.ndarray  # (rows,) realised position of the probed surface, its unit
     control: np.ndarray | None  # (rows,) the autopilot's command of the surface (closed loop)
-    measured: np.ndarray  # (rows, C) outputs with sensor noise
-    reference: np.ndarray | None  # (rows, C) the twin's outputs
+    log: dict[str, np.ndarray]  # what the flight computer recorded (sensors.parquet's rows)
+    flown_reference: np.ndarray | None  # (rows, C) the twin flying our commands ("follow")
 
 
 def _chunks(rig: _Rig) -> Iterator[_Chunk]:
-    """Step the plant (and twin) period by period, checking the state after each; yield the
-    periods in chunks of about :data:`CHUNK_STEPS` steps, sensor noise added."""
+    """Step the plant (and a twin flying our commands) period by period, checking the state
+    after each; yield the periods in chunks of about :data:`CHUNK_STEPS` steps with what the
+    flight computer recorded (sensor noise added)."""
     scn, n_steps = rig.scn, rig.period_steps
     n_ch = len(scn.channels)
     x_period = rig.probe.samples(scn.dt_s, 1)
@@ -251,7 +270,8 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     surface = np.empty(chunk * n_steps)
     nl_out = np.empty(chunk * n_steps)
     control = np.empty(chunk * n_steps) if rig.loop else None
-    commands = np.empty((chunk * n_steps, 3)) if rig.follower else None
+    commands = np.empty((chunk * n_steps, 3)) if rig.loop else None
+    sensed = np.empty((chunk * n_steps, len(rig.sensing.channels))) if rig.sensing else None
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
     sensor_fault = scn.build_fault("sensor")
@@ -269,8 +289,10 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             q = probe_path.apply(q, first + i)
             nl_out[span] = q
             if rig.loop:
-                flown = commands[span] if commands is not None else None
-                rig.loop.step(q, rig.nodes, out[span], surface[span], control[span], flown)
+                measured = sensed[span] if sensed is not None else None
+                rig.loop.step(
+                    q, rig.nodes, out[span], surface[span], control[span], commands[span], measured
+                )
             else:
                 cmd = drive.command(trim + q)
                 rig.plant.step(cmd, rig.nodes, out[span], surface[span], drive)
@@ -282,23 +304,47 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
                 rig.ended = str(exc)  # the periods before this one are kept
                 k, rows = i, i * n_steps
                 break
-            if rig.twin:
-                ref[span] = rig.twin.next(n_steps)
         if k == 0:
             return
         rig.periods_flown = first + k
-        measured = _measured(out[:rows], rng, sigma, sensor_fault, scn, first * n_steps)
+        if rig.sensing is not None:
+            recorded = dict(zip(rig.sensing.channels, sensed[:rows].T, strict=True))
+        else:
+            measured = _measured(out[:rows], rng, sigma, sensor_fault, scn, first * n_steps)
+            recorded = dict(zip(scn.channels, measured.T, strict=True))
         yield _Chunk(
             first,
             k,
             nl_out[:rows],
             surface[:rows],
             None if control is None else control[:rows],
-            measured,
-            ref[:rows] if rig.twin or rig.follower else None,
+            _log(scn, first * n_steps, x_period, k, commands, recorded, rows),
+            ref[:rows] if rig.follower else None,
         )
         if rig.ended:
             return
+
+
+def _log(
+    scn: Scenario,
+    first_step: int,
+    x_period: np.ndarray,
+    count: int,
+    commands: np.ndarray | None,
+    recorded: dict[str, np.ndarray],
+    rows: int,
+) -> dict[str, np.ndarray]:
+    """A chunk's rows of ``sensors.parquet`` (:func:`probing.experiment.layouts.sensors_schema`)."""
+    u = scn.surface_unit
+    log = {
+        "time_s": (first_step + np.arange(1, rows + 1)) * scn.dt_s,
+        f"probe_{u}": np.tile(x_period, count),
+    }
+    if commands is not None:
+        for j, name in enumerate(AUTOPILOT_COLUMNS):
+            log[name] = commands[:rows, j]
+    log.update(recorded)
+    return log
 
 
 def _measured(
@@ -431,6 +477,7 @@ def run_scenario(
     timeseries: bool = True,
     nominal_twin: bool = False,
     stop_on_divergence: bool = False,
+    record: bool = False,
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
 
@@ -469,6 +516,9 @@ def run_scenario(
         End the flight at a divergence of the probed aircraft and keep the periods flown
         before it (``RunResult.ended`` and the files' ``probing.ended`` say why), instead of
         raising and writing nothing: a monitored flight that departs is still a record.
+    record : bool
+        Also write ``sensors.parquet``, what the flight computer recorded (a monitored
+        flight's log, which ``probing monitor --replay`` reads).
 
     Returns
     -------
@@ -487,22 +537,24 @@ def run_scenario(
     with rig.twin or nullcontext():  # a simulated twin is stored, or dropped
         rig.stop_on_divergence = stop_on_divergence
         probe, channels = rig.probe, list(scn.channels)
-        m, spb = probe.length, probe.steps_per_bit(scn.dt_s)
-        drift = drift_correction(scn, probe, rig.chunk_periods * m)
+        m = probe.length
+        onboard = Onboard(scn, reference_source(scn, rig.twin), rig.y_trim, rig.chunk_periods * m)
         settled = SettledMean(channels, m, scn.settle_periods, keep_first=keep_settled)
         lag_s = np.arange(m) * probe.bit_duration_s
         folder = Path(folder) if folder is not None else Path(out) / scn.name
         x_period = probe.samples(scn.dt_s, 1)
-        with_reference = rig.twin is not None or rig.follower is not None
+        with_reference = rig.twin is not None or rig.follower is not None or scn.drift == "gust"
         ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
         with output_folder(folder, rig.metadata()) as outputs:
             w_probe, w_ts = _writers(outputs, scn, channels, ts_schema, timeseries)
+            w_log = _log_writer(outputs, rig) if record else None
             if observer is not None:
                 observer.open(outputs)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
                 for c in _chunks(rig):
-                    baseline = c.reference if c.reference is not None else rig.y_trim
-                    est = drift.estimates((c.measured - baseline)[spb - 1 :: spb], c.first)
+                    if w_log is not None:
+                        w_log.write(c.log)
+                    est, measured, reference = onboard.estimates(c.log, c.first, c.flown_reference)
                     if est.periods.size:
                         w_probe.write(
                             probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
@@ -511,7 +563,9 @@ def run_scenario(
                     if observer is not None:
                         observer.update(est.periods, est.h, est.z)
                     if w_ts is not None:
-                        w_ts.write(_timeseries_rows(c, x_period, rig.period_steps, scn, channels))
+                        w_ts.write(
+                            _timeseries_rows(c, measured, reference, x_period, scn, channels)
+                        )
                     bar.advance(c.count)
             if rig.ended:
                 for writer in outputs.writers:
@@ -535,6 +589,18 @@ def _writers(
     return w_probe, w_ts
 
 
+def _log_writer(outputs: OutputFolder, rig: _Rig) -> Any:
+    """The writer of ``sensors.parquet``, its footer holding the sensors' reading of the trim
+    (``probing.trim_measured``: the baseline of the drift modes without a model)."""
+    scn = rig.scn
+    channels = rig.sensing.channels if rig.sensing is not None else scn.channels
+    schema = sensors_schema(channels, rig.loop is not None, scn.surface)
+    writer = outputs.writer("sensors.parquet", channels, scn.surface_unit, schema=schema)
+    trim = dict(zip(scn.channels, rig.y_trim.tolist(), strict=True))
+    writer.add_metadata(metadata(trim_measured=trim))
+    return writer
+
+
 def _run_result(
     rig: _Rig, folder: Path, settled: SettledMean, lag_s: np.ndarray, t_start: float
 ) -> RunResult:
@@ -554,20 +620,24 @@ def _run_result(
 
 
 def _timeseries_rows(
-    c: _Chunk, x_period: np.ndarray, n_steps: int, scn: Scenario, channels: list[str]
+    c: _Chunk,
+    measured: np.ndarray,
+    reference: np.ndarray | None,
+    x_period: np.ndarray,
+    scn: Scenario,
+    channels: list[str],
 ) -> dict[str, np.ndarray]:
-    rows = c.count * n_steps
     u = scn.surface_unit
     cols = {
-        "time_s": (c.first * n_steps + np.arange(1, rows + 1)) * scn.dt_s,
-        f"probe_{u}": np.tile(x_period, c.count),
+        "time_s": c.log["time_s"],
+        f"probe_{u}": c.log[f"probe_{u}"],
         f"nl_out_{u}": c.nl_out,
         SURFACES[scn.surface].position_column: c.surface,
     }
     if c.control is not None:
         cols[f"control_{u}"] = c.control
     for j, name in enumerate(channels):
-        cols[name] = c.measured[:, j]
-        if c.reference is not None:
-            cols[f"{name}_reference"] = c.reference[:, j]
+        cols[name] = measured[:, j]
+        if reference is not None:
+            cols[f"{name}_reference"] = reference[:, j]
     return cols

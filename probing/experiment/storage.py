@@ -83,6 +83,7 @@ __all__ = [
     "output_folder",
     "probing_block",
     "provenance",
+    "read_footer",
     "read_schema",
     "read_settled",
     "read_table",
@@ -489,6 +490,19 @@ def read_schema(path: Path) -> pa.Schema:
     """
     with _reading(path):
         return pq.read_schema(path)
+
+
+def read_footer(path: Path) -> dict[bytes, bytes]:
+    """The key-value metadata of a stored Parquet file's footer, with what its writer added
+    at the end (a monitor's verdict, a log's trim reading).
+
+    Raises
+    ------
+    StoredFileError
+        When ``path`` is missing, unreadable or not a Parquet file.
+    """
+    with _reading(path):
+        return dict(pq.read_metadata(path).metadata or {})
 
 
 @dataclass(frozen=True)

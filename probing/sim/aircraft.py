@@ -22,7 +22,10 @@ from pathlib import Path
 from probing.sim.errors import AircraftNotFoundError
 
 __all__ = [
+    "GUST_AXES",
+    "GUST_INPUTS",
     "PROJECT_AIRCRAFT",
+    "ROLL_OBSERVER_GAIN_PER_S",
     "aircraft_digest",
     "alpha_range_rad",
     "cache_dir",
@@ -135,10 +138,44 @@ def _size_mtime(path: Path) -> tuple[int, int]:
     return st.st_size, st.st_mtime_ns
 
 
-def sanitised_root(model: str) -> Path:
-    """A JSBSim root folder holding a sanitised copy of the aircraft (cached, made atomically)."""
+#: The body rates the aerodynamics see (JSBSim's ``velocities/<x>-aero-rad_sec``, the rate
+#: minus the atmosphere's rotational turbulence); a gust-ready copy replaces each reference
+#: to them with ``probing/gust/<x>-aero-rad_sec``.
+GUST_AXES = ("p", "q", "r")
+
+#: The properties a gust-ready copy reads each step: the estimated wind's rotational part
+#: (body axes, rad/s), the measured roll rate its roll-gust observer tracks (rad/s), and the
+#: observer's switch (1: on).
+GUST_INPUTS = {
+    **{f"{a}_gust_rad_s": f"probing/gust/{a}-rad_sec" for a in GUST_AXES},
+    "p_measured_rad_s": "probing/gust/p-measured-rad_sec",
+    "observer_on": "probing/gust/observer-on",
+}
+
+#: The roll-gust observer's gain, 1/s: the roll gust it infers moves at this rate per rad/s of
+#: roll-rate difference between the model and the measured aircraft (time constant 0.1 s).
+ROLL_OBSERVER_GAIN_PER_S = 10.0
+
+
+def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
+    """A JSBSim root folder holding a sanitised copy of the aircraft (cached, made atomically).
+
+    Parameters
+    ----------
+    model : str
+        Aircraft name (:func:`find_aircraft`).
+    gust_inputs : bool
+        Make the copy *gust-ready*: the aerodynamics see the body rates minus rotational gusts
+        set from outside (:data:`GUST_INPUTS`) besides JSBSim's own turbulence, and a roll-gust
+        observer (a JSBSim ``<integrator>``, gain :data:`ROLL_OBSERVER_GAIN_PER_S`) drives the
+        model's roll rate towards ``probing/gust/p-measured-rad_sec`` while that is set.  With
+        every input at 0 and the observer's measured rate equal to the model's, the copy
+        steps exactly as the plain one (``difference(x, 0)`` is ``x``).  The flight
+        computer's gust twin (``drift = "gust"``) flies it.
+    """
     folder = find_aircraft(model)
-    root = cache_dir() / "jsbsim-root" / f"{model}-{aircraft_digest(model)[:16]}"
+    flavour = "-gust" if gust_inputs else ""
+    root = cache_dir() / "jsbsim-root" / f"{model}{flavour}-{aircraft_digest(model)[:16]}"
     if (root / "aircraft" / model / f"{model}.xml").is_file():
         return root
     root.parent.mkdir(parents=True, exist_ok=True)
@@ -148,12 +185,73 @@ def sanitised_root(model: str) -> Path:
         shutil.copytree(folder, target)
         for xml in target.rglob("*.xml"):
             _sanitise(xml, xml)
+        if gust_inputs:
+            _add_gust_inputs(target / f"{model}.xml")
         os.replace(tmp, root)
     except OSError:
         shutil.rmtree(tmp, ignore_errors=True)
         if not (root / "aircraft" / model / f"{model}.xml").is_file():
             raise
     return root
+
+
+def _add_gust_inputs(xml_path: Path) -> None:
+    """Make an aircraft file gust-ready (:func:`sanitised_root`): its aerodynamics read
+    ``probing/gust/<x>-aero-rad_sec`` = JSBSim's aero rate - the set gust - (roll) the
+    observer's, computed as the aerodynamics' first functions, so after JSBSim's own."""
+    parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
+    tree = ET.parse(xml_path, parser=parser)
+    root = tree.getroot()
+    aero = root.find("aerodynamics")
+    if aero is None or aero.get("file"):
+        raise AircraftNotFoundError(
+            f"{xml_path.name}: a gust twin needs the <aerodynamics> inside the aircraft file"
+        )
+    for element in aero.iter():
+        if element.tag == "property" and element.text:
+            name = element.text.strip()
+            for a in GUST_AXES:
+                if name == f"velocities/{a}-aero-rad_sec":
+                    element.text = f"probing/gust/{a}-aero-rad_sec"
+    head: list[ET.Element] = []
+    for prop in GUST_INPUTS.values():
+        declared = ET.Element("property", value="0")
+        declared.text = prop
+        head.append(declared)
+    for a in GUST_AXES:
+        function = ET.Element("function", name=f"probing/gust/{a}-aero-rad_sec")
+        difference = ET.SubElement(function, "difference")
+        for term in (f"velocities/{a}-aero-rad_sec", f"probing/gust/{a}-rad_sec"):
+            ET.SubElement(difference, "property").text = term
+        if a == "p":
+            ET.SubElement(difference, "property").text = "probing/gust/p-observed-rad_sec"
+        head.append(function)
+    for i, element in enumerate(head):
+        aero.insert(i, element)
+    root.append(_roll_observer())
+    tree.write(xml_path, encoding="utf-8", xml_declaration=True)
+
+
+def _roll_observer() -> ET.Element:
+    """The roll-gust observer's system: integrate the model's roll rate minus the measured
+    one, while ``probing/gust/observer-on`` is 1 (off, so not integrating, by default)."""
+    system = ET.Element("system", name="probing gust observer")
+    channel = ET.SubElement(system, "channel", name="roll gust")
+    error = ET.SubElement(channel, "fcs_function", name="probing/gust/p-error-rad_sec")
+    function = ET.SubElement(error, "function")
+    difference = ET.SubElement(function, "difference")
+    ET.SubElement(difference, "property").text = "velocities/p-rad_sec"
+    ET.SubElement(difference, "property").text = "probing/gust/p-measured-rad_sec"
+    gate = ET.SubElement(channel, "switch", name="probing/gust/p-error-gated-rad_sec")
+    ET.SubElement(gate, "default", value="0")
+    test = ET.SubElement(gate, "test", value="probing/gust/p-error-rad_sec")
+    test.text = "probing/gust/observer-on EQ 1"
+    integrator = ET.SubElement(channel, "integrator", name="probing/gust/p-observed-rad_sec")
+    ET.SubElement(integrator, "input").text = "probing/gust/p-error-gated-rad_sec"
+    # d(observed gust)/dt = -gain * (model's rate - measured): a roll gust the model lacks
+    # makes it roll less than the aircraft (aero roll rate p - gust), so the gust grows
+    ET.SubElement(integrator, "c1").text = repr(-ROLL_OBSERVER_GAIN_PER_S)
+    return system
 
 
 @functools.lru_cache(maxsize=32)

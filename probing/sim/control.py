@@ -30,6 +30,8 @@ With every loop open and no actuator fault, :meth:`ClosedLoop.step` steps exactl
 from __future__ import annotations
 
 import functools
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +40,7 @@ from probing.core.faults import onset_step
 from probing.sim.flight import ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.fork import trim_key
 from probing.sim.plant import Plant, SurfaceDrive, trim_flight
+from probing.sim.sensing import Sensing
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["ClosedLoop", "ControlPower", "control_power"]
@@ -45,6 +48,8 @@ __all__ = ["ClosedLoop", "ControlPower", "control_power"]
 _THETA, _Q = "attitude/theta-rad", "velocities/q-rad_sec"
 _PHI, _P = "attitude/phi-rad", "velocities/p-rad_sec"
 _VT = "velocities/vt-fps"
+#: The channel that measures each state the loops fly on (with a :class:`Sensing`).
+_SENSED = {_THETA: "theta_rad", _Q: "q_rad_s", _PHI: "phi_rad", _P: "p_rad_s", _VT: "vt_fps"}
 _AILERON = SURFACES["aileron"].command
 
 
@@ -121,6 +126,10 @@ class ClosedLoop:
     manoeuvre : Manoeuvre or None
         Moves one loop's reference along its schedule (the loop must be closed); None holds
         every reference at its trimmed value.
+    sensing : Sensing or None
+        The aircraft's sensors: the loops fly on their measurements (the references are the
+        trim's measurements), and :meth:`step` can hand them out.  None: the loops read
+        JSBSim's states.
     """
 
     def __init__(
@@ -131,6 +140,7 @@ class ClosedLoop:
         fault: ActuatorFault | None = None,
         surface: str = DEFAULT_SURFACE,
         manoeuvre: Manoeuvre | None = None,
+        sensing: Sensing | None = None,
     ) -> None:
         if control.active and power is None:
             raise ValueError("a closed loop needs the aircraft's control power")
@@ -139,6 +149,9 @@ class ClosedLoop:
         self.plant, self.control, self.fault = plant, control, fault
         pm = plant.fdm.get_property_manager()
         self._get = {k: pm.get_node(k).get_double_value for k in (_THETA, _Q, _PHI, _P, _VT)}
+        self.sensing = sensing
+        if sensing is not None:
+            self._get = {k: _measured(sensing, c) for k, c in _SENSED.items()}
         self._ref = {k: get() for k, get in self._get.items()}
         self._aileron = pm.get_node(_AILERON)
         self._aileron0 = self._aileron.get_double_value()
@@ -168,6 +181,8 @@ class ClosedLoop:
         position: np.ndarray | None = None,
         control: np.ndarray | None = None,
         commands: np.ndarray | None = None,
+        measured: np.ndarray | None = None,
+        inputs: tuple[list, np.ndarray] | None = None,
     ) -> None:
         """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
 
@@ -190,6 +205,12 @@ class ClosedLoop:
             ``(n, 3)``, receives the autopilot's commands at each step: elevator (deg from
             trim, before the probe and the actuator), aileron and throttle (normalised), for
             a twin that flies them (:meth:`replay`).
+        measured : numpy.ndarray, optional
+            ``(n, len(sensing.channels))``, receives the sensors' measurements after each
+            step (needs ``sensing``).
+        inputs : (list, numpy.ndarray), optional
+            Property nodes and their values ``(n, len(nodes))``, written before each step
+            (a gust twin's wind and rotational gusts).
         """
         plant, fdm = self.plant, self.plant.fdm
         n = out.shape[0]
@@ -224,8 +245,24 @@ class ClosedLoop:
         flown: list[tuple[float, float, float]] = []
         ail, thr = self._aileron_now, self._throttle_now
         run = fdm.run
+        sensing = self.sensing
+        if sensing is not None:  # the sensors after each step, the loops' inputs next step
+            current, noise = sensing.current, sensing.noise(n)
+            sense = list(zip([s.step for s in sensing.sensors], sensing.getters, strict=True))
+            bias_at, bias, bias_onset = (
+                sensing.fault_channel,
+                sensing.fault_bias,
+                sensing.fault_onset,
+            )
+        sensed: list[list[float]] = []
+        if inputs is not None:
+            setters = [node.set_double_value for node in inputs[0]]
+            written = inputs[1].tolist()
         for k in range(n):
             step = first + k
+            if inputs is not None:
+                for put, value in zip(setters, written[k], strict=True):
+                    put(value)
             u_el = 0.0
             if moving is not None:
                 theta0, phi0, v0 = (r + o for r, o in zip(base, moving[k], strict=True))
@@ -266,6 +303,12 @@ class ClosedLoop:
                 plant.start_scheduled_damage()
                 damage_step = None
             run()
+            if sensing is not None:
+                row = [st(get(), e) for (st, get), e in zip(sense, noise[k], strict=True)]
+                if bias_at is not None and step >= bias_onset:
+                    row[bias_at] += bias
+                current[:] = row
+                sensed.append(row)
             for get in getters:
                 append(get())
             if position is not None:
@@ -283,6 +326,8 @@ class ClosedLoop:
             control[:] = commanded
         if commands is not None:
             commands[:] = flown
+        if measured is not None:
+            measured[:] = sensed
 
     def replay(self, commands: np.ndarray, nodes: list, out: np.ndarray) -> None:
         """Fly another aircraft's autopilot commands (:meth:`step`'s ``commands``) through
@@ -320,6 +365,15 @@ class ClosedLoop:
                 append(get())
         plant.count_steps(n)
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
+
+
+def _measured(sensing: Sensing, channel: str) -> Callable[[], float]:
+    """A getter of the latest measurement of ``channel`` (NaN if no sensor measures it: a
+    loop that flies on it is refused when the scenario is read)."""
+    if channel not in sensing.channels:
+        return lambda: math.nan
+    current, j = sensing.current, sensing.index(channel)
+    return lambda: current[j]
 
 
 @dataclass(frozen=True)

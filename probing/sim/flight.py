@@ -30,6 +30,7 @@ __all__ = [
     "Flight",
     "Manoeuvre",
     "SpeedKind",
+    "TrimResult",
     "check_damage_case",
     "one_speed",
 ]
@@ -336,3 +337,25 @@ def one_speed(
         raise ValueError(f"exactly one of {', '.join(SPEED_KINDS)} must be given")
     ((kind, speed),) = given.items()
     return kind, speed
+
+
+@dataclass(frozen=True)
+class TrimResult:
+    """The trimmed state (angles in deg) and the JSBSim trim that found it."""
+
+    altitude_ft: float
+    speed_kcas: float
+    speed_keas: float
+    speed_ktas: float
+    mach: float
+    alpha_deg: float
+    theta_deg: float
+    elevator_deg: float
+    elevator_cmd_norm: float
+    pitch_trim_cmd_norm: float
+    throttle_norm: float
+    mode: str = "full"  # JSBSim's trim used: "full", "longitudinal" or "turn"
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain dict, for metadata."""
+        return asdict(self)

@@ -15,7 +15,6 @@ import functools
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
@@ -33,6 +32,7 @@ from probing.sim.flight import (
     SYMMETRIC_DAMAGE,
     TURBULENCE_SEVERITY,
     Flight,
+    TrimResult,
     check_damage_case,
     one_speed,
 )
@@ -62,28 +62,6 @@ TRIM_LONGITUDINAL, TRIM_FULL, TRIM_TURN = 0, 1, 5
 DAMAGE_PROPERTY = "damage/case"
 
 
-@dataclass(frozen=True)
-class TrimResult:
-    """The trimmed state (angles in deg) and the JSBSim trim that found it."""
-
-    altitude_ft: float
-    speed_kcas: float
-    speed_keas: float
-    speed_ktas: float
-    mach: float
-    alpha_deg: float
-    theta_deg: float
-    elevator_deg: float
-    elevator_cmd_norm: float
-    pitch_trim_cmd_norm: float
-    throttle_norm: float
-    mode: str = "full"  # JSBSim's trim used: "full", "longitudinal" or "turn"
-
-    def to_dict(self) -> dict[str, float]:
-        """Plain dict, for metadata."""
-        return asdict(self)
-
-
 class Plant:
     """A trimmed JSBSim aircraft stepped with a surface position (:meth:`drive`).
 
@@ -98,9 +76,19 @@ class Plant:
         MIL-spec Dryden model, switched on after trim).
     seed : int
         Seed of JSBSim's random generator (turbulence).
+    gust_inputs : bool
+        Load the gust-ready copy of the aircraft (:func:`probing.sim.aircraft.sanitised_root`).
     """
 
-    def __init__(self, model: str, dt_s: float, *, turbulence: str = "none", seed: int = 0) -> None:
+    def __init__(
+        self,
+        model: str,
+        dt_s: float,
+        *,
+        turbulence: str = "none",
+        seed: int = 0,
+        gust_inputs: bool = False,
+    ) -> None:
         if turbulence not in TURBULENCE_SEVERITY:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
         self.model = model
@@ -109,7 +97,7 @@ class Plant:
         self.seed = int(seed)
         self._steps = 0  # steps run since the trim (for a scheduled damage onset)
         self._fault: tuple[int, int] | None = None  # (damage case, step index of its onset)
-        root = sanitised_root(model)
+        root = sanitised_root(model, gust_inputs=gust_inputs)
         stock = stock_root()
         self.log = JSBSimLog()
         jsbsim.set_logger(self.log)  # this thread's JSBSim instances log here, not to stdout
@@ -570,9 +558,16 @@ def _calibration(surface: str, plant: Plant) -> tuple[float, float, np.ndarray, 
     return drive.trim_position, drive.trim_command, drive.map_cmd, drive.map_pos
 
 
-def make_plant(flight: Flight) -> Plant:
-    """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition."""
-    plant = Plant(flight.model, flight.dt_s, turbulence=flight.turbulence, seed=flight.seed)
+def make_plant(flight: Flight, *, gust_inputs: bool = False) -> Plant:
+    """A plant for a flight (model, dt, turbulence, seed), trimmed at its condition
+    (``gust_inputs``: the gust-ready copy of the aircraft, :func:`sanitised_root`)."""
+    plant = Plant(
+        flight.model,
+        flight.dt_s,
+        turbulence=flight.turbulence,
+        seed=flight.seed,
+        gust_inputs=gust_inputs,
+    )
     trim_flight(plant, flight)
     plant.schedule(flight)
     return plant

@@ -1,0 +1,171 @@
+"""The gust an aircraft flies through, estimated from what it measures (air data and INS).
+
+A real aircraft does not know its gusts, but it measures two velocities that differ by
+them: the INS gives its velocity over the ground (north, east, down), the air data its
+velocity through the air (true airspeed and the alpha and beta vanes, in body axes, turned
+to north-east-down with the INS's Euler angles).  Their difference is the wind:
+
+    w_NED = v_INS - C_bn(phi, theta, psi) * vt * (cos a cos b, sin b, sin a cos b)
+
+One vane sees the air at one point; the air's *rotation* (the gust's gradients across the
+aircraft, which the aerodynamics feel as body rates) it cannot see.  Two of them follow
+from the estimated wind under Taylor's frozen-turbulence hypothesis, with the relations of
+the MIL-F-8785C / MIL-HDBK-1797 Dryden model (Yeager 1998, eqs. 34 and 35, as JSBSim's
+``ttMilspec`` turbulence implements them):
+
+    q_g[k] = (1 - T V / tau_q') q_g[k-1] + pi / (4 b) (w_g[k] - w_g[k-1]),  tau_q' = 4 b / pi
+    r_g[k] = (1 - T V / tau_r') r_g[k-1] + pi / (3 b) (v_g[k] - v_g[k-1]),  tau_r' = 3 b / pi
+
+(w_g down, v_g across the aircraft's heading, b the wing span, V the true airspeed, T the
+step).  The roll gust p_g is an independent process in that model (the span-wise gradient
+of the vertical gust): nothing here estimates it; the gust twin infers it from the measured
+roll rate instead (:data:`probing.sim.aircraft.ROLL_OBSERVER_GAIN_PER_S`).
+
+Assumptions, named: the vanes and the INS measure at the centre of gravity (no upwash, no
+lever arm); the air data and the INS are sampled together; the gust field is frozen as the
+aircraft crosses it; the rotational gusts are oriented by the aircraft's heading (JSBSim
+orients its by the mean wind's azimuth, 0 in calm mean wind: the two agree for a flight
+heading north, as the study's does).  numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+__all__ = ["GUST_SENSORS", "GustEstimator", "wind_ned_fps"]
+
+#: The measured channels the estimate needs, in the order :func:`wind_ned_fps` takes them.
+GUST_SENSORS = (
+    "vt_fps",
+    "alpha_rad",
+    "beta_rad",
+    "phi_rad",
+    "theta_rad",
+    "psi_rad",
+    "v_north_fps",
+    "v_east_fps",
+    "v_down_fps",
+)
+
+
+def _body_to_ned(
+    phi: np.ndarray, theta: np.ndarray, psi: np.ndarray, body: np.ndarray
+) -> np.ndarray:
+    """Body-axes vectors ``(n, 3)`` turned to north-east-down by the Euler angles (rad)."""
+    cph, sph, cth, sth, cps, sps = (
+        np.cos(phi),
+        np.sin(phi),
+        np.cos(theta),
+        np.sin(theta),
+        np.cos(psi),
+        np.sin(psi),
+    )
+    x, y, z = body[:, 0], body[:, 1], body[:, 2]
+    north = cth * cps * x + (sph * sth * cps - cph * sps) * y + (cph * sth * cps + sph * sps) * z
+    east = cth * sps * x + (sph * sth * sps + cph * cps) * y + (cph * sth * sps - sph * cps) * z
+    down = -sth * x + sph * cth * y + cph * cth * z
+    return np.stack([north, east, down], axis=1)
+
+
+def _ned_to_body(
+    phi: np.ndarray, theta: np.ndarray, psi: np.ndarray, ned: np.ndarray
+) -> np.ndarray:
+    """North-east-down vectors ``(n, 3)`` turned to body axes (the transpose of
+    :func:`_body_to_ned`'s matrix)."""
+    cph, sph, cth, sth, cps, sps = (
+        np.cos(phi),
+        np.sin(phi),
+        np.cos(theta),
+        np.sin(theta),
+        np.cos(psi),
+        np.sin(psi),
+    )
+    n, e, d = ned[:, 0], ned[:, 1], ned[:, 2]
+    x = cth * cps * n + cth * sps * e - sth * d
+    y = (sph * sth * cps - cph * sps) * n + (sph * sth * sps + cph * cps) * e + sph * cth * d
+    z = (cph * sth * cps + sph * sps) * n + (cph * sth * sps - sph * cps) * e + cph * cth * d
+    return np.stack([x, y, z], axis=1)
+
+
+def wind_ned_fps(measured: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The wind (steady and gust) from air data and INS, north-east-down, ft/s, ``(n, 3)``.
+
+    Parameters
+    ----------
+    measured : mapping
+        The channels of :data:`GUST_SENSORS` (ft/s, rad), each shape ``(n,)``.
+
+    Examples
+    --------
+    Flying north level at 100 ft/s over the ground through a 10 ft/s head wind, the air
+    data read 110 ft/s:
+
+    >>> z = np.zeros(1)
+    >>> m = dict(vt_fps=np.array([110.0]), alpha_rad=z, beta_rad=z, phi_rad=z, theta_rad=z,
+    ...          psi_rad=z, v_north_fps=np.array([100.0]), v_east_fps=z, v_down_fps=z)
+    >>> wind_ned_fps(m).round(12).tolist()
+    [[-10.0, 0.0, 0.0]]
+    """
+    vt, alpha, beta = (np.asarray(measured[c], dtype=float) for c in GUST_SENSORS[:3])
+    air_body = np.stack(
+        [vt * np.cos(alpha) * np.cos(beta), vt * np.sin(beta), vt * np.sin(alpha) * np.cos(beta)],
+        axis=1,
+    )
+    phi, theta, psi = (np.asarray(measured[c], dtype=float) for c in GUST_SENSORS[3:6])
+    ground = np.stack([np.asarray(measured[c], dtype=float) for c in GUST_SENSORS[6:]], axis=1)
+    return ground - _body_to_ned(phi, theta, psi, air_body)
+
+
+class GustEstimator:
+    """The wind and the rotational gusts (:mod:`probing.core.gust`) from a measured stream,
+    chunk by chunk: the filters' state carries over, so chunks give what the whole does.
+
+    Parameters
+    ----------
+    span_ft : float
+        Wing span b, ft.
+    dt_s : float
+        Sample interval T, s.
+    """
+
+    def __init__(self, span_ft: float, dt_s: float) -> None:
+        if not (math.isfinite(span_ft) and span_ft > 0):
+            raise ValueError(f"the wing span must be > 0 ft, got {span_ft!r}")
+        if not (math.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s must be > 0, got {dt_s!r}")
+        self.span_ft, self.dt_s = float(span_ft), float(dt_s)
+        self._last: tuple[float, float] | None = None  # the previous (w_g, v_g), ft/s
+        self._q = self._r = 0.0  # the filters' outputs, rad/s
+
+    def update(self, measured: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The next chunk's wind ``(n, 3)`` (NED, ft/s) and rotational gust ``(n, 3)`` (body
+        p, q, r, rad/s; p is 0: not estimated).  The first sample of the stream starts the
+        gradient filters at rest."""
+        wind = wind_ned_fps(measured)
+        psi = np.asarray(measured["psi_rad"], dtype=float)
+        vt = np.asarray(measured["vt_fps"], dtype=float)
+        across = -np.sin(psi) * wind[:, 0] + np.cos(psi) * wind[:, 1]  # v_g, ft/s
+        down = wind[:, 2]  # w_g, ft/s
+        n = down.size
+        q_g, r_g = np.empty(n), np.empty(n)
+        b, t = self.span_ft, self.dt_s
+        kq, kr = math.pi / (4.0 * b), math.pi / (3.0 * b)
+        q, r = self._q, self._r
+        last = self._last
+        for k, (w, v, speed) in enumerate(
+            zip(down.tolist(), across.tolist(), vt.tolist(), strict=True)
+        ):
+            if last is None:
+                last = (w, v)
+            q = (1.0 - t * speed * kq) * q + kq * (w - last[0])
+            r = (1.0 - t * speed * kr) * r + kr * (v - last[1])
+            q_g[k], r_g[k] = q, r
+            last = (w, v)
+        self._q, self._r, self._last = q, r, last
+        axis_q = np.stack([-np.sin(psi) * q_g, np.cos(psi) * q_g, r_g], axis=1)  # NED
+        phi, theta = (np.asarray(measured[c], dtype=float) for c in ("phi_rad", "theta_rad"))
+        rates = _ned_to_body(phi, theta, psi, axis_q)
+        return wind, rates

@@ -1,0 +1,170 @@
+"""What the flight computer computes from what it recorded: the reference, the deviations,
+the per-period estimates.
+
+A flight records, step by step, what its flight computer had: the probe it injected, the
+autopilot's commands and every sensor's measurement (``sensors.parquet``, the layout
+:func:`probing.experiment.layouts.sensors_schema`).  :class:`Onboard` turns that stream,
+chunk by chunk, into the per-period pulse-response estimates; a live flight
+(:func:`probing.experiment.run.run_scenario`) and a replay of its log
+(:func:`probing.experiment.replay.replay_log`) feed it the same columns, so they are one
+code path.
+
+The reference it subtracts is ``output.drift``'s (``docs/monitoring.md``):
+
+* ``oracle`` and ``reference``: the nominal aircraft through the *same* turbulence
+  realisation (a twin that knows the gusts: a simulation-only upper bound);
+* ``nominal``: the nominal aircraft in calm air, flying its own autopilot;
+* ``gust``: the nominal aircraft in calm air flown through the gust estimated from the
+  sensors (:class:`GustSource`);
+* ``follow``: the nominal aircraft flying the recorded commands, stepped alongside the
+  flight (handed in with each chunk);
+* ``detrend`` and ``none``: no model; the trim's measurement is the baseline.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Protocol
+
+import numpy as np
+
+from probing.core.gust import GUST_SENSORS, GustEstimator
+from probing.experiment.drift import drift_correction
+from probing.experiment.scenario import Scenario
+from probing.sim.control import control_power
+from probing.sim.flight import Flight
+from probing.sim.gust_twin import GustTwin
+from probing.sim.twins import ReferenceTwin, open_twin
+
+__all__ = [
+    "GustSource",
+    "Onboard",
+    "ReferenceSource",
+    "TwinSource",
+    "calm_nominal",
+    "open_reference_twin",
+    "reference_source",
+]
+
+
+class ReferenceSource(Protocol):
+    """What gives the reference's outputs for a chunk of the recorded stream."""
+
+    def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
+        """The reference's outputs ``(rows, channels)`` for the chunk's rows."""
+
+
+class TwinSource:
+    """A precomputed twin (:class:`probing.sim.twins.ReferenceTwin`): its next rows."""
+
+    def __init__(self, twin: ReferenceTwin) -> None:
+        self.twin = twin
+
+    def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
+        return self.twin.next(len(log["time_s"]))
+
+
+class GustSource:
+    """``drift = "gust"``: the nominal aircraft in calm air, flown through the gust the
+    sensors show (:class:`probing.core.gust.GustEstimator`, :class:`GustTwin`).
+
+    Each step of the twin gets the wind and rotational gusts estimated from the
+    measurement after the aircraft's same step (the twin runs one frame behind the
+    aircraft), and the aircraft's roll rate measured after the step before.
+    """
+
+    def __init__(self, scn: Scenario) -> None:
+        flight = calm_nominal(scn.flight)
+        power = control_power(flight)
+        self.twin = GustTwin(flight, scn.control, power, scn.channels)
+        self.estimator = GustEstimator(self.twin.span_ft, scn.dt_s)
+        self.last_p: float | None = None
+
+    def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
+        measured = {c: log[c] for c in GUST_SENSORS}
+        wind, rates = self.estimator.update(measured)
+        p = np.asarray(log["p_rad_s"], dtype=float)
+        first = p[0] if self.last_p is None else self.last_p
+        before = np.concatenate([[first], p[:-1]])
+        self.last_p = float(p[-1])
+        return self.twin.next(wind, rates, before)
+
+
+def calm_nominal(flight: Flight) -> Flight:
+    """The flight a realisable reference model flies: the nominal aircraft in calm air
+    (seed 0: in calm air the seed changes nothing, so every seed shares one twin)."""
+    return dataclasses.replace(flight.nominal, turbulence="none", seed=0)
+
+
+def reference_source(scn: Scenario, twin: ReferenceTwin | None) -> ReferenceSource | None:
+    """The reference of ``scn``'s drift mode, computed from the recorded stream: the
+    precomputed ``twin`` (:func:`open_reference_twin`), the gust twin, or None (``follow``,
+    whose twin steps with the flight, and the modes without a model)."""
+    if scn.drift == "gust":
+        return GustSource(scn)
+    return TwinSource(twin) if twin is not None else None
+
+
+def open_reference_twin(
+    scn: Scenario, *, nominal: bool = True, use_cache: bool = True
+) -> ReferenceTwin | None:
+    """The precomputed twin of ``scn``'s drift mode (None if it has none): the nominal
+    aircraft in calm air (``nominal``), or the aircraft through the same turbulence
+    (``oracle``, ``reference``): the nominal one with ``nominal``, else the flight itself,
+    damage and all (``probing run``'s comparison)."""
+    if not scn.uses_twin:
+        return None
+    flight = scn.flight
+    if scn.drift == "nominal":
+        flight = calm_nominal(flight)
+    elif nominal:
+        flight = flight.nominal
+    return open_twin(flight, scn.channels, scn.total_steps, use_cache=use_cache)
+
+
+class Onboard:
+    """The recorded stream -> per-period estimates, chunk by chunk.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The flight's scenario (its channels, probe, estimator and drift mode).
+    source : ReferenceSource or None
+        The reference (:func:`reference_source`); None: the ``baseline`` (or, for
+        ``follow``, the reference handed in with each chunk).
+    baseline : numpy.ndarray
+        ``(channels,)``: what is subtracted without a reference.
+    push_bits : int
+        Bit samples per chunk (the streaming correlator's block).
+    """
+
+    def __init__(
+        self,
+        scn: Scenario,
+        source: ReferenceSource | None,
+        baseline: np.ndarray,
+        push_bits: int,
+    ) -> None:
+        self.scn, self.source, self.baseline = scn, source, baseline
+        self.spb = scn.probe.steps_per_bit(scn.dt_s)
+        self.drift = drift_correction(scn, scn.probe, push_bits)
+
+    def estimates(
+        self,
+        log: Mapping[str, np.ndarray],
+        first: int,
+        flown_reference: np.ndarray | None = None,
+    ) -> tuple[object, np.ndarray, np.ndarray | None]:
+        """A chunk of whole periods from period ``first`` on -> its estimates (periods, z,
+        zeta, h), the measured channels ``(rows, C)`` and the reference ``(rows, C)``.
+
+        ``flown_reference``: the reference stepped with the flight (``follow``)."""
+        measured = np.column_stack([log[c] for c in self.scn.channels])
+        reference = flown_reference
+        if self.source is not None:
+            reference = self.source.next(log)
+        baseline = reference if reference is not None else self.baseline
+        spb = self.spb
+        est = self.drift.estimates((measured - baseline)[spb - 1 :: spb], first)
+        return est, measured, reference

@@ -1,0 +1,73 @@
+"""The aircraft's sensors on a plant: what its flight computer measures, step by step.
+
+A :class:`Sensing` reads, after every simulation step, the true value of each channel of a
+sensor suite (:data:`probing.core.sensors.SENSOR_SUITES`) and passes it through that
+channel's :class:`~probing.core.sensors.Sensor` (noise, bias, scale factor, lag, sample
+rate).  The autopilot (:class:`probing.sim.control.ClosedLoop`) flies on these
+measurements, and they are what a flight records (``sensors.parquet``): nothing else of the
+simulation reaches the flight computer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from probing.core.faults import SensorBias, onset_step
+from probing.core.sensors import Sensor, SensorSuite
+from probing.sim.plant import Plant
+
+__all__ = ["SENSOR_STREAM", "Sensing"]
+
+#: The sensors' noise stream: ``numpy.random.default_rng([seed, SENSOR_STREAM])``, apart from
+#: the scenario seed's other uses (JSBSim's turbulence, ``disturbance.sensor_noise``).
+SENSOR_STREAM = 1
+
+
+class Sensing:
+    """The sensors of a suite on a trimmed plant, each started in steady state at its trim.
+
+    Parameters
+    ----------
+    plant : Plant
+        The trimmed (and disturbed) plant the sensors read.
+    suite : SensorSuite
+        The sensors, channel -> spec; the channels are measured in the suite's order.
+    seed : int
+        The scenario's seed (the noise comes from stream :data:`SENSOR_STREAM` of it).
+    fault : SensorBias or None
+        An offset on one sensor's measurement from its onset step on (the autopilot flies on
+        it too).
+    """
+
+    def __init__(
+        self, plant: Plant, suite: SensorSuite, seed: int, fault: SensorBias | None = None
+    ) -> None:
+        self.channels: tuple[str, ...] = tuple(suite.sensors)
+        nodes = plant.channel_nodes(list(self.channels))
+        self.getters = [node.get_double_value for node in nodes]
+        self.sensors = [Sensor(suite.sensors[c], plant.dt_s) for c in self.channels]
+        for sensor, get in zip(self.sensors, self.getters, strict=True):
+            sensor.reset(get())
+        #: The latest measurement of each channel (at the start: the trim's, noise-free); the
+        #: loop updates it in place after every step.
+        self.current: list[float] = [s.output for s in self.sensors]
+        self.rng = np.random.default_rng([int(seed), SENSOR_STREAM])
+        self.fault_channel: int | None = None
+        self.fault_bias = 0.0
+        self.fault_onset = -1
+        if fault is not None:
+            if fault.channel not in self.channels:
+                raise ValueError(f"the sensor fault's channel {fault.channel} has no sensor")
+            self.fault_channel = self.channels.index(fault.channel)
+            self.fault_bias = float(fault.bias)
+            self.fault_onset = onset_step(fault.onset_s, plant.dt_s)
+
+    def index(self, channel: str) -> int:
+        """The column of ``channel`` in the measurements (ValueError if not measured)."""
+        if channel not in self.channels:
+            raise ValueError(f"no sensor measures {channel}")
+        return self.channels.index(channel)
+
+    def noise(self, n: int) -> list[list[float]]:
+        """The next ``n`` steps' standard-normal draws, one per sensor and step."""
+        return self.rng.standard_normal((n, len(self.sensors))).tolist()

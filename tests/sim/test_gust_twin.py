@@ -1,0 +1,107 @@
+"""The gust-ready aircraft and the gust twin against JSBSim's own turbulence: flown through
+the wind and rotational gusts JSBSim's MIL-spec turbulence produced, the calm gust-ready
+model flies what the turbulent aircraft flew."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from probing.sim.aircraft import GUST_INPUTS
+from probing.sim.control import ClosedLoop, control_power
+from probing.sim.flight import Control, Flight
+from probing.sim.gust_twin import WIND_PROPERTIES, GustTwin
+from probing.sim.plant import make_plant
+
+STEPS = 1500  # 15 s at 0.01 s
+CONTROL = Control(pitch_hold=True, bank_hold=True, speed_hold=True)
+TURBULENT = Flight(
+    "gtm_t2", 800.0, "speed_kcas", 75.0, 0.01, turbulence="light", seed=3, control=CONTROL
+)
+CALM = dataclasses.replace(TURBULENT, turbulence="none", seed=0)
+TRUTH = [
+    "atmosphere/total-wind-north-fps",
+    "atmosphere/total-wind-east-fps",
+    "atmosphere/total-wind-down-fps",
+    "atmosphere/p-turb-rad_sec",
+    "atmosphere/q-turb-rad_sec",
+    "atmosphere/r-turb-rad_sec",
+]
+CHANNELS = ["theta_rad", "q_rad_s", "phi_rad", "p_rad_s", "alpha_rad"]
+
+
+@pytest.fixture(scope="module")
+def turbulent_flight():
+    """JSBSim's turbulent flight under the autopilot: its outputs and the wind and
+    rotational turbulence JSBSim applied in each step."""
+    plant = make_plant(TURBULENT)
+    loop = ClosedLoop(plant, CONTROL, control_power(TURBULENT))
+    nodes = plant.channel_nodes(CHANNELS)
+    truth_nodes = [plant.fdm.get_property_manager().get_node(p) for p in TRUTH]
+    out, truth = np.empty((STEPS, len(CHANNELS))), np.empty((STEPS, len(TRUTH)))
+    row = np.empty((1, len(CHANNELS)))
+    for k in range(STEPS):
+        loop.step(None, nodes, row)
+        out[k] = row[0]
+        truth[k] = [n.get_double_value() for n in truth_nodes]
+    return out, truth
+
+
+def _fly_gust_ready(values: np.ndarray, names: list[str]) -> np.ndarray:
+    plant = make_plant(CALM, gust_inputs=True)
+    loop = ClosedLoop(plant, CONTROL, control_power(CALM))
+    nodes = plant.channel_nodes(CHANNELS)
+    pm = plant.fdm.get_property_manager()
+    out = np.empty((values.shape[0], len(CHANNELS)))
+    loop.step(None, nodes, out, inputs=([pm.get_node(n) for n in names], values))
+    return out
+
+
+def test_the_gust_ready_model_flown_through_jsbsims_gusts_flies_the_turbulent_flight(
+    turbulent_flight,
+):
+    out, truth = turbulent_flight
+    names = [*WIND_PROPERTIES, *(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "pqr")]
+    twin = _fly_gust_ready(truth, names)
+    response = np.abs(out - out[0]).max(axis=0)
+    assert np.all(response > 1e-4)  # the gusts move every channel
+    np.testing.assert_allclose(twin, out, rtol=0, atol=1e-6 * response.max())
+
+
+def test_without_the_rotational_gusts_it_does_not(turbulent_flight):
+    """The rotational part matters: the wind alone leaves the pitch response off."""
+    out, truth = turbulent_flight
+    twin = _fly_gust_ready(truth[:, :3], list(WIND_PROPERTIES))
+    err = np.abs(twin[:, 0] - out[:, 0]).max()
+    assert err > 0.05 * np.abs(out[:, 0] - out[0, 0]).max()
+
+
+def test_with_nothing_set_it_steps_as_the_plain_model_bit_for_bit():
+    plain, ready = make_plant(CALM), make_plant(CALM, gust_inputs=True)
+    assert plain.trim_result.to_dict() == ready.trim_result.to_dict()
+    for plant in (plain, ready):
+        for k in range(300):
+            plant.fdm["fcs/elevator-cmd-norm"] = 0.02 * np.sin(k / 20.0)
+            plant.fdm.run()
+    for prop in ("attitude/theta-rad", "velocities/q-rad_sec", "aero/alpha-rad"):
+        assert plain.fdm[prop] == ready.fdm[prop]
+
+
+def test_the_roll_observer_pulls_the_twin_to_the_measured_roll_rate():
+    """Told the aircraft rolls at 0.02 rad/s, the twin's roll rate follows within ~0.1 s
+    (the observer's gain 10/s); told nothing different from its own, it stays put."""
+    twin = GustTwin(CALM, CONTROL, control_power(CALM), ["p_rad_s"])
+    n = 60
+    p = twin.next(np.zeros((n, 3)), np.zeros((n, 3)), np.full(n, 0.02))
+    assert abs(p[-1, 0] - 0.02) < 0.005
+    assert p[5, 0] < p[-1, 0]  # it got there, not started there
+
+
+def test_a_gust_twin_refuses_turbulence_and_damage():
+    with pytest.raises(ValueError, match="calm air"):
+        GustTwin(TURBULENT, CONTROL, control_power(CALM), ["theta_rad"])
+    damaged = dataclasses.replace(CALM, damage_case=5)
+    with pytest.raises(ValueError, match="calm air"):
+        GustTwin(damaged, CONTROL, control_power(CALM), ["theta_rad"])
