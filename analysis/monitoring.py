@@ -139,6 +139,9 @@ def load_study(results: str | Path) -> pd.DataFrame:
                         f"{summary}: fault_type {kind} in the sweep of {key}, "
                         f"whose faults are {FAULTS[key].fault_type}"
                     )
+        # the monitor study flies turbulence, where a twin that flies the same gusts is now
+        # called "oracle": results stored before the name existed say "reference"
+        df["drift"] = df["drift"].replace({"reference": "oracle"})
         df["probe"] = _probe_and_fault(sweep)[0]
         df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]

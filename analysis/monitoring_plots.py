@@ -15,7 +15,7 @@ from probing.experiment.storage import read_table
 
 __all__ = ["detection_figure", "draw_all", "fault_figure", "roc_figure", "verdict_figure"]
 
-DRIFT_STYLE = {"reference": "-", "detrend": "--"}
+DRIFT_STYLE = {"oracle": "-", "detrend": "--"}
 
 
 def _faults(flights: pd.DataFrame) -> list[str]:
@@ -36,7 +36,7 @@ def detection_figure(flights: pd.DataFrame) -> plt.Figure:
                     continue
                 periods = g.delay_periods.to_numpy()
                 p = [(periods <= x).mean() for x in n]
-                label = FAULTS[key].label if drift == "reference" else None
+                label = FAULTS[key].label if drift == "oracle" else None
                 ax.plot(n, p, style, color=color, label=label)
         ax.axvline(3, color="0.5", lw=0.6)
         ax.axvline(5, color="0.5", lw=0.6)
@@ -104,7 +104,7 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
 def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     """One flight with the fault (the lowest seed, nominal twin): its mean pulse-response
     estimate over the window before the onset and after it, and the test statistic."""
-    g = flights[(flights.fault == key) & (flights.drift == "reference")].sort_values("seed")
+    g = flights[(flights.fault == key) & (flights.drift == "oracle")].sort_values("seed")
     f = g.iloc[0]
     folder = Path(f.folder)
     mon = read_table(folder / "monitor.parquet").to_pandas()

@@ -121,7 +121,8 @@ class DesignRequest:
             "nonlinearity": {"type": "none"},
             "output": {
                 "channels": [self.channel],
-                "drift": "reference",
+                # in turbulence the twin that flies the same gusts is the oracle's
+                "drift": "reference" if self.turbulence == "none" else "oracle",
                 "estimator": self.estimator or "streaming",
             },
             "disturbance": {"turbulence": self.turbulence, "sensor_noise": noise},

@@ -31,7 +31,7 @@ def turbulence_residual(scn: Scenario, seeds: int) -> dict[str, np.ndarray]:
     """
     from probing.experiment.batch import run_grouped
 
-    base = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "reference"})
+    base = scn.replace({"disturbance.sensor_noise": {}, "output.drift": "oracle"})
     runs = [base.replace({"disturbance.turbulence": "none", "name": "calm"})]
     runs += [base.replace({"disturbance.seed": 1000 + k, "name": f"gust{k}"}) for k in range(seeds)]
     deviations: list[np.ndarray] = [np.empty(0)] * len(runs)

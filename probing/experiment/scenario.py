@@ -22,13 +22,16 @@ from probing.core.faults import FAULTS, FaultType
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
+from probing.core.sensors import SensorSuite
 from probing.experiment.scenario_schema import (
     DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
 )
 from probing.experiment.scenario_schema import (
     DRIFT_MODES,
+    GUST_KNOWING_DRIFTS,
     MAX_PERIODS,
     SECTIONS,
+    TWIN_DRIFTS,
     ScenarioError,
     Simultaneous,
     _check_keys,
@@ -105,6 +108,11 @@ class Scenario:
     surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
     simultaneous: Simultaneous | None = None  # [simultaneous]: more surfaces probed at once
     manoeuvre: Manoeuvre | None = None  # [manoeuvre]: an autopilot reference that moves
+    # [sensors]: the suite with its overrides applied (None: the aircraft's state is measured
+    # as it is, with disturbance.sensor_noise), and the overrides as written,
+    # {channel: {field: value}} (to write the section back)
+    sensors: SensorSuite | None = None
+    sensor_overrides: dict[str, dict[str, float]] = field(default_factory=dict)
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -147,8 +155,19 @@ class Scenario:
 
     @property
     def uses_twin(self) -> bool:
-        """True if the drift correction subtracts an unprobed reference twin."""
-        return self.drift == "reference"
+        """True if the drift correction subtracts a precomputed unprobed twin: ``reference``
+        and ``oracle`` (the nominal aircraft through the same turbulence realisation) or
+        ``nominal`` (the nominal aircraft in calm air, flying its own autopilot).  ``gust``
+        is not one: its twin is flown from the sensor stream, through the gust estimated
+        from it."""
+        return self.drift in TWIN_DRIFTS
+
+    @property
+    def twin_knows_gusts(self) -> bool:
+        """True if the twin flies the same gusts as the aircraft (``reference``, ``oracle``):
+        a simulation-only upper bound, since no real aircraft knows the gusts it flies
+        through.  In calm air every twin is the same aircraft."""
+        return self.drift in GUST_KNOWING_DRIFTS
 
     @property
     def follows(self) -> bool:
@@ -292,7 +311,14 @@ class Scenario:
                 else {}
             ),
             **({"manoeuvre": self.manoeuvre.to_dict()} if self.manoeuvre is not None else {}),
+            **({"sensors": self._sensors()} if self.sensors is not None else {}),
         }
+
+    def _sensors(self) -> dict[str, Any]:
+        """The ``[sensors]`` section: the suite's name and the overrides as written."""
+        assert self.sensors is not None
+        overrides = {ch: dict(values) for ch, values in self.sensor_overrides.items()}
+        return {"suite": self.sensors.name, **overrides}
 
     def _fault(self) -> dict[str, Any]:
         """The ``[fault]`` section."""

@@ -13,12 +13,21 @@ from typing import Any
 from probing.core.faults import FAULTS
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES
+from probing.core.sensors import SensorSpec
+from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.flight import (
     SPEED_KINDS,
     Control,
 )
 
-DRIFT_MODES = ("reference", "follow", "detrend", "none")
+#: ``output.drift``'s values (``docs/scenarios.md``): the twins ``reference``, ``oracle`` (both
+#: fly the aircraft's own gusts) and ``nominal`` (calm air), ``gust`` (calm air through the
+#: gust estimated from the sensors), ``follow``, ``detrend`` and ``none``.
+DRIFT_MODES = ("reference", "follow", "detrend", "none", "oracle", "nominal", "gust")
+#: Drift modes whose twin flies the same gusts as the aircraft (simulation only).
+GUST_KNOWING_DRIFTS = ("reference", "oracle")
+#: Drift modes that subtract a precomputed unprobed twin.
+TWIN_DRIFTS = ("reference", "oracle", "nominal")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
 #: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
@@ -48,7 +57,13 @@ SECTIONS: dict[str, set[str] | None] = {
     "monitor": {f.name for f in dataclasses.fields(MonitorSettings)},
     "simultaneous": {"design", "also_surfaces", "also_amplitudes", "max_crosstalk"},
     "manoeuvre": {"hold", "start_s", "change_deg", "rate_deg_s", "change_kt", "rate_kt_s"},
+    # a suite, and per channel a table of SensorSpec fields (checked by the section's parser)
+    "sensors": {"suite", *CHANNEL_NAMES},
 }
+#: Fields of a ``[sensors.<channel>]`` table: :class:`probing.core.sensors.SensorSpec`'s.
+SENSOR_FIELDS = tuple(f.name for f in dataclasses.fields(SensorSpec))
+#: Sections whose keys their own parser checks (the message then names what is allowed there).
+_OWN_KEYS = {"sensors"}
 #: Fault types of the ``[fault]`` section, from the registry :data:`probing.core.faults.FAULTS`.
 FAULT_TYPES = tuple(FAULTS)
 _REQUIRED = {
@@ -167,6 +182,8 @@ def _check_keys(data: dict[str, Any]) -> None:
             continue
         if not isinstance(value, dict):
             raise ScenarioError(key, "must be a table (a [section])")
+        if key in _OWN_KEYS:
+            continue
         for sub in value:
             if sub not in allowed:
                 raise ScenarioError(

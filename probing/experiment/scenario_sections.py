@@ -12,17 +12,21 @@ import dataclasses
 from typing import Any
 
 from probing.core.faults import FAULTS
+from probing.core.gust import GUST_SENSORS
 from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
+from probing.core.sensors import SENSOR_SUITES, Sensor, SensorSpecError, SensorSuite
 from probing.experiment.scenario_schema import (
     _MAX_DEG,
     _MAX_DEG_S,
     DEFAULT_MAX_CROSSTALK,
     DRIFT_MODES,
+    GUST_KNOWING_DRIFTS,
     MAX_PERIODS,
+    SENSOR_FIELDS,
     ScenarioError,
     Simultaneous,
     _choice,
@@ -37,6 +41,7 @@ from probing.sim.errors import AircraftNotFoundError
 from probing.sim.flight import (
     DAMAGE_CASES,
     DAMAGE_MODEL,
+    LOOP_SENSORS,
     MANOEUVRE_HOLDS,
     SPEED_KINDS,
     TURBULENCE_SEVERITY,
@@ -152,10 +157,10 @@ def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
         else DEFAULT_MAX_CROSSTALK
     )
     _alone("simultaneous", scn, ("nonlinearity", "fault", "control", "monitor"))
-    if scn.drift not in ("reference", "none") or scn.estimator != "cyclic":
+    if scn.drift not in (*GUST_KNOWING_DRIFTS, "none") or scn.estimator != "cyclic":
         raise ScenarioError(
             "simultaneous",
-            'needs output.estimator = "cyclic" and output.drift = "reference" or "none"',
+            'needs output.estimator = "cyclic" and output.drift = "reference", "oracle" or "none"',
         )
     return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
 
@@ -436,9 +441,112 @@ def _disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, A
     return {"turbulence": turbulence, "sensor_noise": noise, "seed": seed}
 
 
+def _sensors(section: dict[str, Any], scn: Any) -> dict[str, Any]:
+    """The ``[sensors]`` section: a suite of :data:`probing.core.sensors.SENSOR_SUITES` and,
+    per channel, a table of :class:`~probing.core.sensors.SensorSpec` fields that override
+    the suite's; then what it asks of the rest of the scenario (``docs/scenarios.md``)."""
+    if "suite" not in section:
+        raise ScenarioError("sensors.suite", f"missing (one of {', '.join(SENSOR_SUITES)})")
+    name = _choice(section, "sensors", "suite", tuple(SENSOR_SUITES))
+    suite: SensorSuite = SENSOR_SUITES[name]
+    overrides: dict[str, dict[str, float]] = {}
+    for channel, table in section.items():
+        if channel == "suite":
+            continue
+        label = f"sensors.{field_label(channel)}"
+        if channel not in suite.sensors:
+            raise ScenarioError(
+                label, f"not a sensor of the {name} suite (it has {', '.join(suite.sensors)})"
+            )
+        if not isinstance(table, dict):
+            raise ScenarioError(
+                label, f"must be a table of sensor fields ({', '.join(SENSOR_FIELDS)})"
+            )
+        values: dict[str, float] = {}
+        for key, value in table.items():
+            where = f"{label}.{field_label(key)}"
+            if key not in SENSOR_FIELDS:
+                raise ScenarioError(
+                    where, f"not a sensor field (fields: {', '.join(SENSOR_FIELDS)})"
+                )
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ScenarioError(where, f"must be a number, got {value!r}")
+            values[key] = float(value)
+        try:  # the sensor's own checks, and its sample rate against the step
+            Sensor(suite.sensors[channel].replace(**values), scn.dt_s)
+        except SensorSpecError as exc:
+            raise ScenarioError(f"{label}.{exc.field}", str(exc)) from None
+        if values:  # an empty table changes nothing, and is not written back
+            overrides[channel] = values
+    resolved = suite.with_overrides(overrides)
+    _sensors_fit(scn, resolved)
+    return {"sensors": resolved, "sensor_overrides": overrides}
+
+
+def _sensors_fit(scn: Any, suite: SensorSuite) -> None:
+    """What ``[sensors]`` asks of the rest of the scenario: no other sensor noise, a sensor
+    for every output channel and every channel a switched-on autopilot loop flies on, and
+    neither ``[simultaneous]`` nor ``[manoeuvre]`` (not yet)."""
+    if scn.sensor_noise:
+        raise ScenarioError(
+            "disturbance.sensor_noise",
+            "the sensors' noise comes from [sensors]; drop disturbance.sensor_noise",
+        )
+    missing = [c for c in scn.channels if c not in suite.sensors]
+    if missing:
+        raise ScenarioError(
+            "output.channels",
+            f"{', '.join(missing)}: no sensor in the {suite.name} suite, and an aircraft "
+            "measures only what its sensors do",
+        )
+    control = scn.control
+    for loop, channels in LOOP_SENSORS.items():
+        lacking = [c for c in channels if c not in suite.sensors]
+        if control is not None and getattr(control, loop) and lacking:
+            raise ScenarioError(
+                f"control.{loop}",
+                f"flies on {', '.join(channels)}; the {suite.name} suite has no sensor of "
+                f"{', '.join(lacking)}",
+            )
+    for other in ("simultaneous", "manoeuvre"):
+        if getattr(scn, other) is not None:
+            raise ScenarioError("sensors", f"not yet supported with [{other}]")
+
+
+def _check_drift(scn: Any) -> None:
+    """The drift modes' needs that the sections above cannot check alone: ``reference``
+    only in calm air, ``gust`` with a suite that has every gust channel and a pitch hold."""
+    if scn.drift == "reference" and scn.turbulence != "none":
+        raise ScenarioError(
+            "output.drift",
+            '"reference" is a twin that flies the same gusts as the aircraft, which no real '
+            'aircraft knows; with turbulence say "oracle" (that upper bound) or a realisable '
+            'reference: "nominal", "gust" or "detrend"',
+        )
+    if scn.drift != "gust":
+        return
+    if scn.sensors is None:
+        raise ScenarioError(
+            "output.drift", '"gust" estimates the gust from the sensors: it needs [sensors]'
+        )
+    lacking = [c for c in GUST_SENSORS if c not in scn.sensors.sensors]
+    if lacking:
+        raise ScenarioError(
+            "output.drift",
+            f'"gust" needs a sensor of every channel of {", ".join(GUST_SENSORS)}; '
+            f"the {scn.sensors.name} suite has none of {', '.join(lacking)}",
+        )
+    if scn.control is None or not scn.control.pitch_hold:
+        raise ScenarioError(
+            "output.drift",
+            '"gust" needs [control] pitch_hold = true (its twin flies its own autopilot)',
+        )
+
+
 def _later_sections(data: dict[str, Any], scn: Any) -> Any:
     """``scn`` (the scenario of the sections above) with the sections that depend on it:
-    ``[fault]``, ``[control]``, ``[monitor]``, ``[simultaneous]`` and ``[manoeuvre]``."""
+    ``[fault]``, ``[control]``, ``[monitor]``, ``[simultaneous]``, ``[manoeuvre]`` and
+    ``[sensors]``, and the drift modes' rules."""
     changes = {
         **_fault(data.get("fault"), scn),
         **_control(data.get("control")),
@@ -455,4 +563,7 @@ def _later_sections(data: dict[str, Any], scn: Any) -> Any:
         scn = dataclasses.replace(scn, simultaneous=_simultaneous(data, scn))
     if "manoeuvre" in data:
         scn = dataclasses.replace(scn, manoeuvre=_manoeuvre(data["manoeuvre"], scn))
+    if "sensors" in data:
+        scn = dataclasses.replace(scn, **_sensors(data["sensors"], scn))
+    _check_drift(scn)
     return scn

@@ -396,7 +396,7 @@ def _fly(
     steps = total
     twin = (
         open_twin(flight, scn.channels, total, use_cache=twin_cache)
-        if scn.drift == "reference"
+        if scn.twin_knows_gusts
         else None
     )
     if twin is None:

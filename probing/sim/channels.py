@@ -66,6 +66,11 @@ CHANNELS: dict[str, Channel] = {
         Channel(
             "throttle_norm", "fcs/throttle-pos-norm[0]", "1", "first engine's throttle (sensor)"
         ),
+        Channel("psi_rad", "attitude/psi-rad", "rad", "heading (true)"),
+        Channel("nx_g", "accelerations/Nx", "g", "longitudinal load factor"),
+        Channel("v_north_fps", "velocities/v-north-fps", "ft/s", "INS velocity north"),
+        Channel("v_east_fps", "velocities/v-east-fps", "ft/s", "INS velocity east"),
+        Channel("v_down_fps", "velocities/v-down-fps", "ft/s", "INS velocity down"),
     )
 }
 

@@ -21,6 +21,7 @@ __all__ = [
     "ACTUATOR_FAULTS",
     "DAMAGE_CASES",
     "DAMAGE_MODEL",
+    "LOOP_SENSORS",
     "MANOEUVRE_HOLDS",
     "SPEED_KINDS",
     "SYMMETRIC_DAMAGE",
@@ -103,6 +104,15 @@ class Control:
     def to_dict(self) -> dict[str, Any]:
         """Plain values, for keys and metadata."""
         return asdict(self)
+
+
+#: The sensors each autopilot loop flies on: a ``[control]`` switch -> the output channels
+#: it reads (``probing.sim.control``).  With ``[sensors]`` each must have a sensor.
+LOOP_SENSORS: dict[str, tuple[str, ...]] = {
+    "pitch_hold": ("theta_rad", "q_rad_s"),
+    "bank_hold": ("phi_rad", "p_rad_s"),
+    "speed_hold": ("vt_fps",),
+}
 
 
 #: The autopilot loops a manoeuvre moves the reference of -> (unit of change and rate, the

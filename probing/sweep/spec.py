@@ -139,7 +139,9 @@ def _checkfield_label(table: str, key: str, source: str) -> None:
             f"not a dotted scenario field (section.field, sections: {', '.join(sections)})",
             source,
         )
-    nested = parts[:2] == ["disturbance", "sensor_noise"] and len(parts) == 3
+    nested = len(parts) == 3 and (
+        parts[:2] == ["disturbance", "sensor_noise"] or parts[0] == "sensors"
+    )  # a channel's noise, or a field of a channel's sensor: sensors.theta_rad.bias
     if len(parts) > 2 and not nested:
         raise ScenarioError(label, "too many dots: a scenario field is section.field", source)
 

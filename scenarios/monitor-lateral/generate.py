@@ -88,7 +88,7 @@ type = "none"
 
 [output]
 channels = {toml_value(channels)}
-drift = "reference"
+drift = "oracle"
 estimator = "ac"
 
 [disturbance]

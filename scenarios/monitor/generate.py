@@ -123,7 +123,7 @@ type = "none"
 
 [output]
 channels = ["theta_rad", "elevator_deg"]
-drift = "reference"
+drift = "oracle"
 estimator = "{d.estimator}"
 
 [disturbance]
@@ -165,7 +165,7 @@ def main() -> None:
     d, request = design()
     period_s = d.bits_per_period * d.bit_duration_s
     (HERE / "base.toml").write_text(base_toml(d, request))
-    drifts = {"output.drift": ["reference", "detrend"]}
+    drifts = {"output.drift": ["oracle", "detrend"]}
     a = d.amplitude_deg
     params = {
         "deadband": {"fault.lower_deg": -0.2 * a, "fault.upper_deg": 0.2 * a},

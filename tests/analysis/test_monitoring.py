@@ -150,7 +150,7 @@ def test_false_alarm_rate_has_poissons_exact_interval(study):
 
 
 def test_roc_at_factor_one_is_the_monitors_own_operating_point(study):
-    fa, p = roc(study, "deadband", "reference", [1.0, 3.0])
+    fa, p = roc(study, "deadband", "oracle", [1.0, 3.0])
     hours = study.healthy_h.sum()
     assert fa[0] == pytest.approx(3 / hours) and p[0] == pytest.approx(2 / 4)
     assert fa[1] == 0 and p[1] == 0  # nothing exceeds 3x the threshold
@@ -158,7 +158,7 @@ def test_roc_at_factor_one_is_the_monitors_own_operating_point(study):
 
 def test_figures_show_the_scored_flights(study):
     fig = detection_figure(study)
-    line = fig.axes[0].get_lines()[0]  # dead band, reference
+    line = fig.axes[0].get_lines()[0]  # dead band, oracle
     x, y = line.get_xdata(), line.get_ydata()
     assert y[np.searchsorted(x, 2.4)] == pytest.approx(0.0)
     assert y[np.searchsorted(x, 2.5)] == pytest.approx(1 / 4)  # d1 at 2.5 T
@@ -224,8 +224,8 @@ def test_a_lateral_study_is_scored_per_probed_surface(tmp_path: Path):
     assert table.loc["rudder", "fault"] == "case 1: rudder off"
     assert table.loc["rudder", "p_detect"] == 1.0 and table.loc["aileron", "p_detect"] == 0.0
     text = summary_markdown(flights)
-    assert "| rudder | case 1: rudder off | reference | 1 |" in text
-    assert "| aileron | reference | 2 |" in text  # false alarms per probe
+    assert "| rudder | case 1: rudder off | oracle | 1 |" in text
+    assert "| aileron | oracle | 2 |" in text  # false alarms per probe
 
 
 @pytest.fixture
@@ -284,7 +284,7 @@ def test_the_roc_counts_a_ratio_equal_to_its_factor_as_no_alarm(on_the_edge):
     """The monitor alarms on statistic > threshold: at c = 2, a ratio of exactly 2 is neither
     a false alarm nor a detection; at c = 1 the false alarm at the onset and two detections
     within the goal count."""
-    fa, p = roc(on_the_edge, "deadband", "reference", [1.0, 2.0])
+    fa, p = roc(on_the_edge, "deadband", "oracle", [1.0, 2.0])
     hours = on_the_edge.healthy_h.sum()
     assert fa[0] == pytest.approx(1 / hours) and p[0] == pytest.approx(2 / 3)
     assert fa[1] == 0 and p[1] == 0

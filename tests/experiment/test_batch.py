@@ -43,6 +43,7 @@ SCENARIOS = [
         "gusty",
         **{
             "disturbance.turbulence": "moderate",
+            "output.drift": "oracle",
             "disturbance.seed": 7,
             "disturbance.sensor_noise": {"theta_rad": 1e-5},
         },

@@ -226,6 +226,7 @@ def test_turbulence_is_seeded_and_shared_with_the_twin(tmp_path: Path) -> None:
                 "probe.periods": 3,
                 "probe.settle_periods": 1,
                 "disturbance.turbulence": "moderate",
+                "output.drift": "oracle",
                 "disturbance.seed": seed,
             }
         )
@@ -272,7 +273,7 @@ def test_parquet_rows_are_buffered_into_large_row_groups(tmp_path: Path) -> None
     assert [p.name for p in tmp_path.iterdir()] == ["f.parquet"]
 
 
-@pytest.mark.parametrize("drift", ["reference", "detrend"])
+@pytest.mark.parametrize("drift", ["oracle", "detrend"])
 def test_chunked_post_processing_matches_period_by_period(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, drift: str
 ) -> None:
@@ -416,6 +417,7 @@ def test_z_is_eq5_on_measured_minus_reference_sampled_at_the_end_of_each_bit(
             "probe.periods": 4,
             "probe.settle_periods": 1,
             "output.channels": ["theta_rad", "q_rad_s"],
+            "output.drift": "oracle",
             "disturbance.sensor_noise": {"q_rad_s": 1e-5},
             "disturbance.turbulence": "light",
         }

@@ -35,6 +35,10 @@ def scenario(surface: str, model: str = "737", channels=("theta_rad",), changes=
     return scn.replace(changes, **kw) if changes or kw else scn
 
 
+#: Turbulence, with the twin that flies the same gusts.
+GUSTS = {"disturbance.turbulence": "light", "output.drift": "oracle"}
+
+
 def rel_l2(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
@@ -258,8 +262,8 @@ def test_grouped_lateral_runs_are_the_runs_alone_bit_for_bit(tmp_path: Path):
     surfaces before forking) write the bytes of runs that load and trim for themselves, in
     turbulence too (the calibration steps the FCS before the gusts start)."""
     points = [
-        scenario("aileron", "737", ("p_rad_s",), {"disturbance.turbulence": "light"}, name="a"),
-        scenario("rudder", "737", ("r_rad_s",), {"disturbance.turbulence": "light"}, name="r"),
+        scenario("aileron", "737", ("p_rad_s",), GUSTS, name="a"),
+        scenario("rudder", "737", ("r_rad_s",), GUSTS, name="r"),
         scenario("elevator", "737", ("theta_rad",), name="e"),
     ]
     grouped = tmp_path / "grouped"

@@ -27,6 +27,7 @@ BASE = base_scenario(
         "probe.periods": 3,
         "probe.settle_periods": 1,
         "output.channels": ["theta_rad", "q_rad_s"],
+        "output.drift": "oracle",  # the twin flies the same gusts
     },
     name="tw",
     disturbance={"turbulence": "light", "seed": 4},

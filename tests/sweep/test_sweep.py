@@ -432,6 +432,7 @@ def test_reference_is_the_point_without_its_nonlinearity_turbulence_seed_include
     path = write_sweep(
         tmp_path,
         'name = "gusty"\n[fixed]\n"disturbance.turbulence" = "light"\n"disturbance.seed" = 7\n'
+        '"output.drift" = "oracle"\n'
         '[grid]\n"nonlinearity.type" = ["backlash"]\n"nonlinearity.width_deg" = [0.001, 0.002]\n',
     )
     for p in load_sweep(path).points:
