@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
 from probing.core.forked import Outcome, can_fork, forked_map
+from probing.experiment.onboard import twin_flight
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import batch_of_runs
 from probing.sim.control import control_power
@@ -80,9 +81,10 @@ def _twins_to_store(scenarios: Sequence[Scenario]) -> list[Scenario]:
     """One scenario per distinct reference twin of the group that the cache lacks."""
     seen, todo = set(), []
     for scn in scenarios:
-        if not scn.uses_twin:
+        flight = twin_flight(scn, nominal=False)
+        if flight is None:
             continue
-        spec = (scn.flight, tuple(scn.channels), scn.total_steps)
+        spec = (flight, tuple(scn.channels), scn.total_steps)
         if spec in seen or twin_stored(*spec):
             continue
         seen.add(spec)
@@ -187,5 +189,7 @@ def _work(i: int, items: Sequence[T], work: Callable, aircraft: TrimmedAircraft 
 def _store(scn: Scenario, aircraft: TrimmedAircraft) -> None:
     """Simulate and store a scenario's reference twin (in a child)."""
     steps_per_period = scn.bits_per_period * scn.steps_per_bit
-    plant = aircraft.plant_for(scn.flight)
-    store_twin(scn.flight, scn.channels, scn.total_steps, steps_per_period, plant)
+    flight = twin_flight(scn, nominal=False)
+    assert flight is not None
+    plant = aircraft.plant_for(flight)
+    store_twin(flight, scn.channels, scn.total_steps, steps_per_period, plant)

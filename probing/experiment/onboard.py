@@ -45,6 +45,7 @@ __all__ = [
     "calm_nominal",
     "open_reference_twin",
     "reference_source",
+    "twin_flight",
 ]
 
 
@@ -113,14 +114,20 @@ def open_reference_twin(
     aircraft in calm air (``nominal``), or the aircraft through the same turbulence
     (``oracle``, ``reference``): the nominal one with ``nominal``, else the flight itself,
     damage and all (``probing run``'s comparison)."""
+    flight = twin_flight(scn, nominal=nominal)
+    if flight is None:
+        return None
+    return open_twin(flight, scn.channels, scn.total_steps, use_cache=use_cache)
+
+
+def twin_flight(scn: Scenario, *, nominal: bool = True) -> Flight | None:
+    """The flight of ``scn``'s precomputed twin (:func:`open_reference_twin`), None if it has
+    none."""
     if not scn.uses_twin:
         return None
-    flight = scn.flight
     if scn.drift == "nominal":
-        flight = calm_nominal(flight)
-    elif nominal:
-        flight = flight.nominal
-    return open_twin(flight, scn.channels, scn.total_steps, use_cache=use_cache)
+        return calm_nominal(scn.flight)
+    return scn.flight.nominal if nominal else scn.flight
 
 
 class Onboard:

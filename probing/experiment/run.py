@@ -155,9 +155,8 @@ class _Rig:
         power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
         loop = sensing = None
-        suite = getattr(scn, "sensors", None)
-        if suite is not None:
-            sensing = Sensing(plant, suite, scn.seed, scn.build_fault("sensor"))
+        if scn.sensors is not None:
+            sensing = Sensing(plant, scn.sensors, scn.seed, scn.build_fault("sensor"))
         if scn.stepped_one_by_one or sensing is not None:
             loop = ClosedLoop(
                 plant,

@@ -1,0 +1,142 @@
+"""A monitored flight's log (sensors.parquet) and its replay: the monitor computed from the
+log alone equals the live flight's bit for bit, really reads the sensors it says it reads,
+and never sees the simulated atmosphere."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from probing.core.sensors import SENSOR_SUITES
+from probing.experiment.layouts import AUTOPILOT_COLUMNS
+from probing.experiment.monitor import ReplayError, monitor_scenario, replay_monitor
+from probing.experiment.scenario import load_scenario
+from probing.sim import plant as plant_module
+
+pytestmark = pytest.mark.jsbsim
+
+ROOT = Path(__file__).resolve().parents[2]
+FOOTER = (b"probing.first_alarm_s", b"probing.verdict", b"probing.detector")
+
+
+def _scenario(drift: str, **changes):
+    """The study's flight (GTM, light turbulence, closed loop), NASA's T2 sensors, short."""
+    base = load_scenario(ROOT / "scenarios" / "monitor" / "base.toml")
+    return base.replace(
+        {
+            "probe.periods": 24,
+            "monitor.baseline_periods": 14,
+            "output.drift": drift,
+            "disturbance.sensor_noise": {},
+            "sensors": {"suite": "nasa_t2"},
+            **changes,
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def flights(tmp_path_factory):
+    out = tmp_path_factory.mktemp("live")
+    return {d: monitor_scenario(_scenario(d), out / d, progress=False) for d in ("gust", "nominal")}
+
+
+def _tables(folder: Path, name: str):
+    return pq.read_table(folder / name).to_pandas(), pq.read_metadata(folder / name).metadata
+
+
+@pytest.mark.parametrize("drift", ["gust", "nominal"])
+def test_the_replay_of_a_log_is_the_live_monitor_bit_for_bit(flights, tmp_path, drift):
+    live = flights[drift]
+    again = replay_monitor(live.out_dir / "sensors.parquet", tmp_path, progress=False)
+    for name in ("monitor.parquet", "probing.parquet"):
+        (a, ma), (b, mb) = _tables(live.out_dir, name), _tables(again.out_dir, name)
+        assert len(a) > 0 and a.equals(b), name
+        for key in FOOTER:
+            assert ma.get(key) == mb.get(key), (name, key)
+    assert (again.first_alarm_s, again.verdict) == (live.first_alarm_s, live.verdict)
+
+
+def test_the_gust_reference_reads_the_alpha_vane(flights, tmp_path):
+    """Replayed with the recorded alpha vane perturbed, the estimates change: the reference
+    is computed from the log's air data, not from anything else."""
+    log = flights["gust"].out_dir / "sensors.parquet"
+    table, meta = pq.read_table(log), pq.read_metadata(log).metadata
+    alpha = table.column("alpha_rad").to_numpy()
+    bumped = alpha + np.radians(0.2) * np.sin(np.arange(alpha.size) / 40.0)
+    column = table.schema.get_field_index("alpha_rad")
+    table = table.set_column(column, "alpha_rad", pa.array(bumped))
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "perturbed.parquet")
+    again = replay_monitor(tmp_path / "perturbed.parquet", tmp_path / "out", progress=False)
+    a = _tables(flights["gust"].out_dir, "probing.parquet")[0]
+    b = _tables(again.out_dir, "probing.parquet")[0]
+    theta = (a.channel == "theta_rad").to_numpy()
+    h_live, h_bumped = a.h_est.to_numpy()[theta], b.h_est.to_numpy()[theta]
+    assert np.abs(h_live - h_bumped).max() > 0.1 * np.abs(h_live).max()
+
+
+def test_a_realisable_replay_builds_no_turbulent_aircraft(flights, tmp_path, monkeypatch):
+    """No path from the simulated atmosphere: replaying a gust or nominal log, every aircraft
+    that is built flies in calm air."""
+    seen = []
+    disturb = plant_module.Plant.disturb
+
+    def spy(self, turbulence, seed):
+        seen.append(turbulence)
+        return disturb(self, turbulence, seed)
+
+    monkeypatch.setattr(plant_module.Plant, "disturb", spy)
+    for drift in ("gust", "nominal"):
+        replay_monitor(flights[drift].out_dir / "sensors.parquet", tmp_path / drift, progress=False)
+    assert seen and set(seen) == {"none"}
+
+
+def test_the_log_holds_what_the_flight_computer_had_and_nothing_else(flights):
+    log = flights["gust"].out_dir / "sensors.parquet"
+    names = pq.read_schema(log).names
+    suite = list(SENSOR_SUITES["nasa_t2"].sensors)
+    assert names == ["time_s", "probe_deg", *AUTOPILOT_COLUMNS, *suite]
+    table = pq.read_table(log)
+    dt = np.diff(table.column("time_s").to_numpy())
+    np.testing.assert_allclose(dt, 0.01, rtol=1e-9)
+    assert table.num_rows == 24 * 255
+
+
+def test_a_follow_log_cannot_be_replayed_and_says_why(tmp_path):
+    scn = _scenario("follow", **{"disturbance.turbulence": "none"})
+    live = monitor_scenario(scn, tmp_path / "live", progress=False)
+    with pytest.raises(ReplayError, match="follow"):
+        replay_monitor(live.out_dir / "sensors.parquet", tmp_path / "again", progress=False)
+
+
+def _probing(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "probing", *args], capture_output=True, text=True, cwd=cwd
+    )
+
+
+def test_the_command_replays_and_refuses_in_one_line(flights, tmp_path):
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    ok = _probing("monitor", "--replay", str(log), "--out", str(tmp_path / "r"), cwd=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    assert "(replayed)" in ok.stdout
+    assert (tmp_path / "r" / "gtm-monitored" / "monitor.parquet").is_file()
+    scenario = ROOT / "scenarios" / "monitor" / "base.toml"
+    not_a_log = tmp_path / "x.parquet"
+    pq.write_table(pa.table({"a": [1.0]}), not_a_log)
+    for args in (
+        ("monitor",),
+        ("monitor", str(scenario), "--replay", str(log)),
+        ("monitor", "--replay", str(not_a_log)),
+        ("monitor", "--replay", str(tmp_path / "missing.parquet")),
+        ("monitor", "--replay", str(log), "--timeseries"),
+    ):
+        bad = _probing(*args, "--out", str(tmp_path / "bad"), cwd=tmp_path)
+        assert bad.returncode == 2, (args, bad.stderr)
+        assert len(bad.stderr.strip().splitlines()) == 1, (args, bad.stderr)
+        assert not (tmp_path / "bad").exists()
