@@ -35,7 +35,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["GUST_SENSORS", "GustEstimator", "wind_ned_fps"]
+__all__ = ["GUST_SENSORS", "GustEstimator", "HighPass", "wind_ned_fps"]
 
 #: The measured channels the estimate needs, in the order :func:`wind_ned_fps` takes them.
 GUST_SENSORS = (
@@ -131,20 +131,27 @@ class GustEstimator:
         Sample interval T, s.
     """
 
-    def __init__(self, span_ft: float, dt_s: float) -> None:
+    def __init__(self, span_ft: float, dt_s: float, steady_time_s: float = 0.0) -> None:
         if not (math.isfinite(span_ft) and span_ft > 0):
             raise ValueError(f"the wing span must be > 0 ft, got {span_ft!r}")
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be > 0, got {dt_s!r}")
         self.span_ft, self.dt_s = float(span_ft), float(dt_s)
+        self.steady_time_s = float(steady_time_s)
         self._last: tuple[float, float] | None = None  # the previous (w_g, v_g), ft/s
         self._q = self._r = 0.0  # the filters' outputs, rad/s
+        #: the steady wind removed (with ``steady_time_s``), None: the whole wind is flown
+        self._steady = HighPass(steady_time_s, dt_s) if steady_time_s else None
 
     def update(self, measured: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """The next chunk's wind ``(n, 3)`` (NED, ft/s) and rotational gust ``(n, 3)`` (body
         p, q, r, rad/s; p is 0: not estimated).  The first sample of the stream starts the
-        gradient filters at rest."""
+        gradient filters at rest.  With ``steady_time_s`` the wind is the gust only: the
+        estimate minus its first-order low-pass of that time constant (started at the first
+        sample), which holds the steady wind and the sensors' biases alike."""
         wind = wind_ned_fps(measured)
+        if self._steady is not None:
+            wind = self._steady.update(wind)
         psi = np.asarray(measured["psi_rad"], dtype=float)
         vt = np.asarray(measured["vt_fps"], dtype=float)
         across = -np.sin(psi) * wind[:, 0] + np.cos(psi) * wind[:, 1]  # v_g, ft/s
@@ -169,3 +176,35 @@ class GustEstimator:
         phi, theta = (np.asarray(measured[c], dtype=float) for c in ("phi_rad", "theta_rad"))
         rates = _ned_to_body(phi, theta, psi, axis_q)
         return wind, rates
+
+
+class HighPass:
+    """A signal minus its first-order low-pass of time constant ``time_s`` (started at the
+    first sample): what varies faster than that, with any steady offset (a bias) removed.
+
+    Parameters
+    ----------
+    time_s : float
+        The low-pass's time constant, s (>= ``dt_s``).
+    dt_s : float
+        Sample interval, s.
+    """
+
+    def __init__(self, time_s: float, dt_s: float) -> None:
+        if not (math.isfinite(time_s) and math.isfinite(dt_s) and 0 < dt_s <= time_s):
+            raise ValueError(f"need 0 < dt_s <= time_s, got dt_s={dt_s!r}, time_s={time_s!r}")
+        self.k = dt_s / time_s
+        self._steady: np.ndarray | None = None
+
+    def update(self, x: np.ndarray) -> np.ndarray:
+        """The next rows ``(n, k)`` (or samples ``(n,)``), high-passed; the state carries over."""
+        x = np.asarray(x, dtype=float)
+        flat = x.reshape(x.shape[0], -1)
+        steady = flat[0].copy() if self._steady is None else self._steady
+        out = np.empty_like(flat)
+        k = self.k
+        for i, row in enumerate(flat):
+            steady = steady + k * (row - steady)
+            out[i] = row - steady
+        self._steady = steady
+        return out.reshape(x.shape)

@@ -207,7 +207,12 @@ _BOUNDS: dict[str, _Bound] = {
     "verdict_periods": _Bound("integer", 1, 1000),
     "window_periods": _Bound("integer", 1, 1000),
     "surface": _Bound("bool"),
+    "trajectory_false_alarms_per_hour": _Bound("number", 0.0, 1e6, lo_open=True),
 }
+
+
+#: The settings that may be left out (None: as documented on the field).
+_OPTIONAL = ("trajectory_false_alarms_per_hour",)
 
 
 def _checked(name: str, value: object) -> object:
@@ -219,6 +224,8 @@ def _checked(name: str, value: object) -> object:
         If it is not, or is not of the setting's kind (a bool is no integer or number).
     """
     bound = _BOUNDS[name]
+    if value is None and name in _OPTIONAL:
+        return None
     if bound.kind == "bool":
         if not isinstance(value, bool):
             raise SettingError(name, f"must be true or false, got {value!r}")
@@ -267,6 +274,9 @@ class MonitorSettings:
     surface : bool
         Isolate with the measured elevator deflection (channel ``elevator_deg``, an
         instrument, not monitored itself) instead of the gain-and-offset rule.
+    trajectory_false_alarms_per_hour : float or None
+        The trajectory detector's own false-alarm budget (:mod:`probing.core.trajectory`),
+        alarms per flight hour over all channels; None: ``false_alarms_per_hour``.
 
     Raises
     ------
@@ -285,6 +295,7 @@ class MonitorSettings:
     verdict_periods: int = 3
     window_periods: int = 1
     surface: bool = False
+    trajectory_false_alarms_per_hour: float | None = None
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -299,9 +310,16 @@ class MonitorSettings:
         """False-alarm probability per period and channel (the rate shared out equally)."""
         return min(0.5, self.false_alarms_per_hour * period_s / 3600.0 / channels)
 
+    def trajectory_alpha(self, period_s: float, channels: int) -> float:
+        """The trajectory detector's false-alarm probability per period and channel."""
+        rate = self.trajectory_false_alarms_per_hour
+        rate = self.false_alarms_per_hour if rate is None else rate
+        return min(0.5, rate * period_s / 3600.0 / channels)
+
     def to_dict(self) -> dict[str, float]:
-        """Plain values, for metadata."""
-        return dataclasses.asdict(self)
+        """Plain values, for metadata (a setting left out is left out here too)."""
+        values = dataclasses.asdict(self)
+        return {k: v for k, v in values.items() if not (v is None and k in _OPTIONAL)}
 
 
 class ChangeDetector:

@@ -61,11 +61,19 @@ MONITOR_SCHEMA = pa.schema(
         field("period", pa.int32(), "1", "probe period p, counted from the first probe sample"),
         field("time_s", pa.float64(), "s", "time after trim at the end of the period"),
         field("channel", pa.string(), "", "output channel (its name carries its unit)"),
+        field(
+            "detector",
+            pa.string(),
+            "",
+            "probing (the pulse response changed) or trajectory (the output left the reference's)",
+        ),
         field("statistic", pa.float64(), "1", "-log10 p of no change (NaN: baseline)"),
         field("threshold", pa.float64(), "1", "-log10 of the false-alarm probability"),
         field("alarm", pa.bool_(), "", "statistic > threshold"),
-        field("gain_change", pa.float64(), "1", "estimated scale of h against the baseline"),
-        field("shape_change", pa.float64(), "1", "airframe test over its threshold"),
+        field(
+            "gain_change", pa.float64(), "1", "estimated scale of h against the baseline (probing)"
+        ),
+        field("shape_change", pa.float64(), "1", "airframe test over its threshold (probing)"),
         field("verdict", pa.string(), "", "none, actuator (gain and offset) or airframe"),
     ]
 )

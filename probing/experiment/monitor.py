@@ -14,6 +14,7 @@ metadata the first alarm and the flight's verdict (``docs/monitoring.md``).
 from __future__ import annotations
 
 import json
+import math
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
+from probing.core.trajectory import TrajectoryDetector
 from probing.experiment.onboard import Onboard, open_reference_twin, reference_source
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import CHUNK_STEPS, RunResult, run_scenario
@@ -62,6 +64,10 @@ class MonitorResult:
         Why the flight ended before its last period (a divergence), or None.
     out_dir : pathlib.Path or None
         The folder of ``monitor.parquet``.
+    alarm_detector : str or None
+        The detector that alarmed first, ``"probing"`` or ``"trajectory"`` (None: no alarm).
+    first_probing_alarm_s, first_trajectory_alarm_s : float or None
+        Each detector's first alarm, s after the trim (None: it never alarmed).
     """
 
     run: RunResult | None
@@ -71,6 +77,9 @@ class MonitorResult:
     alpha: float
     ended: str | None = None
     out_dir: Path | None = None
+    alarm_detector: str | None = None
+    first_probing_alarm_s: float | None = None
+    first_trajectory_alarm_s: float | None = None
 
     def facts(self) -> dict[str, float | int | str | None]:
         """The result as plain JSON values (a sweep point's record)."""
@@ -80,17 +89,30 @@ class MonitorResult:
             "verdict": self.verdict,
             "alpha_per_period": self.alpha,
             "ended": self.ended,
+            "alarm_detector": self.alarm_detector,
+            "first_probing_alarm_s": self.first_probing_alarm_s,
+            "first_trajectory_alarm_s": self.first_trajectory_alarm_s,
         }
 
     def line(self) -> str:
         """The two facts on one line, as the command prints them."""
         when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"
-        line = f"first alarm: {when} (period {self.first_alarm_period}); verdict: {self.verdict}"
+        by = "" if self.alarm_detector is None else f", {self.alarm_detector}"
+        line = (
+            f"first alarm: {when} (period {self.first_alarm_period}{by}); verdict: {self.verdict}"
+        )
         return line if self.ended is None else f"{line}; the flight ended: {self.ended}"
 
 
+#: The detectors a monitor runs, in the order of its rows (``monitor.parquet``'s
+#: ``detector``): the paper's, on the pulse response, and the trajectory's, on the deviation.
+DETECTORS = ("probing", "trajectory")
+
+
 class _Monitor:
-    """The detectors of a flight's channels, fed by the run (a :class:`RunObserver`)."""
+    """The detectors of a flight's channels, fed by the run (a :class:`RunObserver`): per
+    monitored channel a probing detector (:class:`~probing.core.monitor.ChangeDetector`)
+    and a trajectory detector (:class:`~probing.core.trajectory.TrajectoryDetector`)."""
 
     def __init__(self, scn: Scenario, settings: MonitorSettings) -> None:
         self.scn, self.settings = scn, settings
@@ -99,12 +121,18 @@ class _Monitor:
         self.surface = channels.index(scn.surface_channel) if settings.surface else None
         self.monitored = [(j, c) for j, c in enumerate(channels) if j != self.surface]
         self.alpha = settings.alpha(self.period_s, len(self.monitored))
+        self.trajectory_alpha = settings.trajectory_alpha(self.period_s, len(self.monitored))
         m = scn.bits_per_period
         self.detectors = [
             ChangeDetector.from_settings(m, settings, self.alpha) for _ in self.monitored
         ]
+        self.trajectories = [
+            TrajectoryDetector(settings.baseline_periods, self.trajectory_alpha)
+            for _ in self.monitored
+        ]
         self.first = max(scn.settle_periods, scn.first_estimated_period)
-        self.first_alarm: int | None = None  # the first alarmed period, any channel
+        #: the first alarmed period of each detector, any channel (None: no alarm yet)
+        self.first_alarms: dict[str, int | None] = dict.fromkeys(DETECTORS)
         #: each monitored channel's verdict: decided once its isolation periods are in, the
         #: latest alarmed row's until then ("none": no alarm yet)
         self.verdicts = ["none"] * len(self.monitored)
@@ -114,69 +142,122 @@ class _Monitor:
     def open(self, outputs: OutputFolder) -> None:
         self.writer = outputs.writer("monitor.parquet", [c for _, c in self.monitored])
 
-    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
-        cols: dict[str, list] = {f.name: [] for f in MONITOR_SCHEMA}
+    def update(
+        self,
+        periods: np.ndarray,
+        h: np.ndarray,
+        z: np.ndarray,
+        trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        rows: list[tuple] = []
         for i, p in enumerate(periods.tolist()):
-            if p < self.first:
-                continue
-            surface = None if self.surface is None else h[i, self.surface]
-            for c, ((j, channel), det) in enumerate(
-                zip(self.monitored, self.detectors, strict=True)
-            ):
-                d = det.update(h[i, j], surface)
-                if not self.decided[c] and d.verdict != "none":
-                    self.verdicts[c] = d.verdict
-                if not self.decided[c] and det.isolated:
-                    self.verdicts[c] = "airframe" if d.shape_change > 1.0 else "actuator"
-                    self.decided[c] = True
-                for name, value in (
-                    ("period", p),
-                    ("time_s", (p + 1) * self.period_s),
-                    ("channel", channel),
-                    ("statistic", d.statistic),
-                    ("threshold", d.threshold),
-                    ("alarm", d.alarm),
-                    ("gain_change", d.gain_change),
-                    ("shape_change", d.shape_change),
-                    ("verdict", d.verdict),
-                ):
-                    cols[name].append(value)
-                if d.alarm and self.first_alarm is None:
-                    self.first_alarm = p
-        if cols["period"] and self.writer is not None:
-            self.writer.write(cols)
+            if p >= self.first:
+                rows += self._probing(p, h[i])
+        if trajectory is not None:
+            for p, features in zip(trajectory[0].tolist(), trajectory[1], strict=True):
+                if p >= self.first:
+                    rows += self._trajectory(p, features)
+        rows.sort(key=lambda r: (r[0], DETECTORS.index(r[3])))  # by period, then detector
+        if rows and self.writer is not None:
+            names = [f.name for f in MONITOR_SCHEMA]
+            self.writer.write({n: [r[k] for r in rows] for k, n in enumerate(names)})
+
+    def _probing(self, p: int, h: np.ndarray) -> list[tuple]:
+        """The probing detectors' rows of period ``p`` (its estimates ``h`` (C, M))."""
+        rows = []
+        surface = None if self.surface is None else h[self.surface]
+        for c, ((j, channel), det) in enumerate(zip(self.monitored, self.detectors, strict=True)):
+            d = det.update(h[j], surface)
+            if not self.decided[c] and d.verdict != "none":
+                self.verdicts[c] = d.verdict
+            if not self.decided[c] and det.isolated:
+                self.verdicts[c] = "airframe" if d.shape_change > 1.0 else "actuator"
+                self.decided[c] = True
+            row = self._row(p, channel, "probing", d.statistic, d.threshold, d.alarm)
+            rows.append((*row[:-3], d.gain_change, d.shape_change, d.verdict))
+        return rows
+
+    def _trajectory(self, p: int, features: np.ndarray) -> list[tuple]:
+        """The trajectory detectors' rows of period ``p`` (its features ``(C, 2)``)."""
+        rows = []
+        for (j, channel), det in zip(self.monitored, self.trajectories, strict=True):
+            d = det.update(features[j])
+            rows.append(self._row(p, channel, "trajectory", d.statistic, d.threshold, d.alarm))
+        return rows
+
+    def _row(
+        self, p: int, channel: str, detector: str, statistic: float, threshold: float, alarm: bool
+    ) -> tuple:
+        """A row of ``monitor.parquet`` (the isolation's columns empty: a trajectory row's)."""
+        if alarm and self.first_alarms[detector] is None:
+            self.first_alarms[detector] = p
+        time_s = (p + 1) * self.period_s
+        return (
+            p,
+            time_s,
+            channel,
+            detector,
+            statistic,
+            threshold,
+            alarm,
+            math.nan,
+            math.nan,
+            "none",
+        )
+
+    @property
+    def first_alarm(self) -> int | None:
+        """The first alarmed period of either detector."""
+        found = [p for p in self.first_alarms.values() if p is not None]
+        return min(found) if found else None
+
+    @property
+    def alarm_detector(self) -> str | None:
+        """The detector that alarmed first (the probing one on a tie), None if neither."""
+        first = self.first_alarm
+        return (
+            None if first is None else next(d for d in DETECTORS if self.first_alarms[d] == first)
+        )
 
     def finish(self) -> None:
-        """The first alarm and the verdict into the file's footer."""
+        """The first alarms and the verdict into the file's footer."""
         assert self.writer is not None
         self.writer.add_metadata(
             metadata(
-                first_alarm_s=self._first_alarm_s(),
+                first_alarm_s=self._end_of(self.first_alarm),
                 first_alarm_period=self.first_alarm,
+                alarm_detector=self.alarm_detector,
+                first_probing_alarm_s=self._end_of(self.first_alarms["probing"]),
+                first_trajectory_alarm_s=self._end_of(self.first_alarms["trajectory"]),
                 verdict=flight_verdict(self.verdicts),
                 detector={
                     **self.settings.to_dict(),
                     "alpha_per_period": self.alpha,
+                    "trajectory_alpha_per_period": self.trajectory_alpha,
                     "period_s": self.period_s,
                     "threshold": self.detectors[0].threshold,
                     "shape_threshold": self.detectors[0].shape_threshold,
+                    "trajectory_threshold": self.trajectories[0].threshold,
                 },
             )
         )
 
-    def _first_alarm_s(self) -> float | None:
-        """The end of the first alarmed period after the trim, s."""
-        return None if self.first_alarm is None else (self.first_alarm + 1) * self.period_s
+    def _end_of(self, period: int | None) -> float | None:
+        """The end of ``period`` after the trim, s (None for None)."""
+        return None if period is None else (period + 1) * self.period_s
 
     def result(self, run: RunResult | None, out_dir: Path, ended: str | None) -> MonitorResult:
         return MonitorResult(
             run,
-            self._first_alarm_s(),
+            self._end_of(self.first_alarm),
             self.first_alarm,
             flight_verdict(self.verdicts),
             self.alpha,
             ended,
             out_dir,
+            self.alarm_detector,
+            self._end_of(self.first_alarms["probing"]),
+            self._end_of(self.first_alarms["trajectory"]),
         )
 
 
@@ -290,14 +371,15 @@ def replay_monitor(
                 for batch in rows:
                     chunk = {c: batch.column(c).to_numpy() for c in batch.schema.names}
                     count = batch.num_rows // period_steps
-                    est, _, _ = onboard.estimates(chunk, first)
+                    done = onboard.estimates(chunk, first)
+                    est = done.estimates
                     if est.periods.size:
                         w_probe.write(
                             probing_block(
                                 list(scn.channels), est.periods, lag_s, est.z, est.zeta, est.h
                             )
                         )
-                    monitor.update(est.periods, est.h, est.z)
+                    monitor.update(est.periods, est.h, est.z, done.trajectory)
                     first += count
                     bar.advance(count)
             if ended is not None:

@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from typing import Protocol
+from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
 from probing.core.gust import GUST_SENSORS, GustEstimator
+from probing.core.trajectory import trajectory_features
 from probing.experiment.drift import drift_correction
 from probing.experiment.scenario import Scenario
 from probing.sim.control import control_power
@@ -38,6 +40,7 @@ from probing.sim.gust_twin import GustTwin
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = [
+    "Estimated",
     "GustSource",
     "Onboard",
     "ReferenceSource",
@@ -47,6 +50,12 @@ __all__ = [
     "reference_source",
     "twin_flight",
 ]
+
+
+#: The gust twin flies the estimated wind minus its low-pass of this time constant, s: the
+#: steady part holds the sensors' biases (NASA's pitch attitude is off by -0.09 deg, a
+#: 0.2 ft/s vertical wind at 75 KCAS), which would fly the twin away over minutes.
+STEADY_WIND_TIME_S = 30.0
 
 
 class ReferenceSource(Protocol):
@@ -79,17 +88,17 @@ class GustSource:
         flight = calm_nominal(scn.flight)
         power = control_power(flight)
         self.twin = GustTwin(flight, scn.control, power, scn.channels)
-        self.estimator = GustEstimator(self.twin.span_ft, scn.dt_s)
-        self.last_p: float | None = None
+        self.estimator = GustEstimator(self.twin.span_ft, scn.dt_s, STEADY_WIND_TIME_S)
+        self.last: np.ndarray | None = None  # the last measured roll rate and bank angle
 
     def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
         measured = {c: log[c] for c in GUST_SENSORS}
         wind, rates = self.estimator.update(measured)
-        p = np.asarray(log["p_rad_s"], dtype=float)
-        first = p[0] if self.last_p is None else self.last_p
-        before = np.concatenate([[first], p[:-1]])
-        self.last_p = float(p[-1])
-        return self.twin.next(wind, rates, before)
+        roll = np.column_stack([log["p_rad_s"], log["phi_rad"]]).astype(float)
+        first = roll[:1] if self.last is None else self.last
+        before = np.vstack([first, roll[:-1]])  # each step sees the measurement before it
+        self.last = roll[-1:]
+        return self.twin.next(wind, rates, before[:, 0], before[:, 1])
 
 
 def calm_nominal(flight: Flight) -> Flight:
@@ -162,9 +171,9 @@ class Onboard:
         log: Mapping[str, np.ndarray],
         first: int,
         flown_reference: np.ndarray | None = None,
-    ) -> tuple[object, np.ndarray, np.ndarray | None]:
-        """A chunk of whole periods from period ``first`` on -> its estimates (periods, z,
-        zeta, h), the measured channels ``(rows, C)`` and the reference ``(rows, C)``.
+    ) -> Estimated:
+        """A chunk of whole periods from period ``first`` on -> what the flight computer
+        makes of it (:class:`Estimated`).
 
         ``flown_reference``: the reference stepped with the flight (``follow``)."""
         measured = np.column_stack([log[c] for c in self.scn.channels])
@@ -173,5 +182,34 @@ class Onboard:
             reference = self.source.next(log)
         baseline = reference if reference is not None else self.baseline
         spb = self.spb
-        est = self.drift.estimates((measured - baseline)[spb - 1 :: spb], first)
-        return est, measured, reference
+        deviation = (measured - baseline)[spb - 1 :: spb]
+        est = self.drift.estimates(deviation, first)
+        m = self.scn.probe.length
+        count = deviation.shape[0] // m
+        periods = deviation[: count * m].reshape(count, m, -1).transpose(0, 2, 1)
+        features = trajectory_features(periods)
+        trajectory = (np.arange(first, first + count, dtype=np.int64), features)
+        return Estimated(est, measured, reference, trajectory)
+
+
+@dataclass
+class Estimated:
+    """What the flight computer made of a chunk.
+
+    Attributes
+    ----------
+    estimates : object
+        The per-period estimates: ``periods`` (P,), ``z``, ``zeta``, ``h`` (P, C, M).
+    measured : numpy.ndarray
+        ``(rows, C)``: the measured channels.
+    reference : numpy.ndarray or None
+        ``(rows, C)``: the reference's outputs (None without one).
+    trajectory : (numpy.ndarray, numpy.ndarray)
+        Every whole period of the chunk ``(P',)`` and its deviation's features ``(P', C, 2)``
+        (:func:`probing.core.trajectory.trajectory_features`): the trajectory detector's.
+    """
+
+    estimates: Any
+    measured: np.ndarray
+    reference: np.ndarray | None
+    trajectory: tuple[np.ndarray, np.ndarray]

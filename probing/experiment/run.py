@@ -112,8 +112,15 @@ class RunObserver(Protocol):
     def open(self, outputs: OutputFolder) -> None:
         """Called once, with the run's output folder, before the first period."""
 
-    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
-        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M)."""
+    def update(
+        self,
+        periods: np.ndarray,
+        h: np.ndarray,
+        z: np.ndarray,
+        trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M), and
+        its whole periods with their deviation's features (:class:`Onboard`'s)."""
 
     def finish(self) -> None:
         """Called after the last period, before the run's files are closed."""
@@ -553,14 +560,15 @@ def run_scenario(
                 for c in _chunks(rig):
                     if w_log is not None:
                         w_log.write(c.log)
-                    est, measured, reference = onboard.estimates(c.log, c.first, c.flown_reference)
+                    done = onboard.estimates(c.log, c.first, c.flown_reference)
+                    est, measured, reference = done.estimates, done.measured, done.reference
                     if est.periods.size:
                         w_probe.write(
                             probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
                         )
                     settled.add(est.periods, est.h, est.z)
                     if observer is not None:
-                        observer.update(est.periods, est.h, est.z)
+                        observer.update(est.periods, est.h, est.z, done.trajectory)
                     if w_ts is not None:
                         w_ts.write(
                             _timeseries_rows(c, measured, reference, x_period, scn, channels)

@@ -112,7 +112,13 @@ class TruthFiles:
         """Keep the run's folder."""
         self.outputs = outputs
 
-    def update(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray) -> None:
+    def update(
+        self,
+        periods: np.ndarray,
+        h: np.ndarray,
+        z: np.ndarray,
+        trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         """Nothing to follow period by period."""
 
     def finish(self) -> None:

@@ -149,12 +149,20 @@ GUST_AXES = ("p", "q", "r")
 GUST_INPUTS = {
     **{f"{a}_gust_rad_s": f"probing/gust/{a}-rad_sec" for a in GUST_AXES},
     "p_measured_rad_s": "probing/gust/p-measured-rad_sec",
+    "phi_measured_rad": "probing/gust/phi-measured-rad",
     "observer_on": "probing/gust/observer-on",
 }
+
+#: Bumped whenever the gust-ready copy's rewrite changes (its cached folder is named with it).
+GUST_ROOT_VERSION = 2
 
 #: The roll-gust observer's gain, 1/s: the roll gust it infers moves at this rate per rad/s of
 #: roll-rate difference between the model and the measured aircraft (time constant 0.1 s).
 ROLL_OBSERVER_GAIN_PER_S = 10.0
+
+#: The weight of the bank-angle difference in the observer's error, rad/s per rad: the model
+#: tracks the measured bank angle too, so a roll gyro's bias cannot wind it into a spiral.
+ROLL_OBSERVER_BANK_RAD_S = 1.0
 
 
 def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
@@ -174,7 +182,7 @@ def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
         computer's gust twin (``drift = "gust"``) flies it.
     """
     folder = find_aircraft(model)
-    flavour = "-gust" if gust_inputs else ""
+    flavour = f"-gust{GUST_ROOT_VERSION}" if gust_inputs else ""
     root = cache_dir() / "jsbsim-root" / f"{model}{flavour}-{aircraft_digest(model)[:16]}"
     if (root / "aircraft" / model / f"{model}.xml").is_file():
         return root
@@ -234,14 +242,21 @@ def _add_gust_inputs(xml_path: Path) -> None:
 
 def _roll_observer() -> ET.Element:
     """The roll-gust observer's system: integrate the model's roll rate minus the measured
-    one, while ``probing/gust/observer-on`` is 1 (off, so not integrating, by default)."""
+    one, plus :data:`ROLL_OBSERVER_BANK_RAD_S` times its bank angle minus the measured one,
+    while ``probing/gust/observer-on`` is 1 (off, so not integrating, by default)."""
     system = ET.Element("system", name="probing gust observer")
     channel = ET.SubElement(system, "channel", name="roll gust")
     error = ET.SubElement(channel, "fcs_function", name="probing/gust/p-error-rad_sec")
     function = ET.SubElement(error, "function")
-    difference = ET.SubElement(function, "difference")
-    ET.SubElement(difference, "property").text = "velocities/p-rad_sec"
-    ET.SubElement(difference, "property").text = "probing/gust/p-measured-rad_sec"
+    total = ET.SubElement(function, "sum")
+    rate = ET.SubElement(total, "difference")
+    ET.SubElement(rate, "property").text = "velocities/p-rad_sec"
+    ET.SubElement(rate, "property").text = "probing/gust/p-measured-rad_sec"
+    bank = ET.SubElement(total, "product")
+    ET.SubElement(bank, "value").text = repr(ROLL_OBSERVER_BANK_RAD_S)
+    angle = ET.SubElement(bank, "difference")
+    ET.SubElement(angle, "property").text = "attitude/phi-rad"
+    ET.SubElement(angle, "property").text = "probing/gust/phi-measured-rad"
     gate = ET.SubElement(channel, "switch", name="probing/gust/p-error-gated-rad_sec")
     ET.SubElement(gate, "default", value="0")
     test = ET.SubElement(gate, "test", value="probing/gust/p-error-rad_sec")

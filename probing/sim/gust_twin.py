@@ -66,12 +66,17 @@ class GustTwin:
             *WIND_PROPERTIES,
             *(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "pqr"),
             GUST_INPUTS["p_measured_rad_s"],
+            GUST_INPUTS["phi_measured_rad"],
         ]
         self.inputs = [pm.get_node(name) for name in names]
         fdm[GUST_INPUTS["observer_on"]] = 1.0
 
     def next(
-        self, wind_fps: np.ndarray, rates_rad_s: np.ndarray, p_measured: np.ndarray
+        self,
+        wind_fps: np.ndarray,
+        rates_rad_s: np.ndarray,
+        p_measured: np.ndarray,
+        phi_measured: np.ndarray,
     ) -> np.ndarray:
         """Fly the next ``n`` steps; the outputs after each, ``(n, channels)``.
 
@@ -84,13 +89,15 @@ class GustTwin:
         p_measured : numpy.ndarray
             ``(n,)``: the aircraft's measured roll rate the observer compares with the
             twin's before each step (the measurement after the previous step), rad/s.
+        phi_measured : numpy.ndarray
+            ``(n,)``: the aircraft's measured bank angle, likewise, rad.
 
         Raises
         ------
         probing.sim.errors.DivergenceError
             If the twin leaves the meaningful region.
         """
-        values = np.column_stack([wind_fps, rates_rad_s, p_measured])
+        values = np.column_stack([wind_fps, rates_rad_s, p_measured, phi_measured])
         out = np.empty((values.shape[0], len(self.nodes)))
         self.loop.step(None, self.nodes, out, inputs=(self.inputs, values))
         self.plant.check_state()
