@@ -26,6 +26,7 @@ __all__ = [
     "SPEED_KINDS",
     "SYMMETRIC_DAMAGE",
     "TURBULENCE_SEVERITY",
+    "TURBULENCE_WIND_20FT_KT",
     "ActuatorFault",
     "Control",
     "Flight",
@@ -234,8 +235,22 @@ SPEED_KINDS: dict[str, SpeedKind] = {
 }
 
 #: Turbulence level -> JSBSim MIL-F-8785C/MIL-HDBK-1797 probability-of-exceedance severity
-#: (``atmosphere/turbulence/milspec/severity``; 3 = moderate, 5 = severe in JSBSim's table).
+#: (``atmosphere/turbulence/milspec/severity``; 3 = moderate, 5 = severe in JSBSim's table):
+#: the intensity above 2000 ft.
 TURBULENCE_SEVERITY: dict[str, int] = {"none": 0, "light": 2, "moderate": 4, "severe": 6}
+
+#: Turbulence level -> the wind speed 20 ft above ground that sets the intensity below
+#: 1000 ft (MIL-F-8785C 3.7.2.1: 15, 30 and 45 kt for light, moderate and severe; JSBSim's
+#: ``windspeed_at_20ft_AGL-fps``, sigma_w = 0.1 W20), interpolated between 1000 and 2000 ft.
+#: Below 1000 ft JSBSim ignores the severity: without this table every level is the same.
+TURBULENCE_WIND_20FT_KT: dict[str, float] = {
+    "none": 0.0,
+    "light": 15.0,
+    "moderate": 30.0,
+    "severe": 45.0,
+}
+if TURBULENCE_WIND_20FT_KT.keys() != TURBULENCE_SEVERITY.keys():  # one set of levels
+    raise AssertionError("turbulence levels differ between the two tables")
 
 
 @dataclass(frozen=True)

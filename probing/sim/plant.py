@@ -22,6 +22,7 @@ import numpy as np
 
 from probing.core.faults import onset_step
 from probing.core.forked import can_fork, forked_map
+from probing.core.sensors import FPS_PER_KT
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
 from probing.sim.drive import SurfaceDrive, calibrate
@@ -31,6 +32,7 @@ from probing.sim.flight import (
     SPEED_KINDS,
     SYMMETRIC_DAMAGE,
     TURBULENCE_SEVERITY,
+    TURBULENCE_WIND_20FT_KT,
     Flight,
     TrimResult,
     check_damage_case,
@@ -321,7 +323,8 @@ class Plant:
         if turbulence != "none":
             fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
             fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[turbulence]
-            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = 15.0
+            w20 = TURBULENCE_WIND_20FT_KT[turbulence] * FPS_PER_KT
+            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = w20
 
     def _with_log(self, message: str) -> str:
         """``message`` with JSBSim's warnings and errors since the last call appended."""
