@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral simultaneous manoeuvres bench clean
+.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-lateral references simultaneous manoeuvres bench clean
 
 setup: $(STAMP)
 
@@ -82,6 +82,17 @@ monitor: setup
 	  $(PY) -m probing sweep $$f --out $(MONITOR_OUT) $(if $(JOBS),-j $(JOBS)) \
 	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(MONITOR_OUT) --figures figures --summary docs/monitoring_summary.md
+
+# What each reference leaves of the gusts (docs/monitoring.md, "References a real aircraft
+# could run"): 60 monitored flights without a fault, four references x calm, light and
+# moderate turbulence x five seeds, NASA's T2 sensors (about a minute on two cores); then its
+# table (docs/references_summary.md) and figure (figures/references_scatter.png).
+REFERENCES_OUT ?= results/references
+references: setup
+	$(PY) -m probing sweep scenarios/references/references.toml --out $(REFERENCES_OUT) \
+	  $(if $(JOBS),-j $(JOBS)) $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null
+	$(PY) -m probing plot references $(REFERENCES_OUT) --figures figures \
+	  --summary docs/references_summary.md
 
 # NASA's lateral damage cases 1-4 with an aileron or a rudder probe (docs/monitoring.md,
 # "Lateral damage"): every sweep in scenarios/monitor-lateral, then its table

@@ -72,6 +72,13 @@ def _plot_manoeuvres(args: argparse.Namespace) -> int:
     return _plot_study(args, load_runs, summary_markdown, draw)
 
 
+def _plot_references(args: argparse.Namespace) -> int:
+    """The references study's table and figure from its stored flights."""
+    from analysis.references import draw, load_runs, summary_markdown
+
+    return _plot_study(args, load_runs, summary_markdown, draw)
+
+
 def _plot_study(
     args: argparse.Namespace,
     load: Callable[[Path], Any],
@@ -129,6 +136,12 @@ PLOT_TARGETS: dict[str, PlotTarget] = {
         _plot_monitor,
         "the monitor study",
         "the study's folder (results/monitor: make monitor)",
+        summary="RESULTS/summary.md",
+    ),
+    "references": PlotTarget(
+        _plot_references,
+        "the references study",
+        "the study's folder (results/references: make references)",
         summary="RESULTS/summary.md",
     ),
     "simultaneous": PlotTarget(

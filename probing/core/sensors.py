@@ -336,6 +336,11 @@ class SensorSuite:
                 raise TypeError(f"sensor of {channel!r} must be a SensorSpec, not {spec!r}")
         object.__setattr__(self, "sensors", MappingProxyType(dict(self.sensors)))
 
+    def __reduce__(self) -> tuple[Any, tuple[str, dict[str, SensorSpec], str]]:
+        """Pickled as its fields (a read-only mapping does not pickle): a scenario with
+        sensors crosses to a sweep's worker processes."""
+        return (SensorSuite, (self.name, dict(self.sensors), self.source))
+
     def with_overrides(self, overrides: Mapping[str, Mapping[str, float]]) -> SensorSuite:
         """A copy with per-channel field changes, ``{channel: {field: value}}``.
 

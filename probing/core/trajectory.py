@@ -15,8 +15,12 @@ sampled at the end of each bit, as the correlator sees it) and two features:
 
 The first ``baseline_periods`` tested periods B give each feature's mean and standard
 deviation; every later period's feature x is tested against the prediction interval of a
-new draw, t = (x - mean) / (sd sqrt(1 + 1/B)), Student's t with B - 1 degrees of freedom
-for independent Gaussian periods, two-sided.  The period's p-value is twice the smaller of
+new draw, t = (x - mean) / (sd sqrt(1 + 1/B')), Student's t with B' - 1 degrees of freedom,
+two-sided.  B' = B (1 - rho) / (1 + rho) is the baseline's number of independent periods
+for a feature whose lag-1 correlation is rho (an AR(1) sequence; rho from the baseline,
+clipped to 0..:data:`MAX_CORRELATION`): the deviation of a closed loop flying on noisy
+sensors wanders slowly, and its period means are correlated.  For independent Gaussian
+periods (rho = 0) it is the exact prediction interval.  The period's p-value is twice the smaller of
 the two (Bonferroni), its ``statistic`` -log10 p, its ``threshold`` -log10 alpha.  Each
 period is tested alone (a feature whose baseline spread is below :data:`FLOOR` of its
 mean is scaled by that floor): consecutive periods of a slow drift are correlated, so alarms come
@@ -31,11 +35,28 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import stdtr
 
-__all__ = ["FLOOR", "TrajectoryDecision", "TrajectoryDetector", "trajectory_features"]
+__all__ = [
+    "FLOOR",
+    "MAX_CORRELATION",
+    "TrajectoryDecision",
+    "TrajectoryDetector",
+    "trajectory_features",
+]
 
 #: The smallest spread a feature is scaled by, relative to its baseline mean: a flight without
 #: noise repeats its features to rounding, which is no spread to test against.
 FLOOR = 1e-6
+
+
+#: The largest lag-1 correlation of a feature the baseline's degrees of freedom allow for.
+MAX_CORRELATION = 0.9
+
+
+def _lag1(x: np.ndarray) -> np.ndarray:
+    """The lag-1 autocorrelation of each column of ``x`` (B, k)."""
+    with np.errstate(invalid="ignore", divide="ignore"):  # a constant deviation's log 0
+        d = x - x.mean(axis=0)
+        return (d[1:] * d[:-1]).sum(axis=0) / (d * d).sum(axis=0)
 
 
 def trajectory_features(deviation: np.ndarray) -> np.ndarray:
@@ -91,6 +112,7 @@ class TrajectoryDetector:
         self._baseline: list[np.ndarray] = []
         self._mean: np.ndarray | None = None
         self._scale: np.ndarray | None = None
+        self._dof = np.full(2, float(self.b - 1))  # degrees of freedom, each feature
 
     @property
     def learning(self) -> bool:
@@ -110,7 +132,11 @@ class TrajectoryDetector:
                 floor = FLOOR * np.abs(self._mean)  # a deterministic flight's features
                 with np.errstate(invalid="ignore"):
                     spread = np.where(spread < floor, floor, spread)
-                self._scale = spread * math.sqrt(1.0 + 1.0 / self.b)
+                # consecutive periods of a slow excursion are correlated: an AR(1) feature
+                # with lag-1 correlation rho has B (1 - rho) / (1 + rho) independent periods
+                rho = np.clip(np.nan_to_num(_lag1(base)), 0.0, MAX_CORRELATION)
+                self._dof = np.maximum(self.b * (1.0 - rho) / (1.0 + rho) - 1.0, 2.0)
+                self._scale = spread * np.sqrt(1.0 + 1.0 / (self._dof + 1.0))
                 self._baseline = []
             return TrajectoryDecision(math.nan, self.threshold, False)
         assert self._scale is not None
@@ -118,7 +144,7 @@ class TrajectoryDetector:
             t = np.abs((x - self._mean) / self._scale)
         t = np.where(x == self._mean, 0.0, t)  # unmoved (a constant deviation's -inf too)
         t = np.where(np.isnan(t), np.inf, t)  # moved where the baseline had no spread
-        p_one = 2.0 * stdtr(self.b - 1, -t)  # two-sided, each feature
+        p_one = 2.0 * stdtr(self._dof, -t)  # two-sided, each feature
         p = min(1.0, 2.0 * float(p_one.min()))
         statistic = math.inf if p == 0.0 else -math.log10(p)
         return TrajectoryDecision(statistic, self.threshold, statistic > self.threshold)

@@ -68,9 +68,12 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
     # monitor sweeps (probing monitor's points)
     "fault_type": ("", "the point's [fault] type, none without one"),
     "fault_onset_s": ("s", "time after the trim when the fault appears (NaN without one)"),
-    "drift": ("", "the point's drift correction (reference: the nominal twin; detrend)"),
+    "drift": ("", "the point's reference (output.drift: oracle, gust, nominal, detrend, ...)"),
     "first_alarm_s": ("s", "end of the first alarmed period, after the trim (NaN: no alarm)"),
     "first_alarm_period": ("1", "the first alarmed period (-1: no alarm)"),
+    "alarm_detector": ("", "the detector that alarmed first: probing, trajectory, or empty"),
+    "first_probing_alarm_s": ("s", "the probing detector's first alarm (NaN: none)"),
+    "first_trajectory_alarm_s": ("s", "the trajectory detector's first alarm (NaN: none)"),
     "verdict": ("", "the monitor's verdict: none, actuator or airframe"),
     "alpha_per_period": ("1", "false-alarm probability per period and channel"),
     "period_s": ("s", "probe period T = M t0"),
@@ -259,6 +262,9 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
             drift=scn.drift,
             first_alarm_s=math.nan,
             first_alarm_period=-1,
+            alarm_detector="",
+            first_probing_alarm_s=math.nan,
+            first_trajectory_alarm_s=math.nan,
             verdict="",
             alpha_per_period=math.nan,
             period_s=scn.period_s,
@@ -280,6 +286,9 @@ def _monitor_rows(sweep: Sweep, sweep_dir: Path) -> list[dict[str, Any]]:
                 first_alarm_period=-1
                 if found["first_alarm_period"] is None
                 else found["first_alarm_period"],
+                alarm_detector=found.get("alarm_detector") or "",
+                first_probing_alarm_s=_number(found.get("first_probing_alarm_s")),
+                first_trajectory_alarm_s=_number(found.get("first_trajectory_alarm_s")),
                 verdict=found["verdict"],
                 alpha_per_period=_number(found["alpha_per_period"]),
                 ended=found.get("ended") or "",

@@ -419,6 +419,7 @@ OUTPUT_FILES = [
     ["fig4", "--out", "{dir}/o", "--copy-summary", "{target}"],
     ["plot", "fig4", "{dir}/r", "--copy-summary", "{target}"],
     ["plot", "monitor", "{dir}/r", "--summary", "{target}"],
+    ["plot", "references", "{dir}/r", "--summary", "{target}"],
     ["plot", "simultaneous", "{dir}/r", "--summary", "{target}"],
     ["plot", "manoeuvres", "{dir}/r", "--summary", "{target}"],
     ["modes", "--docs", "{target}", "--figure", "{dir}/f/gtm_modes"],
@@ -684,13 +685,20 @@ def test_the_plot_targets_are_the_plot_commands_choices_and_help() -> None:
     for name, entry in PLOT_TARGETS.items():
         assert f"{name}: {entry.results}" in text, name
         assert entry.what in top, name
-    figures = "figures for fig4; RESULTS/figures for sweep, monitor, simultaneous, manoeuvres"
+    figures = (
+        "figures for fig4; RESULTS/figures for sweep, monitor, references, simultaneous, manoeuvres"
+    )
     assert f"figure folder (default: {figures})" in text  # as the next test finds them
-    assert "monitor, simultaneous, manoeuvres: write the study's tables to this file " in text
+    assert (
+        "monitor, references, simultaneous, manoeuvres: write the study's tables to this file "
+        in text
+    )
     assert "(default: RESULTS/summary.md)" in text
 
 
-@pytest.mark.parametrize("name", ["fig4", "sweep", "monitor", "simultaneous", "manoeuvres"])
+@pytest.mark.parametrize(
+    "name", ["fig4", "sweep", "monitor", "references", "simultaneous", "manoeuvres"]
+)
 def test_each_plot_target_draws_into_its_stated_defaults(
     name: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
@@ -706,7 +714,7 @@ def test_each_plot_target_draws_into_its_stated_defaults(
     assert cli_main(["plot", name, str(tmp_path)]) == 0
     (args,) = seen
     assert args.figures == (Path("figures") if name == "fig4" else tmp_path / "figures")
-    study = name in ("monitor", "simultaneous", "manoeuvres")
+    study = name in ("monitor", "references", "simultaneous", "manoeuvres")
     assert args.summary == (tmp_path / "summary.md" if study else None)
 
 

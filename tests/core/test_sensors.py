@@ -274,3 +274,12 @@ def test_assumed_ins_velocities_are_marked() -> None:
     for ch in ("v_north_fps", "v_east_fps", "v_down_fps"):
         assert suite.sensors[ch] == SensorSpec(noise_sigma=0.05 / 0.3048)
     assert "NOT NASA" in suite.source and "0.05 m/s" in suite.source
+
+
+def test_a_suite_pickles_to_an_equal_suite():
+    """Scenarios with sensors cross to a sweep's worker processes by pickle."""
+    import pickle
+
+    suite = SENSOR_SUITES["nasa_t2"].with_overrides({"theta_rad": {"bias": 0.5}})
+    again = pickle.loads(pickle.dumps(suite))
+    assert again == suite and dict(again.sensors) == dict(suite.sensors)

@@ -30,6 +30,8 @@ def test_the_p_value_is_the_prediction_interval_of_students_t():
     rng = np.random.default_rng(1)
     b = 20
     base = rng.normal(size=(b, 2))
+    d = base - base.mean(axis=0)
+    assert np.all((d[1:] * d[:-1]).sum(axis=0) <= 0)  # no lag-1 correlation: B' = B
     det = TrajectoryDetector(b, 1e-3)
     assert all(math.isnan(s) for s in _statistics(det, base))
     mean, sd = base.mean(axis=0), base.std(axis=0, ddof=1)
@@ -52,6 +54,39 @@ def test_the_false_alarm_rate_holds_for_gaussian_periods(alpha):
             alarms += det.update(x).alarm
     rate = alarms / (flights * tested)
     assert 0.5 * alpha < rate <= 1.1 * alpha
+
+
+def _ar1(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
+    x = np.empty((n, 2))
+    x[0] = rng.normal(size=2)
+    for k in range(1, n):
+        x[k] = rho * x[k - 1] + math.sqrt(1 - rho**2) * rng.normal(size=2)
+    return x
+
+
+def test_slowly_wandering_features_keep_the_rate_and_would_not_without_the_correction(
+    monkeypatch,
+):
+    """AR(1) features (rho = 0.7, unit variance) tested period by period: with the
+    baseline's effective degrees of freedom the alarmed fraction stays near alpha; with
+    B - 1 (the correction switched off) it is several times alpha."""
+    import probing.core.trajectory as trajectory
+
+    alpha, b, tested, flights = 0.01, 50, 40, 600
+
+    def rate(rng: np.random.Generator) -> float:
+        alarms = 0
+        for _ in range(flights):
+            det = TrajectoryDetector(b, alpha)
+            for x in _ar1(rng, 0.7, b + tested):
+                alarms += det.update(x).alarm
+        return alarms / (flights * tested)
+
+    corrected = rate(np.random.default_rng(7))
+    monkeypatch.setattr(trajectory, "MAX_CORRELATION", 0.0)
+    naive = rate(np.random.default_rng(7))
+    assert corrected <= 1.5 * alpha
+    assert naive > 2.0 * alpha
 
 
 def test_a_step_in_the_mean_is_found_at_once():
