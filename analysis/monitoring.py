@@ -90,6 +90,7 @@ FAULTS: dict[str, Fault] = {
     "effectiveness-0.8": Fault("effectiveness 0.8", "effectiveness", 5, 0.9),
     "effectiveness-0.5": Fault("effectiveness 0.5", "effectiveness", 5, 0.9),
     "stuck": Fault("elevator stuck", "stuck", 5, 0.9),
+    "sensor-bias": Fault("pitch sensor bias 0.5 deg", "sensor_bias", 5, 0.9),
 }
 
 
@@ -144,6 +145,8 @@ def load_study(results: str | Path) -> pd.DataFrame:
         df["drift"] = df["drift"].replace({"reference": "oracle"})
         df["probe"] = _probe_and_fault(sweep)[0]
         df["seed"] = df.get("disturbance.seed", pd.Series(0, index=df.index))
+        # the probe amplitude where the sweep varies it (NaN: the base scenario's)
+        df["amplitude_deg"] = df.get("probe.amplitude_deg", pd.Series(math.nan, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
         frames.append(df)
     if not frames:
@@ -157,42 +160,67 @@ def _events(alarm: np.ndarray) -> int:
     return int(np.sum(a & ~np.concatenate(([False], a[:-1]))))
 
 
+def _per_period(rows: pd.DataFrame) -> pd.DataFrame:
+    """Tested rows folded to one per period: alarmed if any channel's was, the largest
+    statistic over threshold, the period's end."""
+    rows = rows.assign(ratio=rows.statistic / rows.threshold)
+    return rows.groupby("period", sort=True).agg(
+        time_s=("time_s", "first"), alarm=("alarm", "any"), ratio=("ratio", "max")
+    )
+
+
+def _delay(after: pd.DataFrame, onset: float) -> float:
+    """Time from the onset to the end of the first alarmed period after it (NaN: none)."""
+    alarmed = after[after.alarm]
+    return float(alarmed.time_s.iloc[0] - onset) if len(alarmed) else math.nan
+
+
 def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     """One row per flight: monitored healthy hours, false-alarm events, detection delay
     (s and periods; NaN: not detected), the verdict after the onset, and the ROC scores.
 
+    A flight's periods are folded over its channels, and over its two detectors
+    (``monitor.parquet``'s ``detector``; files without one have the probing detector's
+    rows only): a period is alarmed if any of its rows is.
+
     Columns added to ``study``: ``healthy_h``, ``false_alarms``, ``delay_s``,
     ``delay_periods``, ``verdict_after``, ``score`` (the largest statistic over threshold in
-    the goal's periods after the onset), and ``healthy_ratios`` (statistic over threshold of
-    every healthy tested period, in order, for the ROC).
+    the goal's periods after the onset), ``healthy_ratios`` (statistic over threshold of
+    every healthy tested period, in order, for the ROC), and per detector
+    ``delay_probing_s``, ``delay_trajectory_s``, ``false_alarms_probing`` and
+    ``false_alarms_trajectory``.
     """
     rows = []
     for _, f in study.iterrows():
         table = read_table(Path(f.folder) / "monitor.parquet")
         mon, meta = table.to_pandas(), table.schema.metadata
+        if "detector" not in mon:
+            mon["detector"] = "probing"
         first_alarm = json.loads(meta[b"probing.first_alarm_s"])
         onset = f.fault_onset_s if math.isfinite(f.fault_onset_s) else math.inf
         tested = mon[mon.statistic.notna()]
-        healthy = tested[tested.time_s <= onset]
-        after = tested[tested.time_s > onset]
-        ratio = (after.statistic / after.threshold).to_numpy()
-        alarmed = after[after.alarm]
-        delay = float(alarmed.time_s.iloc[0] - onset) if len(alarmed) else math.nan
+        periods = _per_period(tested)
+        healthy = periods[periods.time_s <= onset]
+        after = periods[periods.time_s > onset]
+        delay = _delay(after, onset)
         goal = FAULTS[f.fault].goal_periods
         within = after.time_s <= onset + goal * f.period_s
-        rows.append(
-            {
-                "healthy_h": len(healthy) * f.period_s / 3600.0,
-                "false_alarms": _events(healthy.alarm.to_numpy()),
-                "delay_s": delay,
-                "delay_periods": delay / f.period_s,
-                "verdict_after": meta[b"probing.verdict"].decode()
-                if first_alarm is not None and first_alarm > onset
-                else "none",
-                "score": float(ratio[within.to_numpy()].max()) if within.any() else math.nan,
-                "healthy_ratios": (healthy.statistic / healthy.threshold).to_numpy(),
-            }
-        )
+        row = {
+            "healthy_h": len(healthy) * f.period_s / 3600.0,
+            "false_alarms": _events(healthy.alarm.to_numpy()),
+            "delay_s": delay,
+            "delay_periods": delay / f.period_s,
+            "verdict_after": meta[b"probing.verdict"].decode()
+            if first_alarm is not None and first_alarm > onset
+            else "none",
+            "score": float(after.ratio[within].max()) if within.any() else math.nan,
+            "healthy_ratios": healthy.ratio.to_numpy(),
+        }
+        for detector in ("probing", "trajectory"):
+            own = _per_period(tested[tested.detector == detector])
+            row[f"delay_{detector}_s"] = _delay(own[own.time_s > onset], onset)
+            row[f"false_alarms_{detector}"] = _events(own[own.time_s <= onset].alarm.to_numpy())
+        rows.append(row)
     return pd.concat([study.reset_index(drop=True), pd.DataFrame(rows)], axis=1)
 
 
@@ -213,7 +241,8 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
     the goal and at all, delay (median and 95th percentile, s and periods), verdict counts and
     how often the verdict is right."""
     out = []
-    for (probe, fault, drift), g in flights.groupby(["probe", "fault", "drift"], sort=False):
+    groups = flights.groupby(["probe", "fault", "drift", "amplitude_deg"], sort=False, dropna=False)
+    for (probe, fault, drift, amplitude), g in groups:
         spec = FAULTS[fault]
         if spec.truth == "none":
             continue
@@ -227,7 +256,17 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
                 "probe": probe,
                 "fault": spec.label,
                 "drift": drift,
+                "amplitude_deg": amplitude,
                 "flights": len(g),
+                # the detections the probing detector made first (or with the trajectory's)
+                "by_probing": float(
+                    (
+                        g.delay_probing_s[detected]
+                        <= g.delay_trajectory_s[detected].fillna(math.inf)
+                    ).mean()
+                )
+                if detected.any()
+                else math.nan,
                 "goal": f"{spec.goal_probability:g} within {spec.goal_periods} T",
                 "p_detect_goal": float(in_goal.mean()),
                 "p_detect": float(detected.mean()),
@@ -297,18 +336,29 @@ def summary_markdown(flights: pd.DataFrame) -> str:
             f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
         )
     table = fault_table(flights)
+    amplitudes = table.amplitude_deg.notna().any()  # a column for the probe's amplitude
     lines += ["", "## Detection and verdicts", ""]
+    lines.append(
+        "*probing first*: of the detected flights, those whose first alarm after the onset "
+        "is the probing detector's (the pulse response changed), alone or with the "
+        "trajectory detector's; the rest the trajectory detector saw first."
+    )
+    lines.append("")
     head = (
         ("| probe " if several else "")
-        + "| fault | drift | flights | goal | detected in goal | detected | delay median s (T) "
+        + "| fault | drift | "
+        + ("a, deg | " if amplitudes else "")
+        + "flights | goal | detected in goal | detected | probing first | delay median s (T) "
         "| delay 95 % s (T) | actuator | airframe | none | verdict right |"
     )
-    lines += [head, "|" + "---|" * (13 if several else 12)]
+    lines += [head, "|" + "---|" * (13 + several + amplitudes)]
     for r in table.to_dict("records"):
         lines.append(
             (f"| {r['probe']} " if several else "")
-            + f"| {r['fault']} | {r['drift']} | {r['flights']} | {r['goal']} | "
-            f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | "
+            + f"| {r['fault']} | {r['drift']} | "
+            + (f"{r['amplitude_deg']:g} | " if amplitudes else "")
+            + f"{r['flights']} | {r['goal']} | "
+            f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | {r['by_probing']:.2f} | "
             f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
             f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
             f"{r['airframe']} | {r['none']} | {r['verdict_right']:.2f} |"

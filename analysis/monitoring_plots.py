@@ -15,7 +15,23 @@ from probing.experiment.storage import read_table
 
 __all__ = ["detection_figure", "draw_all", "fault_figure", "roc_figure", "verdict_figure"]
 
-DRIFT_STYLE = {"oracle": "-", "detrend": "--"}
+#: The references in the order the figures show them, each with its line style: the
+#: realisable ones first, the oracle (the bound that knows the gusts) after.
+DRIFT_STYLE = {"gust": "-", "nominal": "-.", "follow": "-.", "oracle": ":", "detrend": "--"}
+
+
+def _drifts(flights: pd.DataFrame) -> list[str]:
+    """The references the flights have, in :data:`DRIFT_STYLE`'s order."""
+    present = set(flights.drift)
+    return [d for d in DRIFT_STYLE if d in present]
+
+
+def _at_design_amplitude(flights: pd.DataFrame) -> pd.DataFrame:
+    """The flights at the largest probe amplitude where a study varies it (the design's;
+    the smaller ones are the check of which detections are the probe's, in the tables)."""
+    if "amplitude_deg" not in flights or flights.amplitude_deg.isna().all():
+        return flights
+    return flights[flights.amplitude_deg == flights.amplitude_deg.max()]
 
 
 def _faults(flights: pd.DataFrame) -> list[str]:
@@ -25,19 +41,21 @@ def _faults(flights: pd.DataFrame) -> list[str]:
 
 def detection_figure(flights: pd.DataFrame) -> plt.Figure:
     """Probability of detection by n probe periods after the onset, per fault and drift."""
+    flights = _at_design_amplitude(flights)
+    drifts = _drifts(flights)
     with plt.rc_context(RC):
         fig, ax = plt.subplots(figsize=(6.5, 3.6))
         n = np.linspace(0, 12, 241)
         for i, key in enumerate(_faults(flights)):
             color = f"C{i}"
-            for drift, style in DRIFT_STYLE.items():
+            for drift in drifts:
                 g = flights[(flights.fault == key) & (flights.drift == drift)]
                 if not len(g):
                     continue
                 periods = g.delay_periods.to_numpy()
                 p = [(periods <= x).mean() for x in n]
-                label = FAULTS[key].label if drift == "oracle" else None
-                ax.plot(n, p, style, color=color, label=label)
+                label = FAULTS[key].label if drift == drifts[0] else None
+                ax.plot(n, p, DRIFT_STYLE[drift], color=color, label=label)
         ax.axvline(3, color="0.5", lw=0.6)
         ax.axvline(5, color="0.5", lw=0.6)
         ax.axhline(0.95, color="0.5", lw=0.6, ls=":")
@@ -45,7 +63,11 @@ def detection_figure(flights: pd.DataFrame) -> plt.Figure:
         ax.set_xlabel("time after the onset (probe periods T)")
         ax.set_ylabel("probability of detection")
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title("Detection: nominal twin (solid), detrending without a model (dashed)")
+        styles = {"-": "solid", "-.": "dash-dot", ":": "dotted", "--": "dashed"}
+        ax.set_title(
+            "Detection: " + ", ".join(f"{d} ({styles[DRIFT_STYLE[d]]})" for d in drifts),
+            fontsize=8,
+        )
         ax.legend(loc="center right", frameon=False)
         fig.tight_layout()
     return fig
@@ -56,9 +78,14 @@ def roc_figure(flights: pd.DataFrame) -> plt.Figure:
     the threshold (-log10 alpha) scaled by a factor c (alpha to the power c); the dot is the
     monitor's own threshold (c = 1)."""
     factors = np.geomspace(0.05, 50, 121)
+    flights = _at_design_amplitude(flights)
+    drifts = _drifts(flights)
     with plt.rc_context(RC):
-        fig, axes = plt.subplots(1, 2, figsize=(7.5, 3.4), sharey=True)
-        for ax, drift in zip(axes, DRIFT_STYLE, strict=True):
+        fig, axes = plt.subplots(
+            1, len(drifts), figsize=(3.75 * len(drifts), 3.4), sharey=True, squeeze=False
+        )
+        axes = axes[0]
+        for ax, drift in zip(axes, drifts, strict=True):
             for i, key in enumerate(_faults(flights)):
                 fa, pd_ = roc(flights, key, drift, factors)
                 if not np.isfinite(fa).any():
@@ -79,10 +106,19 @@ def roc_figure(flights: pd.DataFrame) -> plt.Figure:
 def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
     """The verdicts after the onset per fault (rows) and drift (panels): counts."""
     cols = ["actuator", "airframe", "none"]
+    flights = _at_design_amplitude(flights)
     keys = _faults(flights)
+    drifts = _drifts(flights)
     with plt.rc_context({**RC, "axes.grid": False}):
-        fig, axes = plt.subplots(1, 2, figsize=(7.5, 0.45 * len(keys) + 1.2), sharey=True)
-        for ax, drift in zip(axes, DRIFT_STYLE, strict=True):
+        fig, axes = plt.subplots(
+            1,
+            len(drifts),
+            figsize=(3.75 * len(drifts), 0.45 * len(keys) + 1.2),
+            sharey=True,
+            squeeze=False,
+        )
+        axes = axes[0]
+        for ax, drift in zip(axes, drifts, strict=True):
             m = np.zeros((len(keys), len(cols)))
             for i, key in enumerate(keys):
                 g = flights[(flights.fault == key) & (flights.drift == drift)]
@@ -90,9 +126,9 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
                     m[i, j] = (g.verdict_after == c).sum()
             ax.imshow(m, cmap="Blues", aspect="auto")
             for i in range(len(keys)):
-                truth = cols.index(FAULTS[keys[i]].truth)
+                truth = FAULTS[keys[i]].truth  # "sensor" is none of the monitor's verdicts
                 for j in range(len(cols)):
-                    weight = "bold" if j == truth else "normal"
+                    weight = "bold" if cols[j] == truth else "normal"
                     ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center", weight=weight)
             ax.set_xticks(range(len(cols)), cols)
             ax.set_yticks(range(len(keys)), [FAULTS[k].label for k in keys])
@@ -102,9 +138,12 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
 
 
 def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
-    """One flight with the fault (the lowest seed, nominal twin): its mean pulse-response
-    estimate over the window before the onset and after it, and the test statistic."""
-    g = flights[(flights.fault == key) & (flights.drift == "oracle")].sort_values("seed")
+    """One flight with the fault (the lowest seed, the first reference of
+    :data:`DRIFT_STYLE` flown, the design's amplitude): its mean pulse-response estimate
+    over the window before the onset and after it, and the test statistic."""
+    flights = _at_design_amplitude(flights)
+    drift = _drifts(flights[flights.fault == key])[0]
+    g = flights[(flights.fault == key) & (flights.drift == drift)].sort_values("seed")
     f = g.iloc[0]
     folder = Path(f.folder)
     mon = read_table(folder / "monitor.parquet").to_pandas()
@@ -128,8 +167,12 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
         ax.set_ylabel(f"h_est of {channel} (per deg)")
         ax.set_title(f"{FAULTS[key].label}: pulse-response estimate")
         ax.legend(frameon=False)
-        tested = mon[mon.statistic.notna()]
-        bx.semilogy(tested.time_s, np.maximum(tested.statistic, 1e-2), ".-", ms=2)
+        tested = mon[mon.statistic.notna() & (mon.channel == channel)]
+        if "detector" not in tested:
+            tested = tested.assign(detector="probing")
+        for detector, rows in tested.groupby("detector", sort=False):
+            stat = np.maximum(rows.statistic, 1e-2)
+            bx.semilogy(rows.time_s, stat, ".-", ms=2, lw=0.7, label=f"{detector} detector")
         bx.axhline(tested.threshold.iloc[0], color="C3", lw=0.8, label="threshold")
         bx.axvline(f.fault_onset_s, color="0.3", ls="--", lw=0.8, label="onset")
         bx.set_xlabel("time after the trim (s)")

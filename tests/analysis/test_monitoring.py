@@ -323,7 +323,12 @@ def test_each_study_faults_right_verdict_is_its_types_class_in_the_registry():
     truths = {key: fault.truth for key, fault in FAULTS.items()}
     damage = {f"damage{k}": "airframe" for k in range(1, 7)}
     actuator = ("deadband", "backlash", "rate-limit", "effectiveness-0.8", "effectiveness-0.5")
-    assert truths == {"none": "none", **damage, **dict.fromkeys((*actuator, "stuck"), "actuator")}
+    assert truths == {
+        "none": "none",
+        **damage,
+        **dict.fromkeys((*actuator, "stuck"), "actuator"),
+        "sensor-bias": "sensor",
+    }
     for fault in FAULTS.values():
         if fault.fault_type != "none":
             assert fault.truth == REGISTRY[fault.fault_type].fault_class
@@ -346,3 +351,67 @@ def test_a_flight_whose_fault_type_is_not_its_sweeps_is_refused(tmp_path: Path):
     wrong.to_parquet(tmp_path / "monitor-stuck" / "summary.parquet")
     with pytest.raises(ValueError, match="fault_type effectiveness in the sweep of stuck"):
         load_study(tmp_path)
+
+
+def _two_detectors(root: Path, pid: str, onset: float, probing: set, trajectory: set) -> dict:
+    """A flight whose monitor.parquet has a probing and a trajectory row per period (2..39,
+    tested from 12), alarmed in the given periods; probe amplitude 0.02 deg."""
+    folder = root / "monitor-deadband" / "points" / f"point_id={pid}"
+    folder.mkdir(parents=True)
+    periods = np.repeat(np.arange(2, 40), 2)
+    detector = ["probing", "trajectory"] * (len(periods) // 2)
+    alarm = np.array(
+        [p in (probing if d == "probing" else trajectory) for p, d in zip(periods, detector)]
+    )
+    table = pa.table(
+        {
+            "period": periods.astype(np.int32),
+            "time_s": (periods + 1) * T,
+            "channel": ["theta_rad"] * len(periods),
+            "detector": detector,
+            "statistic": np.where(periods >= 12, np.where(alarm, 20.0, 5.0), np.nan),
+            "threshold": np.full(len(periods), 10.0),
+            "alarm": alarm,
+            "gain_change": np.ones(len(periods)),
+            "shape_change": np.zeros(len(periods)),
+            "verdict": ["none"] * len(periods),
+        }
+    )
+    found = sorted(p for p in probing | trajectory if (p + 1) * T > onset)
+    meta = {
+        b"probing.detector": json.dumps({"verdict_periods": 3}).encode(),
+        b"probing.first_alarm_s": json.dumps((found[0] + 1) * T if found else None).encode(),
+        b"probing.verdict": b"actuator",
+    }
+    pq.write_table(table.replace_schema_metadata(meta), folder / "monitor.parquet")
+    return {
+        "point_id": pid,
+        "status": "done",
+        "drift": "gust",
+        "fault_onset_s": onset,
+        "period_s": T,
+        "disturbance.seed": 1,
+        "probe.amplitude_deg": 0.02,
+    }
+
+
+def test_two_detectors_fold_per_period_and_each_keeps_its_own_delay(tmp_path):
+    """A healthy period alarmed by both detectors is one false-alarm event; after the onset
+    (41 s) the trajectory detector alarms at period 22 (46 s), the probing one at 24 (50 s):
+    the flight's delay is the earlier, each detector keeps its own, and the detection is not
+    the probe's."""
+    rows = [
+        _two_detectors(tmp_path, "a1", 41.0, {15, 24, 25}, {15, 22}),
+        _two_detectors(tmp_path, "a2", 41.0, {23}, {30}),  # the probe's, at 48 s
+    ]
+    pd.DataFrame(rows).to_parquet(tmp_path / "monitor-deadband" / "summary.parquet")
+    flights = evaluate(load_study(tmp_path)).set_index("point_id")
+    a1 = flights.loc["a1"]
+    assert a1.false_alarms == 1
+    assert a1.false_alarms_probing == 1 and a1.false_alarms_trajectory == 1
+    assert a1.delay_s == pytest.approx(46.0 - 41.0)
+    assert a1.delay_trajectory_s == pytest.approx(46.0 - 41.0)
+    assert a1.delay_probing_s == pytest.approx(50.0 - 41.0)
+    table = fault_table(flights.reset_index())
+    (row,) = table.to_dict("records")
+    assert row["by_probing"] == pytest.approx(0.5) and row["amplitude_deg"] == 0.02

@@ -212,6 +212,7 @@ def test_a_dead_band_onset_is_found_and_called_an_actuator_fault(flights):
     assert 25.0 < result.first_alarm_s <= 25.0 + 2 * period_s
     assert result.verdict == "actuator"
     mon = pd.read_parquet(folder / "monitor.parquet")
+    mon = mon[mon.detector == "probing"]  # the pulse response's detector
     after = mon[mon.time_s > 25.0 + period_s]
     assert after.gain_change.median() == pytest.approx(0.6, abs=0.03)
     alarmed = after[after.alarm]
@@ -289,9 +290,13 @@ def test_a_departure_ends_the_monitored_flight_and_keeps_what_came_before(tmp_pa
 def test_monitor_file_has_a_row_per_period_and_its_verdict_in_the_metadata(flights):
     scn, result, folder = flights["deadband"]
     table = pq.read_table(folder / "monitor.parquet")
-    mon = table.to_pandas()
+    rows = table.to_pandas()
     meta = pq.read_metadata(folder / "monitor.parquet").metadata  # the file's footer
     first = max(scn.settle_periods, scn.first_estimated_period)
+    assert rows.detector.tolist() == ["probing", "trajectory"] * (scn.periods - first)
+    trajectory = rows[rows.detector == "trajectory"]
+    assert trajectory.period.tolist() == list(range(first, scn.periods))
+    mon = rows[rows.detector == "probing"]
     assert mon.period.tolist() == list(range(first, scn.periods))
     assert mon.statistic.iloc[:30].isna().all() and mon.statistic.iloc[30:].notna().all()
     assert (mon.alarm == (mon.statistic > mon.threshold)).all()

@@ -1,0 +1,103 @@
+"""Write the realisable monitor study's sweep files (``make monitor-realisable``,
+``docs/monitoring.md``, "Faults with a reference a real aircraft could run").
+
+Usage (from the repository root, after ``make setup``)::
+
+    .venv/bin/python scenarios/monitor-realisable/generate.py   # rewrites its *.toml
+
+The flight is ``scenarios/references/base.toml``: the monitor study's GTM flight with NASA's
+T2 sensors (the autopilot flies on them), light turbulence (MIL-F-8785C, 15 kt at 20 ft).
+Each fault sweep flies 10 seeds, each with a random onset uniform over periods 55 to 75,
+with three references (``gust``: realisable; ``oracle``: the upper bound that knows the
+gusts; ``detrend``: no model) and two probe amplitudes (0.2 deg, the design's, and a tenth
+of it: what is still detected then is not the probe's doing).  ``none.toml``: three flights
+of one hour per reference, no fault.  The files are committed; running this again gives the
+same bytes.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from probing.core.faults import sweep_fields
+
+HERE = Path(__file__).resolve().parent
+PERIOD_S = 2.55  # M t0 of the base flight's probe (order 8, 0.01 s bits)
+AMPLITUDE_DEG = 0.2  # the base flight's
+SEEDS = 10
+ONSET_PERIODS = (55, 75)
+AFTER_PERIODS = 25
+HEALTHY_FLIGHTS, HEALTHY_FLIGHT_S = 3, 3600.0
+DRIFTS = ["gust", "oracle", "detrend"]
+
+#: file name -> (its type in probing.core.faults.FAULTS, its fields without onset_s); the
+#: dead band's edges at +-0.2 a (a~/a = 0.8); the pitch sensor's bias 0.5 deg.
+FAULTS: dict[str, tuple[str, dict]] = {
+    "damage5": ("gtm_damage", {"case": 5}),
+    "damage6": ("gtm_damage", {"case": 6}),
+    "deadband": (
+        "nonlinearity",
+        {
+            "nonlinearity": "deadband",
+            "lower_deg": -0.2 * AMPLITUDE_DEG,
+            "upper_deg": 0.2 * AMPLITUDE_DEG,
+        },
+    ),
+    "effectiveness": ("effectiveness", {}),  # scale 0.5: in the grid, as the study reads it
+    "stuck": ("stuck", {}),
+    "sensor-bias": ("sensor_bias", {"channel": "theta_rad", "bias": math.radians(0.5)}),
+}
+
+
+def toml_value(value) -> str:
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return repr(value)
+
+
+def sweep_toml(name: str, description: str, fixed: dict, grid: dict, zipped: dict) -> str:
+    lines = [
+        f"# {description}",
+        "# Written by scenarios/monitor-realisable/generate.py; run by make monitor-realisable.",
+        f'name = "monitor-{name}"',
+        f'description = "{description}"',
+        'base = "../references/base.toml"',
+        'kind = "monitor"',
+    ]
+    for table, entries in (("fixed", fixed), ("grid", grid), ("zip", zipped)):
+        if entries:
+            lines.append(f"\n[{table}]")
+            lines += [f'"{k}" = {toml_value(v)}' for k, v in entries.items()]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    grid = {"output.drift": DRIFTS, "probe.amplitude_deg": [AMPLITUDE_DEG, AMPLITUDE_DEG / 10]}
+    periods = ONSET_PERIODS[1] + AFTER_PERIODS
+    for i, (name, (kind, fault)) in enumerate(FAULTS.items()):
+        rng = np.random.default_rng(2000 + i)
+        onsets = rng.uniform(*ONSET_PERIODS, SEEDS) * PERIOD_S
+        fixed = {"probe.periods": periods, **sweep_fields(kind, fault)}
+        fixed = {k: round(v, 12) if isinstance(v, float) else v for k, v in fixed.items()}
+        grid_here = {**grid, "fault.scale": [0.5]} if name == "effectiveness" else grid
+        zipped = {
+            "disturbance.seed": list(range(1, SEEDS + 1)),
+            "fault.onset_s": [round(float(t), 3) for t in onsets],
+        }
+        text = f"{name}: {SEEDS} seeds x random onsets x {len(DRIFTS)} references x 2 amplitudes"
+        (HERE / f"{name}.toml").write_text(sweep_toml(name, text, fixed, grid_here, zipped))
+    healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S)}
+    zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}
+    text = f"no fault: {HEALTHY_FLIGHTS} flights of 1 h x {len(DRIFTS)} references"
+    (HERE / "none.toml").write_text(
+        sweep_toml("none", text, healthy, {"output.drift": DRIFTS}, zipped)
+    )
+
+
+if __name__ == "__main__":
+    main()
