@@ -361,7 +361,10 @@ def _two_detectors(root: Path, pid: str, onset: float, probing: set, trajectory:
     periods = np.repeat(np.arange(2, 40), 2)
     detector = ["probing", "trajectory"] * (len(periods) // 2)
     alarm = np.array(
-        [p in (probing if d == "probing" else trajectory) for p, d in zip(periods, detector)]
+        [
+            p in (probing if d == "probing" else trajectory)
+            for p, d in zip(periods, detector, strict=True)
+        ]
     )
     table = pa.table(
         {
