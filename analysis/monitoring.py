@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from probing.core.faults import FAULTS as FAULT_TYPES
-from probing.experiment.storage import read_table
+from probing.experiment.storage import read_footer, read_table
 
 __all__ = [
     "FAULTS",
@@ -192,8 +192,8 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for _, f in study.iterrows():
-        table = read_table(Path(f.folder) / "monitor.parquet")
-        mon, meta = table.to_pandas(), table.schema.metadata
+        path = Path(f.folder) / "monitor.parquet"
+        mon, meta = read_table(path).to_pandas(), read_footer(path)  # the verdict: footer
         if "detector" not in mon:
             mon["detector"] = "probing"
         first_alarm = json.loads(meta[b"probing.first_alarm_s"])
@@ -308,7 +308,8 @@ def summary_markdown(flights: pd.DataFrame) -> str:
     keys = ["probe", "drift"] if several else ["drift"]
     lines = ["# Health-monitoring study: results", ""]
     lines.append(
-        "Written by `probing plot monitor` (`make monitor`, `make monitor-lateral`; "
+        "Written by `probing plot monitor` (`make monitor`, `make monitor-lateral`, "
+        "`make monitor-realisable`; "
         "`analysis.monitoring`); the set-up and the reading are in "
         "[monitoring.md](monitoring.md)."
     )
