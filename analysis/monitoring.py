@@ -336,9 +336,15 @@ def summary_markdown(flights: pd.DataFrame) -> str:
             f"\nFlights without a fault alone, {what}: {events} events in {hours:.2f} h "
             f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
         )
-    table = fault_table(flights)
+    lines += _detection_lines(fault_table(flights), several)
+    return "\n".join(lines) + "\n"
+
+
+def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
+    """The detection and verdict table's Markdown lines (a probe column with ``several``
+    probed surfaces, an amplitude column where the study varies it)."""
     amplitudes = table.amplitude_deg.notna().any()  # a column for the probe's amplitude
-    lines += ["", "## Detection and verdicts", ""]
+    lines = ["", "## Detection and verdicts", ""]
     lines.append(
         "*probing first*: of the detected flights, those whose first alarm after the onset "
         "is the probing detector's (the pulse response changed), alone or with the "
@@ -364,4 +370,4 @@ def summary_markdown(flights: pd.DataFrame) -> str:
             f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
             f"{r['airframe']} | {r['none']} | {r['verdict_right']:.2f} |"
         )
-    return "\n".join(lines) + "\n"
+    return lines

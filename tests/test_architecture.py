@@ -4,9 +4,11 @@ import-linter contracts in pyproject.toml, checked by make lint.)"""
 
 from __future__ import annotations
 
+import ast
 import json
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -104,3 +106,79 @@ def test_no_code_assigns_to_another_objects_private_attribute() -> None:
                     ):
                         found.append(f"{path.relative_to(root)}:{node.lineno} {ast.unparse(t)}")
     assert found == []
+
+
+# ------------------------------------------------------------------ room sizes
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 60
+#: The functions allowed over MAX_FUNCTION_LINES lines of code, each with a comment right
+#: above it that says why (the per-step hot loop).
+LONG_FUNCTIONS = {"probing/sim/control.py:ClosedLoop.step"}
+
+
+def _code_lines(node: ast.AST, lines: list[str]) -> int:
+    """Lines of code of a function: its body without the docstring, blank or comment lines."""
+    body = list(node.body)
+    first = body[0]
+    if (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        body = body[1:]
+    if not body:
+        return 0
+    text = lines[body[0].lineno - 1 : node.end_lineno]
+    return sum(1 for t in text if t.strip() and not t.strip().startswith("#"))
+
+
+def _functions(path: Path) -> Iterator[tuple[str, ast.AST, list[str]]]:
+    """(qualified name, node, the module's lines) of every function of a module."""
+    source = path.read_text(encoding="utf-8")
+    lines = source.splitlines()
+
+    def walk(node: ast.AST, prefix: str) -> Iterator[tuple[str, ast.AST, list[str]]]:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                yield f"{prefix}{child.name}", child, lines
+                yield from walk(child, f"{prefix}{child.name}.")
+            elif isinstance(child, ast.ClassDef):
+                yield from walk(child, f"{prefix}{child.name}.")
+
+    yield from walk(ast.parse(source), "")
+
+
+def _sources() -> list[Path]:
+    return sorted(p for top in ("probing", "analysis") for p in (ROOT / top).rglob("*.py"))
+
+
+def test_no_module_is_over_600_lines() -> None:
+    long = {
+        str(p.relative_to(ROOT)): n
+        for p in _sources()
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES
+    }
+    assert not long
+
+
+def test_only_the_hot_loop_is_over_60_lines_of_code_and_says_why() -> None:
+    long = {}
+    for path in _sources():
+        for name, node, lines in _functions(path):
+            n = _code_lines(node, lines)
+            if n > MAX_FUNCTION_LINES:
+                long[f"{path.relative_to(ROOT)}:{name}"] = (n, node, lines)
+    assert set(long) == LONG_FUNCTIONS
+    for _, node, lines in long.values():
+        above = lines[node.lineno - 2].strip()  # the line before the def
+        assert above.startswith("#"), "a long function says why, right above it"
+
+
+def test_the_size_rules_can_fail(tmp_path: Path) -> None:
+    """The counts on a made-up module: a 61-line function is over, a docstring and comments
+    do not count."""
+    body = "\n".join(f"    x{i} = {i}" for i in range(61))
+    path = tmp_path / "m.py"
+    path.write_text(f'def f():\n    """Doc.\n\n    more\n    """\n    # a comment\n\n{body}\n')
+    ((name, node, lines),) = list(_functions(path))
+    assert name == "f" and _code_lines(node, lines) == 61

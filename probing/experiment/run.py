@@ -40,6 +40,7 @@ from probing.experiment.onboard import (
 from probing.experiment.progress import progress_bar
 from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
+from probing.experiment.settled import SettledMean
 from probing.experiment.storage import (
     OutputFolder,
     Settled,
@@ -266,18 +267,11 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
     after each; yield the periods in chunks of about :data:`CHUNK_STEPS` steps with what the
     flight computer recorded (sensor noise added)."""
     scn, n_steps = rig.scn, rig.period_steps
-    n_ch = len(scn.channels)
     x_period = rig.probe.samples(scn.dt_s, 1)
     sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
     rng = np.random.default_rng(scn.seed)
     chunk = rig.chunk_periods
-    out = np.empty((chunk * n_steps, n_ch))
-    ref = np.empty((chunk * n_steps, n_ch))
-    surface = np.empty(chunk * n_steps)
-    nl_out = np.empty(chunk * n_steps)
-    control = np.empty(chunk * n_steps) if rig.loop else None
-    commands = np.empty((chunk * n_steps, 3)) if rig.loop else None
-    sensed = np.empty((chunk * n_steps, len(rig.sensing.channels))) if rig.sensing else None
+    out, ref, surface, nl_out, control, commands, sensed = _buffers(rig, chunk * n_steps)
     nl_state = rig.nl.initial_state() if rig.nl else None
     probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
     sensor_fault = scn.build_fault("sensor")
@@ -313,9 +307,9 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
         if k == 0:
             return
         rig.periods_flown = first + k
-        if rig.sensing is not None:
+        if rig.sensing is not None:  # what the sensors measured, the sensor fault included
             recorded = dict(zip(rig.sensing.channels, sensed[:rows].T, strict=True))
-        else:
+        else:  # the outputs with disturbance.sensor_noise and the sensor fault added
             measured = _measured(out[:rows], rng, sigma, sensor_fault, scn, first * n_steps)
             recorded = dict(zip(scn.channels, measured.T, strict=True))
         yield _Chunk(
@@ -329,6 +323,26 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
         )
         if rig.ended:
             return
+
+
+def _buffers(rig: _Rig, rows: int) -> tuple:
+    """A chunk's arrays, filled in place: the outputs ``(rows, C)``, the follower's
+    ``(rows, C)``, the surface's realised position and the probe path's ``(rows,)``; with the
+    autopilot its command of the surface ``(rows,)`` and its commands ``(rows, 3)``; with
+    sensors their measurements ``(rows, sensors)``."""
+    n_ch = len(rig.scn.channels)
+    control = np.empty(rows) if rig.loop else None
+    commands = np.empty((rows, 3)) if rig.loop else None
+    sensed = np.empty((rows, len(rig.sensing.channels))) if rig.sensing else None
+    return (
+        np.empty((rows, n_ch)),
+        np.empty((rows, n_ch)),
+        np.empty(rows),
+        np.empty(rows),
+        control,
+        commands,
+        sensed,
+    )
 
 
 def _log(
@@ -402,70 +416,6 @@ class _FaultOnset:
         out = q.copy()
         out[start:], self.state = self.nl.process(q[start:], self.dt_s, self.state)
         return out
-
-
-# ------------------------------------------------------------------ settled averaging
-class SettledMean:
-    """Mean of the per-period h over the settled periods, channel by channel.
-
-    A period counts for a channel when it is >= ``settle_periods`` and that channel's h is
-    finite at every tap; each channel keeps its own count.
-
-    Parameters
-    ----------
-    channels : sequence of str
-        Channel names, C of them.
-    m : int
-        Taps per period.
-    settle_periods : int
-        Periods left out at the start.
-    """
-
-    def __init__(
-        self,
-        channels: tuple[str, ...] | list[str],
-        m: int,
-        settle_periods: int,
-        keep_first: bool = False,
-    ):
-        self.channels = list(channels)
-        self.settle = settle_periods
-        self.total = np.zeros((len(self.channels), m))
-        self.count = np.zeros(len(self.channels), dtype=np.int64)
-        self.kept: list[tuple[int, np.ndarray, np.ndarray]] | None = [] if keep_first else None
-
-    def add(self, periods: np.ndarray, h: np.ndarray, z: np.ndarray | None = None) -> None:
-        """Add periods ``periods`` (P,) with estimates ``h`` and probing outputs ``z``
-        (P, C, M; ``z`` needed only with ``keep_first``)."""
-        settled = np.asarray(periods) >= self.settle
-        for p in np.flatnonzero(settled):
-            for j in range(len(self.channels)):
-                if np.all(np.isfinite(h[p, j])):
-                    self.total[j] += h[p, j]
-                    self.count[j] += 1
-                    if j == 0 and self.kept is not None:
-                        self.kept.append((int(periods[p]), z[p, 0].copy(), h[p, 0].copy()))
-
-    def first_channel(self, lag_s: np.ndarray) -> Settled | None:
-        """With ``keep_first``: the first channel's settled periods (None otherwise)."""
-        if self.kept is None:
-            return None
-        m = lag_s.size
-        return Settled(
-            np.array([k[0] for k in self.kept], dtype=np.int64),
-            lag_s,
-            np.array([k[1] for k in self.kept]).reshape(-1, m),
-            np.array([k[2] for k in self.kept]).reshape(-1, m),
-        )
-
-    def mean(self) -> dict[str, np.ndarray]:
-        """Channel -> mean h (NaN where no period counted)."""
-        return {
-            c: self.total[j] / self.count[j]
-            if self.count[j]
-            else np.full_like(self.total[j], np.nan)
-            for j, c in enumerate(self.channels)
-        }
 
 
 # ------------------------------------------------------------------ the run
