@@ -35,7 +35,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["GUST_SENSORS", "GustEstimator", "HighPass", "wind_ned_fps"]
+__all__ = ["GUST_REFERENCE_SENSORS", "GUST_SENSORS", "GustEstimator", "HighPass", "wind_ned_fps"]
 
 #: The measured channels the estimate needs, in the order :func:`wind_ned_fps` takes them.
 GUST_SENSORS = (
@@ -49,6 +49,10 @@ GUST_SENSORS = (
     "v_east_fps",
     "v_down_fps",
 )
+
+#: What a gust reference reads from the recorded stream: the estimate's sensors, and the
+#: roll rate and altitude its twin's observers follow (``probing.experiment.onboard``).
+GUST_REFERENCE_SENSORS = (*GUST_SENSORS, "p_rad_s", "h_ft")
 
 
 def _body_to_ned(

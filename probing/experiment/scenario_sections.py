@@ -12,7 +12,7 @@ import dataclasses
 from typing import Any
 
 from probing.core.faults import FAULTS
-from probing.core.gust import GUST_SENSORS
+from probing.core.gust import GUST_REFERENCE_SENSORS
 from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
@@ -529,11 +529,11 @@ def _check_drift(scn: Any) -> None:
         raise ScenarioError(
             "output.drift", '"gust" estimates the gust from the sensors: it needs [sensors]'
         )
-    lacking = [c for c in GUST_SENSORS if c not in scn.sensors.sensors]
+    lacking = [c for c in GUST_REFERENCE_SENSORS if c not in scn.sensors.sensors]
     if lacking:
         raise ScenarioError(
             "output.drift",
-            f'"gust" needs a sensor of every channel of {", ".join(GUST_SENSORS)}; '
+            f'"gust" needs a sensor of every channel of {", ".join(GUST_REFERENCE_SENSORS)}; '
             f"the {scn.sensors.name} suite has none of {', '.join(lacking)}",
         )
     if scn.control is None or not scn.control.pitch_hold:
