@@ -58,8 +58,9 @@ __all__ = [
 STEADY_WIND_TIME_S = 30.0
 
 #: The gust twin's altitude follows the measured one with this time constant, s: a vertical
-#: wind of (twin's altitude - measured) / it is added to the estimate, updated once a probe
-#: period (constant within one, where the estimator takes out constants).  Without it the
+#: wind of (twin's altitude - measured, the last period's mean) / it is added to the
+#: estimate, updated once a probe period (constant within one, where the estimator takes out
+#: constants).  Without it the
 #: twin, flying the high-passed gust, keeps its trim altitude while the aircraft drifts with
 #: the slow vertical gusts (400 ft in 20 minutes of light turbulence at 800 ft), and below
 #: 1000 ft the turbulence, and the response to it, change with height.
@@ -117,7 +118,8 @@ class GustSource:
             flown = wind[span].copy()
             flown[:, 2] += self.down
             y = self.twin.next(flown, rates[span], before[span, 0], before[span, 1])
-            self.down = self.follow * (y[-1, -1] - height[span][-1])
+            # the period's mean difference: the baro altimeter's noise averages out
+            self.down = self.follow * float(np.mean(y[:, -1] - height[span]))
             out.append(y[:, : self.channels])
         return np.vstack(out)
 

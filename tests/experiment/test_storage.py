@@ -112,6 +112,7 @@ def _monitor_rows(n: int) -> dict:
         "period": list(range(n)),
         "time_s": [float(p + 1) for p in range(n)],
         "channel": ["theta_rad"] * n,
+        "detector": ["probing"] * n,
         "statistic": [0.5] * n,
         "threshold": [4.0] * n,
         "alarm": [False] * n,
