@@ -65,8 +65,8 @@ MUTATIONS = [
     ),
     (
         "probing/experiment/monitor.py",
-        '("time_s", (p + 1) * self.period_s)',
-        '("time_s", p * self.period_s)',
+        "time_s = (p + 1) * self.period_s",
+        "time_s = p * self.period_s",
         "tests/experiment/test_monitor.py::test_the_first_alarms_row_ends_at_the_reported_first_alarm",
     ),
     (
@@ -101,8 +101,8 @@ MUTATIONS = [
     ),
     (
         "analysis/monitoring.py",
-        "healthy = tested[tested.time_s <= onset]",
-        "healthy = tested[tested.time_s < onset]",
+        "healthy = periods[periods.time_s <= onset]",
+        "healthy = periods[periods.time_s < onset]",
         "tests/analysis/test_monitoring.py::test_a_period_ending_at_the_onset_is_healthy",
     ),
     (
