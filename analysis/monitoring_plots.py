@@ -13,7 +13,14 @@ from analysis.figures import RC, save_figure
 from analysis.monitoring import FAULTS, roc
 from probing.experiment.storage import read_table
 
-__all__ = ["detection_figure", "draw_all", "fault_figure", "roc_figure", "verdict_figure"]
+__all__ = [
+    "amplitude_figure",
+    "detection_figure",
+    "draw_all",
+    "fault_figure",
+    "roc_figure",
+    "verdict_figure",
+]
 
 #: The references in the order the figures show them, each with its line style: the
 #: realisable ones first, the oracle (the bound that knows the gusts) after.
@@ -27,11 +34,16 @@ def _drifts(flights: pd.DataFrame) -> list[str]:
 
 
 def _at_design_amplitude(flights: pd.DataFrame) -> pd.DataFrame:
-    """The flights at the largest probe amplitude where a study varies it (the design's;
-    the smaller ones are the check of which detections are the probe's, in the tables)."""
+    """The flights at the design's probe amplitude where a study varies it: the largest one
+    every fault was flown at (the others are the check of which detections are the probe's,
+    and a fault's amplitude axis: in the tables and the amplitude figure)."""
     if "amplitude_deg" not in flights or flights.amplitude_deg.isna().all():
         return flights
-    return flights[flights.amplitude_deg == flights.amplitude_deg.max()]
+    swept = flights[flights.amplitude_deg.notna()]  # NaN: the base scenario's amplitude
+    per_fault = [set(g.amplitude_deg) for _, g in swept.groupby("fault")]
+    common = set.intersection(*per_fault)
+    design = max(common) if common else swept.amplitude_deg.max()
+    return flights[(flights.amplitude_deg == design) | flights.amplitude_deg.isna()]
 
 
 def _faults(flights: pd.DataFrame) -> list[str]:
@@ -183,9 +195,46 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     return fig
 
 
+def _amplitude_faults(flights: pd.DataFrame) -> list[str]:
+    """The faults flown at more than two probe amplitudes (an amplitude axis)."""
+    if "amplitude_deg" not in flights:
+        return []
+    counts = flights.groupby("fault").amplitude_deg.nunique()
+    return [k for k in _faults(flights) if counts.get(k, 0) > 2]
+
+
+def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
+    """Per fault flown over an amplitude axis: the probability of detection within the
+    goal's periods against the probe's amplitude, one line per reference; the goal dotted."""
+    keys = _amplitude_faults(flights)
+    drifts = _drifts(flights)
+    with plt.rc_context(RC):
+        fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.3), squeeze=False)
+        for ax, key in zip(axes[0], keys, strict=True):
+            spec = FAULTS[key]
+            for drift in drifts:
+                g = flights[(flights.fault == key) & (flights.drift == drift)]
+                within = (g.delay_periods <= spec.goal_periods).astype(float)
+                goal = within.groupby(g.amplitude_deg).mean()
+                ax.plot(
+                    goal.index, goal.to_numpy(), DRIFT_STYLE[drift], marker="o", ms=3, label=drift
+                )
+            ax.axhline(spec.goal_probability, color="0.5", lw=0.6, ls=":")
+            ax.set_xscale("log")
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_xlabel("probe amplitude a (deg)")
+            ax.set_title(f"{spec.label}: detected within {spec.goal_periods} T", fontsize=8)
+        axes[0][0].set_ylabel("probability of detection")
+        axes[0][0].legend(frameon=False, fontsize=7)
+        fig.tight_layout()
+    return fig
+
+
 def draw_all(flights: pd.DataFrame, figures: Path) -> list[Path]:
     """Every figure of the study into ``figures`` (PNG); returns the files."""
     paths = []
+    if _amplitude_faults(flights):
+        paths += save_figure(amplitude_figure(flights), figures / "monitor_amplitude")
     paths += save_figure(detection_figure(flights), figures / "monitor_detection")
     paths += save_figure(roc_figure(flights), figures / "monitor_roc")
     paths += save_figure(verdict_figure(flights), figures / "monitor_verdicts")

@@ -10,7 +10,8 @@ T2 sensors (the autopilot flies on them), light turbulence (MIL-F-8785C, 15 kt a
 Each fault sweep flies 10 seeds, each with a random onset uniform over periods 55 to 75,
 with three references (``gust``: realisable; ``oracle``: the upper bound that knows the
 gusts; ``detrend``: no model) and two probe amplitudes (0.2 deg, the design's, and a tenth
-of it: what is still detected then is not the probe's doing).  ``none.toml``: three flights
+of it: what is still detected then is not the probe's doing); the dead band over six
+amplitudes from 0.02 to 1 deg, its edges scaled with each.  ``none.toml``: three flights
 of one hour per reference, no fault.  The files are committed; running this again gives the
 same bytes.
 """
@@ -32,20 +33,17 @@ ONSET_PERIODS = (55, 75)
 AFTER_PERIODS = 25
 HEALTHY_FLIGHTS, HEALTHY_FLIGHT_S = 3, 3600.0
 DRIFTS = ["gust", "oracle", "detrend"]
+#: The probe amplitudes the dead band is flown at: where does its detection goal come within
+#: reach, with each reference?
+DEADBAND_AMPLITUDES_DEG = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
 
 #: file name -> (its type in probing.core.faults.FAULTS, its fields without onset_s); the
-#: dead band's edges at +-0.2 a (a~/a = 0.8); the pitch sensor's bias 0.5 deg.
+#: pitch sensor's bias 0.5 deg.  The dead band, the fault only the probe can see, is flown
+#: over :data:`DEADBAND_AMPLITUDES_DEG` with its edges at +-0.2 a (a~/a = 0.8 at each).
 FAULTS: dict[str, tuple[str, dict]] = {
     "damage5": ("gtm_damage", {"case": 5}),
     "damage6": ("gtm_damage", {"case": 6}),
-    "deadband": (
-        "nonlinearity",
-        {
-            "nonlinearity": "deadband",
-            "lower_deg": -0.2 * AMPLITUDE_DEG,
-            "upper_deg": 0.2 * AMPLITUDE_DEG,
-        },
-    ),
+    "deadband": ("nonlinearity", {"nonlinearity": "deadband"}),  # edges +-0.2 a, zipped
     "effectiveness": ("effectiveness", {}),  # scale 0.5: in the grid, as the study reads it
     "stuck": ("stuck", {}),
     "sensor-bias": ("sensor_bias", {"channel": "theta_rad", "bias": math.radians(0.5)}),
@@ -89,7 +87,17 @@ def main() -> None:
             "disturbance.seed": list(range(1, SEEDS + 1)),
             "fault.onset_s": [round(float(t), 3) for t in onsets],
         }
-        text = f"{name}: {SEEDS} seeds x random onsets x {len(DRIFTS)} references x 2 amplitudes"
+        if name == "deadband":  # every seed at every amplitude, the edges scaled with it
+            grid_here = {"output.drift": DRIFTS}
+            amplitudes = DEADBAND_AMPLITUDES_DEG
+            zipped = {k: [v for v in values for _ in amplitudes] for k, values in zipped.items()}
+            zipped["probe.amplitude_deg"] = amplitudes * SEEDS
+            zipped["fault.lower_deg"] = [round(-0.2 * a, 12) for a in amplitudes] * SEEDS
+            zipped["fault.upper_deg"] = [round(0.2 * a, 12) for a in amplitudes] * SEEDS
+        count = len(DEADBAND_AMPLITUDES_DEG) if name == "deadband" else 2
+        text = (
+            f"{name}: {SEEDS} seeds x random onsets x {len(DRIFTS)} references x {count} amplitudes"
+        )
         (HERE / f"{name}.toml").write_text(sweep_toml(name, text, fixed, grid_here, zipped))
     healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S)}
     zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}

@@ -418,3 +418,25 @@ def test_two_detectors_fold_per_period_and_each_keeps_its_own_delay(tmp_path):
     table = fault_table(flights.reset_index())
     (row,) = table.to_dict("records")
     assert row["by_probing"] == pytest.approx(0.5) and row["amplitude_deg"] == 0.02
+
+
+def test_the_amplitude_figure_plots_each_amplitudes_detection_within_the_goal(tmp_path):
+    """Three amplitudes, detection within the goal 0, 1/2 and 1: the line has those values."""
+    from analysis.monitoring_plots import amplitude_figure
+
+    rows = []
+    for i, (amp, delays) in enumerate({0.05: (9, 9), 0.1: (2, 9), 0.2: (1, 2)}.items()):
+        for j, d in enumerate(delays):
+            rows.append(
+                {
+                    "fault": "deadband",
+                    "drift": "gust",
+                    "amplitude_deg": amp,
+                    "delay_periods": float(d),
+                    "point_id": f"{i}{j}",
+                }
+            )
+    fig = amplitude_figure(pd.DataFrame(rows))
+    (line,) = [ln for ln in fig.axes[0].get_lines() if ln.get_label() == "gust"]
+    assert list(line.get_xdata()) == [0.05, 0.1, 0.2]
+    assert list(line.get_ydata()) == [0.0, 0.5, 1.0]
