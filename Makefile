@@ -97,15 +97,16 @@ references: setup
 # The monitor with a reference a real aircraft could run (docs/monitoring.md, "Faults with a
 # reference a real aircraft could run"): every sweep in scenarios/monitor-realisable (written
 # by its generate.py; the references study's flight with NASA's T2 sensors, light
-# turbulence; gust, oracle and detrend; the probe at 0.2 and 0.02 deg), then its table
-# (docs/monitoring_realisable_summary.md) and figures (results/monitor-realisable/figures).
+# turbulence; gust, oracle and detrend; the probe at 0.2 and 0.02 deg, the dead band over
+# six amplitudes), then its table (docs/monitoring_realisable_summary.md) and figures
+# (figures/realisable/monitor_*.png).
 REALISABLE_SWEEPS := $(sort $(wildcard scenarios/monitor-realisable/*.toml))
 REALISABLE_OUT ?= results/monitor-realisable
 monitor-realisable: setup
 	@for f in $(REALISABLE_SWEEPS); do \
 	  $(PY) -m probing sweep $$f --out $(REALISABLE_OUT) $(if $(JOBS),-j $(JOBS)) \
 	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
-	$(PY) -m probing plot monitor $(REALISABLE_OUT) \
+	$(PY) -m probing plot monitor $(REALISABLE_OUT) --figures figures/realisable \
 	  --summary docs/monitoring_realisable_summary.md
 
 # NASA's lateral damage cases 1-4 with an aileron or a rudder probe (docs/monitoring.md,
