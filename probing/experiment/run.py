@@ -149,6 +149,7 @@ class _Rig:
     follower_nodes: list | None = None
     periods_flown: int = 0
     sensing: Sensing | None = None  # the aircraft's sensors ([sensors]): what it measures
+    record: bool = False  # write sensors.parquet: the autopilot's commands are kept then
 
     @classmethod
     def build(
@@ -290,8 +291,9 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             nl_out[span] = q
             if rig.loop:
                 measured = sensed[span] if sensed is not None else None
+                flown = commands[span] if commands is not None else None
                 rig.loop.step(
-                    q, rig.nodes, out[span], surface[span], control[span], commands[span], measured
+                    q, rig.nodes, out[span], surface[span], control[span], flown, measured
                 )
             else:
                 cmd = drive.command(trim + q)
@@ -328,21 +330,15 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
 def _buffers(rig: _Rig, rows: int) -> tuple:
     """A chunk's arrays, filled in place: the outputs ``(rows, C)``, the follower's
     ``(rows, C)``, the surface's realised position and the probe path's ``(rows,)``; with the
-    autopilot its command of the surface ``(rows,)`` and its commands ``(rows, 3)``; with
+    autopilot its command of the surface ``(rows,)``, and its commands ``(rows, 3)`` where a
+    twin flies them or the log records them (the step loop keeps them only then); with
     sensors their measurements ``(rows, sensors)``."""
     n_ch = len(rig.scn.channels)
     control = np.empty(rows) if rig.loop else None
-    commands = np.empty((rows, 3)) if rig.loop else None
+    commands = np.empty((rows, 3)) if rig.loop and (rig.follower or rig.record) else None
     sensed = np.empty((rows, len(rig.sensing.channels))) if rig.sensing else None
-    return (
-        np.empty((rows, n_ch)),
-        np.empty((rows, n_ch)),
-        np.empty(rows),
-        np.empty(rows),
-        control,
-        commands,
-        sensed,
-    )
+    outputs = (np.empty((rows, n_ch)), np.empty((rows, n_ch)), np.empty(rows), np.empty(rows))
+    return (*outputs, control, commands, sensed)
 
 
 def _log(
@@ -491,7 +487,7 @@ def run_scenario(
     t_start = time.perf_counter()
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
     with rig.twin or nullcontext():  # a simulated twin is stored, or dropped
-        rig.stop_on_divergence = stop_on_divergence
+        rig.stop_on_divergence, rig.record = stop_on_divergence, record
         probe, channels = rig.probe, list(scn.channels)
         m = probe.length
         onboard = Onboard(scn, reference_source(scn, rig.twin), rig.y_trim, rig.chunk_periods * m)
