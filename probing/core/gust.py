@@ -55,10 +55,9 @@ GUST_SENSORS = (
 GUST_REFERENCE_SENSORS = (*GUST_SENSORS, "p_rad_s", "h_ft")
 
 
-def _body_to_ned(
-    phi: np.ndarray, theta: np.ndarray, psi: np.ndarray, body: np.ndarray
-) -> np.ndarray:
-    """Body-axes vectors ``(n, 3)`` turned to north-east-down by the Euler angles (rad)."""
+def _direction_cosines(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> tuple:
+    """The body-to-north-east-down matrix of the Euler angles (rad), entry by entry: rows
+    north, east, down; columns body x, y, z (its transpose turns NED to body)."""
     cph, sph, cth, sth, cps, sps = (
         np.cos(phi),
         np.sin(phi),
@@ -67,11 +66,20 @@ def _body_to_ned(
         np.cos(psi),
         np.sin(psi),
     )
+    return (
+        (cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps),
+        (cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps),
+        (-sth, sph * cth, cph * cth),
+    )
+
+
+def _body_to_ned(
+    phi: np.ndarray, theta: np.ndarray, psi: np.ndarray, body: np.ndarray
+) -> np.ndarray:
+    """Body-axes vectors ``(n, 3)`` turned to north-east-down by the Euler angles (rad)."""
+    c = _direction_cosines(phi, theta, psi)
     x, y, z = body[:, 0], body[:, 1], body[:, 2]
-    north = cth * cps * x + (sph * sth * cps - cph * sps) * y + (cph * sth * cps + sph * sps) * z
-    east = cth * sps * x + (sph * sth * sps + cph * cps) * y + (cph * sth * sps - sph * cps) * z
-    down = -sth * x + sph * cth * y + cph * cth * z
-    return np.stack([north, east, down], axis=1)
+    return np.stack([row[0] * x + row[1] * y + row[2] * z for row in c], axis=1)
 
 
 def _ned_to_body(
@@ -79,19 +87,9 @@ def _ned_to_body(
 ) -> np.ndarray:
     """North-east-down vectors ``(n, 3)`` turned to body axes (the transpose of
     :func:`_body_to_ned`'s matrix)."""
-    cph, sph, cth, sth, cps, sps = (
-        np.cos(phi),
-        np.sin(phi),
-        np.cos(theta),
-        np.sin(theta),
-        np.cos(psi),
-        np.sin(psi),
-    )
+    c = _direction_cosines(phi, theta, psi)
     n, e, d = ned[:, 0], ned[:, 1], ned[:, 2]
-    x = cth * cps * n + cth * sps * e - sth * d
-    y = (sph * sth * cps - cph * sps) * n + (sph * sth * sps + cph * cps) * e + sph * cth * d
-    z = (cph * sth * cps + sph * sps) * n + (cph * sth * sps - sph * cps) * e + cph * cth * d
-    return np.stack([x, y, z], axis=1)
+    return np.stack([c[0][j] * n + c[1][j] * e + c[2][j] * d for j in range(3)], axis=1)
 
 
 def wind_ned_fps(measured: Mapping[str, np.ndarray]) -> np.ndarray:
