@@ -53,6 +53,8 @@ __all__ = [
     "parse_sweep",
     "point_folder",
     "sweep_folders",
+    "sweep_toml",
+    "toml_value",
 ]
 
 MAX_POINTS = 100_000
@@ -61,6 +63,49 @@ _TOP_KEYS = ("name", "base", "description", "kind", "fixed", "grid", "zip")
 SWEEP_KINDS = ("probing", "monitor")
 #: The file that marks a finished run folder (written last, inside the folder).
 POINT_FILE = "point.json"
+
+
+def toml_value(value: Any) -> str:
+    """A sweep or scenario value as TOML: a bool, a string, a list of them, or a number.
+
+    Examples
+    --------
+    >>> toml_value([True, "a", 0.5])
+    '[true, "a", 0.5]'
+    """
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return repr(value)
+
+
+def sweep_toml(
+    name: str,
+    description: str,
+    base: str,
+    tables: dict[str, dict[str, Any]],
+    written_by: str,
+    kind: str = "monitor",
+) -> str:
+    """The text of a sweep file, as the study generators write them: a comment with the
+    description and ``written_by``, the top keys, then the non-empty ``tables`` (``fixed``,
+    ``grid``, ``zip``) in their order; :func:`load_sweep` reads it back."""
+    lines = [
+        f"# {description}",
+        f"# {written_by}",
+        f'name = "{name}"',
+        f'description = "{description}"',
+        f'base = "{base}"',
+        f'kind = "{kind}"',
+    ]
+    for table, entries in tables.items():
+        if entries:
+            lines.append(f"\n[{table}]")
+            lines += [f'"{k}" = {toml_value(v)}' for k, v in entries.items()]
+    return "\n".join(lines) + "\n"
 
 
 def sweep_folders(sweep_dir: Path) -> tuple[Path, Path, Path]:

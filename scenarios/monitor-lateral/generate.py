@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from probing.core.faults import sweep_fields
+from probing.sweep.spec import sweep_toml, toml_value
 
 HERE = Path(__file__).resolve().parent
 SEEDS = 20
@@ -46,14 +47,7 @@ PROBES: dict[str, dict[str, float]] = {
     "rudder": {"beta_rad": math.radians(0.033), "r_rad_s": math.radians(0.3397)},
 }
 CASES = (1, 2, 3, 4)
-
-
-def toml_value(value) -> str:
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    return repr(value)
+WRITTEN_BY = "Written by scenarios/monitor-lateral/generate.py; run by make monitor-lateral."
 
 
 def base_toml(surface: str, noise: dict[str, float]) -> str:
@@ -109,22 +103,6 @@ surface = true
 """
 
 
-def sweep_toml(name: str, base: str, description: str, fixed: dict, zipped: dict) -> str:
-    lines = [
-        f"# {description}",
-        "# Written by scenarios/monitor-lateral/generate.py; run by make monitor-lateral.",
-        f'name = "monitor-{name}"',
-        f'description = "{description}"',
-        f'base = "{base}"',
-        'kind = "monitor"',
-    ]
-    for table, entries in (("fixed", fixed), ("zip", zipped)):
-        if entries:
-            lines.append(f"\n[{table}]")
-            lines += [f'"{k}" = {toml_value(v)}' for k, v in entries.items()]
-    return "\n".join(lines) + "\n"
-
-
 def main() -> None:
     period_s = (2**ORDER - 1) * BIT_S
     for p, (surface, noise) in enumerate(PROBES.items()):
@@ -140,14 +118,18 @@ def main() -> None:
             fixed = sweep_fields("gtm_damage", {"case": case})
             name = f"{surface}-damage{case}"
             text = f"{surface} probe, damage case {case}: {SEEDS} seeds x random onsets"
-            (HERE / f"{name}.toml").write_text(sweep_toml(name, base, text, fixed, zipped))
+            tables = {"fixed": fixed, "zip": zipped}
+            (HERE / f"{name}.toml").write_text(
+                sweep_toml(f"monitor-{name}", text, base, tables, WRITTEN_BY)
+            )
         healthy_periods = round(HEALTHY_FLIGHT_S / period_s)
         zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}
         fixed = {"probe.periods": healthy_periods}
         hours = HEALTHY_FLIGHT_S / 3600
         text = f"{surface} probe, no fault: {HEALTHY_FLIGHTS} flights of {hours:g} h"
+        tables = {"fixed": fixed, "zip": zipped}
         (HERE / f"{surface}-none.toml").write_text(
-            sweep_toml(f"{surface}-none", base, text, fixed, zipped)
+            sweep_toml(f"monitor-{surface}-none", text, base, tables, WRITTEN_BY)
         )
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from probing.core.faults import sweep_fields
+from probing.sweep.spec import sweep_toml
 
 HERE = Path(__file__).resolve().parent
 PERIOD_S = 2.55  # M t0 of the base flight's probe (order 8, 0.01 s bits)
@@ -33,6 +34,8 @@ ONSET_PERIODS = (55, 75)
 AFTER_PERIODS = 25
 HEALTHY_FLIGHTS, HEALTHY_FLIGHT_S = 3, 3600.0
 DRIFTS = ["gust", "oracle", "detrend"]
+BASE = "../references/base.toml"
+BY = "Written by scenarios/monitor-realisable/generate.py; run by make monitor-realisable."
 #: The probe amplitudes the dead band is flown at: where does its detection goal come within
 #: reach, with each reference?
 DEADBAND_AMPLITUDES_DEG = [0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
@@ -48,30 +51,6 @@ FAULTS: dict[str, tuple[str, dict]] = {
     "stuck": ("stuck", {}),
     "sensor-bias": ("sensor_bias", {"channel": "theta_rad", "bias": math.radians(0.5)}),
 }
-
-
-def toml_value(value) -> str:
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    return repr(value)
-
-
-def sweep_toml(name: str, description: str, fixed: dict, grid: dict, zipped: dict) -> str:
-    lines = [
-        f"# {description}",
-        "# Written by scenarios/monitor-realisable/generate.py; run by make monitor-realisable.",
-        f'name = "monitor-{name}"',
-        f'description = "{description}"',
-        'base = "../references/base.toml"',
-        'kind = "monitor"',
-    ]
-    for table, entries in (("fixed", fixed), ("grid", grid), ("zip", zipped)):
-        if entries:
-            lines.append(f"\n[{table}]")
-            lines += [f'"{k}" = {toml_value(v)}' for k, v in entries.items()]
-    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
@@ -98,13 +77,13 @@ def main() -> None:
         text = (
             f"{name}: {SEEDS} seeds x random onsets x {len(DRIFTS)} references x {count} amplitudes"
         )
-        (HERE / f"{name}.toml").write_text(sweep_toml(name, text, fixed, grid_here, zipped))
+        tables = {"fixed": fixed, "grid": grid_here, "zip": zipped}
+        (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
     healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S)}
     zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}
     text = f"no fault: {HEALTHY_FLIGHTS} flights of 1 h x {len(DRIFTS)} references"
-    (HERE / "none.toml").write_text(
-        sweep_toml("none", text, healthy, {"output.drift": DRIFTS}, zipped)
-    )
+    tables = {"fixed": healthy, "grid": {"output.drift": DRIFTS}, "zip": zipped}
+    (HERE / "none.toml").write_text(sweep_toml("monitor-none", text, BASE, tables, BY))
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ import numpy as np
 
 from probing.core.faults import sweep_fields
 from probing.experiment.design import DesignRequest, recommend
+from probing.sweep.spec import sweep_toml
 
 HERE = Path(__file__).resolve().parent
 #: NASA's pitch-attitude noise, MIDG theta (NoiseParams_T2.m): 0.02 deg.
@@ -40,6 +41,7 @@ BASELINE = 50
 ONSET_PERIODS = (55, 75)
 AFTER_PERIODS = 25
 HEALTHY_FLIGHTS, HEALTHY_FLIGHT_S = 10, 3600.0
+WRITTEN_BY = "Written by scenarios/monitor/generate.py; run by make monitor (docs/monitoring.md)."
 
 #: The faults: file name -> (its type in probing.core.faults.FAULTS, its fields without
 #: onset_s); a~/a = 0.8 for the dead band (edges +-0.2 a) and the backlash (width 0.4 a);
@@ -71,16 +73,6 @@ def design() -> tuple:
     d, _, _ = recommend(request)
     assert math.isclose(d.bits_per_period * d.bit_duration_s, period_guess_s), d
     return d, request
-
-
-def toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    return repr(value)
 
 
 def base_toml(d, request) -> str:
@@ -145,22 +137,6 @@ surface = true
     )
 
 
-def sweep_toml(name: str, description: str, fixed: dict, grid: dict, zipped: dict) -> str:
-    lines = [
-        f"# {description}",
-        "# Written by scenarios/monitor/generate.py; run by make monitor (docs/monitoring.md).",
-        f'name = "monitor-{name}"',
-        f'description = "{description}"',
-        'base = "base.toml"',
-        'kind = "monitor"',
-    ]
-    for table, entries in (("fixed", fixed), ("grid", grid), ("zip", zipped)):
-        if entries:
-            lines.append(f"\n[{table}]")
-            lines += [f'"{k}" = {toml_value(v)}' for k, v in entries.items()]
-    return "\n".join(lines) + "\n"
-
-
 def main() -> None:
     d, request = design()
     period_s = d.bits_per_period * d.bit_duration_s
@@ -189,13 +165,19 @@ def main() -> None:
             "fault.onset_s": [round(float(t), 3) for t in onsets],
         }
         text = f"{name}: {SEEDS} seeds x random onsets x 2 drift corrections"
-        (HERE / f"{name}.toml").write_text(sweep_toml(name, text, fixed, grid, zipped))
+        tables = {"fixed": fixed, "grid": grid, "zip": zipped}
+        (HERE / f"{name}.toml").write_text(
+            sweep_toml(f"monitor-{name}", text, "base.toml", tables, WRITTEN_BY)
+        )
     healthy_periods = round(HEALTHY_FLIGHT_S / period_s)
     zipped = {"disturbance.seed": list(range(101, 101 + HEALTHY_FLIGHTS))}
     fixed = {"probe.periods": healthy_periods}
     hours = HEALTHY_FLIGHT_S / 3600
     text = f"no fault: {HEALTHY_FLIGHTS} flights of {hours:g} h x 2 drift corrections"
-    (HERE / "none.toml").write_text(sweep_toml("none", text, fixed, drifts, zipped))
+    tables = {"fixed": fixed, "grid": drifts, "zip": zipped}
+    (HERE / "none.toml").write_text(
+        sweep_toml("monitor-none", text, "base.toml", tables, WRITTEN_BY)
+    )
 
 
 if __name__ == "__main__":
