@@ -13,7 +13,9 @@ baseline) points at the actuator side; a change of shape points at the airframe.
    and of equal variance in v.
 2. **Baseline.**  The first ``baseline_periods`` periods B give the mean v0 and the sample
    covariance S (B - 1 degrees of freedom): learned from the flight itself, with nothing
-   assumed about the noise but that periods are independent and Gaussian.
+   assumed about the noise but that periods are independent and Gaussian.  With
+   ``baseline_gap_periods`` G the baseline slides: the B periods that end G periods before
+   the tested window, frozen at the first alarm (:mod:`probing.core.baseline`).
 3. **Detection.**  After every later period, the mean of the last n <= W periods
    (``window_periods`` W; n grows to W after the baseline) is tested two ways:
 
@@ -69,6 +71,8 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy.special import fdtrc, fdtri, stdtr, stdtrit
+
+from probing.core.baseline import BaselineWindow
 
 __all__ = [
     "ChangeDetector",
@@ -208,11 +212,12 @@ _BOUNDS: dict[str, _Bound] = {
     "window_periods": _Bound("integer", 1, 1000),
     "surface": _Bound("bool"),
     "trajectory_false_alarms_per_hour": _Bound("number", 0.0, 1e6, lo_open=True),
+    "baseline_gap_periods": _Bound("integer", 0, 100000),
 }
 
 
 #: The settings that may be left out (None: as documented on the field).
-_OPTIONAL = ("trajectory_false_alarms_per_hour",)
+_OPTIONAL = ("trajectory_false_alarms_per_hour", "baseline_gap_periods")
 
 
 def _checked(name: str, value: object) -> object:
@@ -277,6 +282,13 @@ class MonitorSettings:
     trajectory_false_alarms_per_hour : float or None
         The trajectory detector's own false-alarm budget (:mod:`probing.core.trajectory`),
         alarms per flight hour over all channels; None: ``false_alarms_per_hour``.
+    baseline_gap_periods : int or None
+        None: each detector's baseline is the first ``baseline_periods`` settled periods.
+        G: the baseline slides, the ``baseline_periods`` periods that end G periods before
+        the tested window, frozen at the detector's first alarm
+        (:class:`probing.core.baseline.BaselineWindow`): it follows a slow drift of what
+        the reference leaves, and an abrupt change has ``window_periods`` + G periods to
+        be detected before it starts entering the baseline.
 
     Raises
     ------
@@ -296,6 +308,7 @@ class MonitorSettings:
     window_periods: int = 1
     surface: bool = False
     trajectory_false_alarms_per_hour: float | None = None
+    baseline_gap_periods: int | None = None
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -354,7 +367,9 @@ class ChangeDetector:
         self.alpha, self.shape_alpha = alpha, settings.shape_false_alarm
         self.surface = settings.surface
         self.threshold = -math.log10(alpha)
-        self._baseline: list[tuple[np.ndarray, np.ndarray | None]] = []
+        self._baseline: BaselineWindow[tuple[np.ndarray, np.ndarray | None]] = BaselineWindow(
+            self.b, settings.window_periods, settings.baseline_gap_periods
+        )
         self._recent: collections.deque[tuple[np.ndarray, np.ndarray | None]] = collections.deque(
             maxlen=settings.window_periods
         )
@@ -416,10 +431,10 @@ class ChangeDetector:
         if not np.all(np.isfinite(h)) or (surface is not None and not np.all(np.isfinite(surface))):
             return none
         item = (h, surface if self.surface else None)
-        if self._v is None:
-            self._baseline.append(item)
-            if len(self._baseline) == self.b:
-                self._learn()
+        learning = self._v is None
+        if self._baseline.add(item):
+            self._learn()
+        if learning:
             return none
         self._recent.append(item)
         return self._test()
@@ -437,6 +452,8 @@ class ChangeDetector:
         if self._alarmed and len(self._since_alarm) < self.isolation_periods:
             self._since_alarm.append(self._recent[-1])
         self._alarmed = self._alarmed or alarm
+        if alarm:
+            self._baseline.freeze()
         shape = self._airframe_change(self._since_alarm or [self._recent[-1]])
         verdict = ("airframe" if shape > 1.0 else "actuator") if alarm else "none"
         return Decision(statistic, self.threshold, alarm, gain, shape, verdict)
@@ -497,13 +514,14 @@ class ChangeDetector:
         return h - np.fft.irfft(self._p0 * np.fft.rfft(s), n=self.m)
 
     def _learn(self) -> None:
-        hs = np.array([x[0] for x in self._baseline])
+        baseline = self._baseline.items
+        hs = np.array([x[0] for x in baseline])
         self._v = base = _Hotelling(hs @ self.w.T)
         x = np.column_stack((base.mean, self.w @ np.ones(self.m)))
         self._fit = np.linalg.solve(x.T @ base.s_inv @ x, x.T @ base.s_inv)  # GLS: beta = fit d
         self._xfit = x @ self._fit  # the S^-1-orthogonal projector on (v0, u)
         if self.surface:
-            ss = np.array([x[1] for x in self._baseline])
+            ss = np.array([x[1] for x in baseline])
             hy, hs_ = np.fft.rfft(hs, axis=1), np.fft.rfft(ss, axis=1)
             # The ratio of the baseline's means: each period's estimate is already the
             # output's correlation with the probe, the instrument, so the surface's noise
@@ -515,10 +533,9 @@ class ChangeDetector:
             power = np.abs(ms) ** 2 + noise
             p0 = my * np.conj(ms) / np.where(power > 0, power, 1.0)
             self._p0 = p0
-            residuals = np.array([self._residual_of(h, s) for h, s in self._baseline])
+            residuals = np.array([self._residual_of(h, s) for h, s in baseline])
             self._r = _Hotelling(residuals @ self.w.T)
             self._s = _Hotelling(ss @ self.w.T)
-        self._baseline = []
 
 
 def flight_verdict(verdicts: Sequence[str]) -> str:

@@ -127,7 +127,9 @@ class _Monitor:
             ChangeDetector.from_settings(m, settings, self.alpha) for _ in self.monitored
         ]
         self.trajectories = [
-            TrajectoryDetector(settings.baseline_periods, self.trajectory_alpha)
+            TrajectoryDetector(
+                settings.baseline_periods, self.trajectory_alpha, settings.baseline_gap_periods
+            )
             for _ in self.monitored
         ]
         self.first = max(scn.settle_periods, scn.first_estimated_period)

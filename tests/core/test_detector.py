@@ -344,6 +344,11 @@ def test_a_surface_is_lost_inside_the_two_sided_t_interval_of_zero(t_ratio, lost
         ({"window_periods": 1}, None),
         ({"window_periods": 1000}, None),
         ({"window_periods": 1001}, "window_periods"),
+        ({"baseline_gap_periods": -1}, "baseline_gap_periods"),
+        ({"baseline_gap_periods": 0}, None),
+        ({"baseline_gap_periods": 100000}, None),
+        ({"baseline_gap_periods": 100001}, "baseline_gap_periods"),
+        ({"baseline_gap_periods": None}, None),
     ],
 )
 def test_each_setting_on_either_side_of_its_bounds(settings, field):
@@ -373,6 +378,8 @@ def test_each_setting_on_either_side_of_its_bounds(settings, field):
         ({"shape_false_alarm": "0.01"}, "shape_false_alarm"),
         ({"surface": 1}, "surface"),
         ({"surface": "true"}, "surface"),
+        ({"baseline_gap_periods": True}, "baseline_gap_periods"),
+        ({"baseline_gap_periods": 5.0}, "baseline_gap_periods"),
     ],
 )
 def test_a_setting_of_the_wrong_kind_is_refused(settings, field):
@@ -426,8 +433,10 @@ def test_from_settings_gives_each_setting_to_its_detector_parameter() -> None:
         verdict_periods=4,
         window_periods=2,
         surface=True,
+        baseline_gap_periods=7,
     )
     d = ChangeDetector.from_settings(31, settings, alpha=0.003)
+    assert (d._baseline.periods, d._baseline.window, d._baseline.gap) == (17, 2, 7)
     assert (d.m, d.b, d.k, d.alpha) == (31, 17, 5, 0.003)
     assert (d.shape_alpha, d.surface, d.isolation_periods) == (0.02, True, 4)
     assert d._recent.maxlen == 2  # the periods averaged into each test

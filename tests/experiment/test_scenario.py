@@ -441,6 +441,11 @@ def test_a_monitor_baseline_fits_between_its_windows_and_the_settled_periods(
         ({"verdict_periods": 0}, "verdict_periods", "must be an integer from 1 to 1000, got 0"),
         ({"window_periods": 1001}, "window_periods", "must be an integer from 1 to 1000, got 1001"),
         ({"surface": "yes"}, "surface", "must be true or false, got 'yes'"),
+        (
+            {"baseline_gap_periods": -1},
+            "baseline_gap_periods",
+            "must be an integer from 0 to 100000, got -1",
+        ),
         (  # what needs the run: a baseline that leaves a settled period to test
             {"windows": 3, "baseline_periods": 6},
             "baseline_periods",
