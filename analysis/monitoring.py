@@ -15,6 +15,10 @@ scored:
   after the onset; a flight whose first alarm was a false one has none for its fault.
   Right means the fault type's class in :data:`probing.core.faults.FAULTS`: ``airframe`` for
   NASA's damage cases, ``actuator`` for the actuator's;
+* the **threshold law** is checked on the flights without a fault at a rate where counts
+  are large (:data:`CHECK_RATE_PER_HOUR`): the tested periods whose statistic is over the
+  threshold of that rate, per detector, against the periods times its false-alarm
+  probability (each period's test on its own: the statistic as the flight computed it);
 * the **ROC** sweeps the threshold (-log10 of the false-alarm probability per period) by a
   factor c: detection within the goal's periods against false alarms per hour of the healthy
   periods at c times the threshold (a false-alarm probability alpha^c).
@@ -35,6 +39,7 @@ from probing.core.faults import FAULTS as FAULT_TYPES
 from probing.experiment.storage import read_footer, read_table
 
 __all__ = [
+    "CHECK_RATE_PER_HOUR",
     "FAULTS",
     "Fault",
     "evaluate",
@@ -94,6 +99,11 @@ FAULTS: dict[str, Fault] = {
 }
 
 
+#: The false-alarm rate (per hour) at which the flights without a fault check the threshold
+#: law: at 0.1 per hour 30 hours hold about 3 events, at 5 per hour about 150 alarmed periods.
+CHECK_RATE_PER_HOUR = 5.0
+
+
 #: The probed surfaces a sweep's name may start with (``monitor-aileron-damage1``); a name
 #: without one is the elevator's study.
 PROBES = ("elevator", "aileron", "rudder", "throttle")
@@ -148,10 +158,22 @@ def load_study(results: str | Path) -> pd.DataFrame:
         # the probe amplitude where the sweep varies it (NaN: the base scenario's)
         df["amplitude_deg"] = df.get("probe.amplitude_deg", pd.Series(math.nan, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
+        df["turbulence"] = df.get("disturbance.turbulence", _base_turbulence(df.folder))
         frames.append(df)
     if not frames:
         raise FileNotFoundError(f"{results}: no monitor sweep (monitor-*/summary.parquet)")
     return pd.concat(frames, ignore_index=True)
+
+
+def _base_turbulence(folders: pd.Series) -> str:
+    """The turbulence level of a sweep that does not vary it: its first flight's scenario
+    (``point.json``), ``""`` if there is none."""
+    for folder in folders:
+        point = Path(folder) / "point.json"
+        if point.is_file():
+            scenario = json.loads(point.read_text()).get("scenario", {})
+            return str(scenario.get("disturbance", {}).get("turbulence", "none"))
+    return ""
 
 
 def _events(alarm: np.ndarray) -> int:
@@ -188,7 +210,10 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     the goal's periods after the onset), ``healthy_ratios`` (statistic over threshold of
     every healthy tested period, in order, for the ROC), and per detector
     ``delay_probing_s``, ``delay_trajectory_s``, ``false_alarms_probing`` and
-    ``false_alarms_trajectory``.
+    ``false_alarms_trajectory``, and for the threshold law ``tested_<detector>`` (tested
+    periods and channels before the onset) and ``over_check_<detector>`` (those over the
+    threshold of :data:`CHECK_RATE_PER_HOUR`), ``alpha_check`` (its probability per period and
+    channel).
     """
     rows = []
     for _, f in study.iterrows():
@@ -216,10 +241,18 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
             "score": float(after.ratio[within].max()) if within.any() else math.nan,
             "healthy_ratios": healthy.ratio.to_numpy(),
         }
+        channels = max(tested.channel.nunique(), 1)
+        row["alpha_check"] = min(0.5, CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)
         for detector in ("probing", "trajectory"):
-            own = _per_period(tested[tested.detector == detector])
+            mine = tested[tested.detector == detector]
+            own = _per_period(mine)
             row[f"delay_{detector}_s"] = _delay(own[own.time_s > onset], onset)
             row[f"false_alarms_{detector}"] = _events(own[own.time_s <= onset].alarm.to_numpy())
+            before = mine[mine.time_s <= onset]
+            row[f"tested_{detector}"] = len(before)
+            row[f"over_check_{detector}"] = int(
+                (before.statistic > -math.log10(row["alpha_check"])).sum()
+            )
         rows.append(row)
     return pd.concat([study.reset_index(drop=True), pd.DataFrame(rows)], axis=1)
 
@@ -241,8 +274,9 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
     the goal and at all, delay (median and 95th percentile, s and periods), verdict counts and
     how often the verdict is right."""
     out = []
-    groups = flights.groupby(["probe", "fault", "drift", "amplitude_deg"], sort=False, dropna=False)
-    for (probe, fault, drift, amplitude), g in groups:
+    keys = ["probe", "fault", "drift", "turbulence", "amplitude_deg"]
+    groups = flights.groupby(keys, sort=False, dropna=False)
+    for (probe, fault, drift, turbulence, amplitude), g in groups:
         spec = FAULTS[fault]
         if spec.truth == "none":
             continue
@@ -256,6 +290,7 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
                 "probe": probe,
                 "fault": spec.label,
                 "drift": drift,
+                "turbulence": turbulence,
                 "amplitude_deg": amplitude,
                 "flights": len(g),
                 # the detections the probing detector made first (or with the trajectory's)
@@ -301,31 +336,49 @@ def roc(
     return np.array(fa), np.array(pd_)
 
 
+#: How the tables name each reference: the realisable ones first, the oracle as the bound.
+DRIFT_LABELS = {
+    "gust": "gust",
+    "nominal": "nominal",
+    "follow": "follow",
+    "detrend": "detrend",
+    "oracle": "oracle (upper bound: knows the gusts)",
+}
+
+
+def _drift_order(flights: pd.DataFrame) -> pd.DataFrame:
+    """The flights sorted by reference in :data:`DRIFT_LABELS`' order (stable otherwise)."""
+    rank = {d: i for i, d in enumerate(DRIFT_LABELS)}
+    return flights.iloc[np.argsort([rank.get(d, len(rank)) for d in flights.drift], kind="stable")]
+
+
 def summary_markdown(flights: pd.DataFrame) -> str:
-    """The study's tables as Markdown: false alarms per hour, then detection and verdicts
-    per fault."""
+    """The study's tables as Markdown: false alarms per hour (each detector's, and the
+    threshold law at :data:`CHECK_RATE_PER_HOUR`), then detection and verdicts per fault."""
+    flights = _drift_order(flights)
     several = set(flights.probe) != {"elevator"}  # a column for the probed surface
     keys = ["probe", "drift"] if several else ["drift"]
     lines = ["# Health-monitoring study: results", ""]
     lines.append(
-        "Written by `probing plot monitor` (`make monitor`, `make monitor-lateral`, "
-        "`make monitor-realisable`; "
-        "`analysis.monitoring`); the set-up and the reading are in "
+        "Written by `probing plot monitor` (`make monitor`, `make monitor-oracle`, "
+        "`make monitor-lateral`; `analysis.monitoring`); the set-up and the reading are in "
         "[monitoring.md](monitoring.md)."
     )
     lines += ["", "## False alarms", ""]
     probe_head = "| probe " if several else ""
     lines.append(
-        probe_head + "| drift | flights | monitored h | events | per hour | 95 % interval |"
+        probe_head + "| drift | flights | monitored h | events | per hour | 95 % interval "
+        "| probing | trajectory |"
     )
-    lines.append("|---|---|---|---|---|---|" + ("---|" if several else ""))
+    lines.append("|---|---|---|---|---|---|---|---|" + ("---|" if several else ""))
     for key, g in flights.groupby(keys, sort=False):
         *probe, drift = key if isinstance(key, tuple) else (key,)
         events, hours, low, high = false_alarm_rate(g)
         lines.append(
             "".join(f"| {p} " for p in probe)
-            + f"| {drift} | {len(g)} | {hours:.2f} | {events} | {events / hours:.3f} | "
-            f"{low:.3f} - {high:.3f} |"
+            + f"| {DRIFT_LABELS.get(drift, drift)} | {len(g)} | {hours:.2f} | {events} | "
+            f"{events / hours:.3f} | {low:.3f} - {high:.3f} | "
+            f"{int(g.false_alarms_probing.sum())} | {int(g.false_alarms_trajectory.sum())} |"
         )
     healthy = flights[flights.fault == "none"]
     for key, g in healthy.groupby(keys, sort=False):
@@ -336,14 +389,58 @@ def summary_markdown(flights: pd.DataFrame) -> str:
             f"\nFlights without a fault alone, {what}: {events} events in {hours:.2f} h "
             f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
         )
+    lines += _threshold_law_lines(healthy, keys)
     lines += _detection_lines(fault_table(flights), several)
     return "\n".join(lines) + "\n"
+
+
+def _threshold_law_lines(healthy: pd.DataFrame, keys: list[str]) -> list[str]:
+    """The flights without a fault, each detector's tested periods over the threshold of
+    :data:`CHECK_RATE_PER_HOUR` against what that threshold promises (at most), with the
+    observed count's exact Poisson 95 % interval."""
+    from scipy.stats import chi2
+
+    if "tested_probing" not in healthy or not len(healthy):
+        return []
+    lines = [
+        "",
+        f"## The threshold law, at {CHECK_RATE_PER_HOUR:g} false alarms per hour",
+        "",
+        "The flights without a fault, every tested period and channel: the statistic over "
+        f"the threshold of {CHECK_RATE_PER_HOUR:g} per hour (each period on its own) against "
+        "the periods times that threshold's false-alarm probability, the most the law "
+        "allows (the probing test's two p-values are combined by Bonferroni, so it is "
+        "conservative).",
+        "",
+        "| drift | detector | tested periods | over the threshold | promised (at most) "
+        "| ratio | 95 % interval of the ratio |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key, g in healthy.groupby(keys, sort=False):
+        drift = key[-1] if isinstance(key, tuple) else key
+        for detector in ("probing", "trajectory"):
+            n = int(g[f"tested_{detector}"].sum())
+            over = int(g[f"over_check_{detector}"].sum())
+            expected = float((g[f"tested_{detector}"] * g.alpha_check).sum())
+            if expected <= 0.0:  # no tested period (a detector the files do not have)
+                continue
+            low = chi2.ppf(0.025, 2 * over) / 2 if over else 0.0
+            high = chi2.ppf(0.975, 2 * over + 2) / 2
+            lines.append(
+                f"| {DRIFT_LABELS.get(drift, drift)} | {detector} | {n} | {over} | "
+                f"{expected:.1f} | {over / expected:.2f} | "
+                f"{low / expected:.2f} - {high / expected:.2f} |"
+            )
+    return lines
 
 
 def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
     """The detection and verdict table's Markdown lines (a probe column with ``several``
     probed surfaces, an amplitude column where the study varies it)."""
+    if table.empty:  # flights without a fault only
+        return []
     amplitudes = table.amplitude_deg.notna().any()  # a column for the probe's amplitude
+    levels = table.turbulence.nunique() > 1  # a column for the turbulence level
     lines = ["", "## Detection and verdicts", ""]
     lines.append(
         "*probing first*: of the detected flights, those whose first alarm after the onset "
@@ -354,15 +451,17 @@ def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
     head = (
         ("| probe " if several else "")
         + "| fault | drift | "
+        + ("turbulence | " if levels else "")
         + ("a, deg | " if amplitudes else "")
         + "flights | goal | detected in goal | detected | probing first | delay median s (T) "
         "| delay 95 % s (T) | actuator | airframe | none | verdict right |"
     )
-    lines += [head, "|" + "---|" * (13 + several + amplitudes)]
+    lines += [head, "|" + "---|" * (13 + several + amplitudes + levels)]
     for r in table.to_dict("records"):
         lines.append(
             (f"| {r['probe']} " if several else "")
-            + f"| {r['fault']} | {r['drift']} | "
+            + f"| {r['fault']} | {DRIFT_LABELS.get(r['drift'], r['drift'])} | "
+            + (f"{r['turbulence']} | " if levels else "")
             + (f"{r['amplitude_deg']:g} | " if amplitudes else "")
             + f"{r['flights']} | {r['goal']} | "
             f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | {r['by_probing']:.2f} | "

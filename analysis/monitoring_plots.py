@@ -34,9 +34,14 @@ def _drifts(flights: pd.DataFrame) -> list[str]:
 
 
 def _at_design_amplitude(flights: pd.DataFrame) -> pd.DataFrame:
-    """The flights at the design's probe amplitude where a study varies it: the largest one
+    """The flights at the turbulence level every fault was flown at (where a study varies
+    it) and at the design's probe amplitude where a study varies it: the largest one
     every fault was flown at (the others are the check of which detections are the probe's,
     and a fault's amplitude axis: in the tables and the amplitude figure)."""
+    if "turbulence" in flights and flights.turbulence.nunique() > 1:  # a turbulence axis
+        common = set.intersection(*(set(g.turbulence) for _, g in flights.groupby("fault")))
+        if len(common) == 1:
+            flights = flights[flights.turbulence == common.pop()]
     if "amplitude_deg" not in flights or flights.amplitude_deg.isna().all():
         return flights
     swept = flights[flights.amplitude_deg.notna()]  # NaN: the base scenario's amplitude
@@ -203,29 +208,73 @@ def _amplitude_faults(flights: pd.DataFrame) -> list[str]:
     return [k for k in _faults(flights) if counts.get(k, 0) > 2]
 
 
+#: The colour of each turbulence level in the amplitude figure.
+TURBULENCE_COLOR = {"none": "C0", "light": "C1", "moderate": "C3", "severe": "C4", "": "C7"}
+
+
+def _delay_median(g: pd.DataFrame) -> float:
+    """The median delay in periods, an undetected flight counting as infinitely late."""
+    return float(np.median(g.delay_periods.fillna(math.inf)))
+
+
 def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
-    """Per fault flown over an amplitude axis: the probability of detection within the
-    goal's periods against the probe's amplitude, one line per reference; the goal dotted."""
+    """The headline: per fault flown over an amplitude axis, the probability of detection
+    within the goal's periods (left) and the median detection delay (right) against the
+    probe's amplitude, one line per reference (style) and turbulence level (colour); a star
+    where a line first reaches the goal.  A median delay past the top means most flights
+    were never detected."""
     keys = _amplitude_faults(flights)
     drifts = _drifts(flights)
+    levels = [t for t in TURBULENCE_COLOR if t in set(flights.turbulence)]
     with plt.rc_context(RC):
-        fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.3), squeeze=False)
-        for ax, key in zip(axes[0], keys, strict=True):
+        fig, axes = plt.subplots(
+            len(keys), 2, figsize=(8.4, 3.5 * len(keys)), squeeze=False, sharex=True
+        )
+        for (ax, bx), key in zip(axes, keys, strict=True):
             spec = FAULTS[key]
             for drift in drifts:
-                g = flights[(flights.fault == key) & (flights.drift == drift)]
-                within = (g.delay_periods <= spec.goal_periods).astype(float)
-                goal = within.groupby(g.amplitude_deg).mean()
-                ax.plot(
-                    goal.index, goal.to_numpy(), DRIFT_STYLE[drift], marker="o", ms=3, label=drift
-                )
+                for level in levels:
+                    g = flights[
+                        (flights.fault == key)
+                        & (flights.drift == drift)
+                        & (flights.turbulence == level)
+                    ]
+                    if not len(g):
+                        continue
+                    by = g.groupby("amplitude_deg")
+                    within = (g.delay_periods <= spec.goal_periods).astype(float)
+                    p = within.groupby(g.amplitude_deg).mean()
+                    med = by.apply(_delay_median, include_groups=False)
+                    style = dict(color=TURBULENCE_COLOR[level], ms=3)
+                    label = f"{drift}, {level or 'base'}"
+                    ax.plot(
+                        p.index, p.to_numpy(), DRIFT_STYLE[drift], marker="o", label=label, **style
+                    )
+                    shown = np.minimum(med.to_numpy(), 3 * spec.goal_periods)
+                    bx.plot(med.index, shown, DRIFT_STYLE[drift], marker="o", **style)
+                    reached = p[p >= spec.goal_probability]
+                    if len(reached):
+                        a = reached.index[0]
+                        ax.plot(
+                            a, reached.iloc[0], "*", ms=10, color=style["color"], mec="k", mew=0.4
+                        )
             ax.axhline(spec.goal_probability, color="0.5", lw=0.6, ls=":")
-            ax.set_xscale("log")
+            bx.axhline(spec.goal_periods, color="0.5", lw=0.6, ls=":")
             ax.set_ylim(-0.02, 1.02)
-            ax.set_xlabel("probe amplitude a (deg)")
-            ax.set_title(f"{spec.label}: detected within {spec.goal_periods} T", fontsize=8)
-        axes[0][0].set_ylabel("probability of detection")
-        axes[0][0].legend(frameon=False, fontsize=7)
+            bx.set_ylim(0, 3 * spec.goal_periods * 1.02)
+            for x in (ax, bx):
+                x.set_xscale("log")
+                x.set_xlabel("probe amplitude a (deg)")
+            ax.set_ylabel(f"P(detected within {spec.goal_periods} T)")
+            bx.set_ylabel("median detection delay (T; top: not detected)")
+            ax.set_title(
+                f"{spec.label}: goal {spec.goal_probability:g} within {spec.goal_periods} T",
+                fontsize=8,
+            )
+            bx.set_title(
+                "line: reference (oracle dotted: knows the gusts); colour: turbulence", fontsize=7
+            )
+        axes[0][0].legend(frameon=False, fontsize=6, ncol=2)
         fig.tight_layout()
     return fig
 

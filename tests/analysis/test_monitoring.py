@@ -224,8 +224,8 @@ def test_a_lateral_study_is_scored_per_probed_surface(tmp_path: Path):
     assert table.loc["rudder", "fault"] == "case 1: rudder off"
     assert table.loc["rudder", "p_detect"] == 1.0 and table.loc["aileron", "p_detect"] == 0.0
     text = summary_markdown(flights)
-    assert "| rudder | case 1: rudder off | oracle | 1 |" in text
-    assert "| aileron | oracle | 2 |" in text  # false alarms per probe
+    assert "| rudder | case 1: rudder off | oracle (upper bound: knows the gusts) | 1 |" in text
+    assert "| aileron | oracle (upper bound: knows the gusts) | 2 |" in text  # per probe
 
 
 @pytest.fixture
@@ -421,22 +421,65 @@ def test_two_detectors_fold_per_period_and_each_keeps_its_own_delay(tmp_path):
 
 
 def test_the_amplitude_figure_plots_each_amplitudes_detection_within_the_goal(tmp_path):
-    """Three amplitudes, detection within the goal 0, 1/2 and 1: the line has those values."""
+    """Three amplitudes in light turbulence, detection within the goal 0, 1/2 and 1: the left
+    line has those values, the right one the median delays, and the goal's star sits at the
+    first amplitude that reaches 0.9; in moderate turbulence nothing is detected: no star,
+    the median drawn at the top (three times the goal)."""
     from analysis.monitoring_plots import amplitude_figure
 
     rows = []
-    for i, (amp, delays) in enumerate({0.05: (9, 9), 0.1: (2, 9), 0.2: (1, 2)}.items()):
-        for j, d in enumerate(delays):
-            rows.append(
-                {
-                    "fault": "deadband",
-                    "drift": "gust",
-                    "amplitude_deg": amp,
-                    "delay_periods": float(d),
-                    "point_id": f"{i}{j}",
-                }
-            )
+    cases = {
+        "light": {0.05: (9, 9), 0.1: (2, 9), 0.2: (1, 2)},
+        "moderate": {0.05: (math.nan,) * 2, 0.1: (math.nan,) * 2, 0.2: (math.nan,) * 2},
+    }
+    for level, by_amp in cases.items():
+        for i, (amp, delays) in enumerate(by_amp.items()):
+            for j, d in enumerate(delays):
+                rows.append(
+                    {
+                        "fault": "deadband",
+                        "drift": "gust",
+                        "turbulence": level,
+                        "amplitude_deg": amp,
+                        "delay_periods": float(d),
+                        "point_id": f"{level}{i}{j}",
+                    }
+                )
     fig = amplitude_figure(pd.DataFrame(rows))
-    (line,) = [ln for ln in fig.axes[0].get_lines() if ln.get_label() == "gust"]
+    left, right = fig.axes[0], fig.axes[1]
+    (line,) = [ln for ln in left.get_lines() if ln.get_label() == "gust, light"]
     assert list(line.get_xdata()) == [0.05, 0.1, 0.2]
     assert list(line.get_ydata()) == [0.0, 0.5, 1.0]
+    stars = [ln for ln in left.get_lines() if ln.get_marker() == "*"]
+    assert len(stars) == 1 and list(stars[0].get_xdata()) == [0.2]
+    medians = [list(ln.get_ydata()) for ln in right.get_lines() if ln.get_marker() == "o"]
+    assert medians == [[9.0, 5.5, 1.5], [15.0, 15.0, 15.0]]
+
+
+def test_the_threshold_law_counts_periods_over_the_check_rates_threshold(tmp_path):
+    """Flights without a fault: each tested period whose statistic is strictly over
+    -log10 of the check rate's probability per period counts (one on the edge does not),
+    against the tested periods times that probability; the table says so per detector."""
+    from analysis.monitoring import CHECK_RATE_PER_HOUR, summary_markdown
+
+    row = _flight(tmp_path, "monitor-none", "h1", math.nan, {})
+    path = tmp_path / "monitor-none" / "points" / "point_id=h1" / "monitor.parquet"
+    table = pq.read_table(path)
+    alpha = CHECK_RATE_PER_HOUR * T / 3600.0  # one channel
+    edge = -math.log10(alpha)
+    stat = table.column("statistic").to_numpy(zero_copy_only=False).copy()
+    tested = np.flatnonzero(np.isfinite(stat))  # 28 periods
+    stat[tested] = edge - 0.5
+    stat[tested[:3]] = np.nextafter(edge, math.inf)  # just over
+    stat[tested[3]] = edge  # on the edge: not over
+    meta = table.schema.metadata
+    table = table.set_column(3, "statistic", pa.array(stat))
+    pq.write_table(table.replace_schema_metadata(meta), path)
+    pd.DataFrame([row]).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
+    flights = evaluate(load_study(tmp_path))
+    f = flights.iloc[0]
+    assert f.alpha_check == pytest.approx(alpha)
+    assert (f.tested_probing, f.over_check_probing) == (28, 3)
+    text = summary_markdown(flights)
+    promised = 28 * alpha
+    assert f"| oracle (upper bound: knows the gusts) | probing | 28 | 3 | {promised:.1f} |" in text
