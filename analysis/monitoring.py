@@ -269,6 +269,17 @@ def false_alarm_rate(flights: pd.DataFrame, level: float = 0.95) -> tuple[int, f
     return events, hours, low, high
 
 
+def _right(verdicts: pd.Series, truth: str) -> pd.Series:
+    """Whether each verdict is right for a fault of class ``truth``.  The monitor's verdicts
+    are ``actuator``, ``airframe`` or ``none`` (the pulse response did not change: the
+    trajectory detector alone alarmed); it has no sensor verdict, so for a sensor fault any
+    verdict but ``airframe`` is right: a biased sensor must not be called a changed
+    airframe."""
+    if truth == "sensor":
+        return verdicts != "airframe"
+    return verdicts == truth
+
+
 def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
     """Per probed surface, fault and drift correction: flights, detection probability within
     the goal and at all, delay (median and 95th percentile, s and periods), verdict counts and
@@ -312,7 +323,7 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
                 "actuator": int(counts.get("actuator", 0)),
                 "airframe": int(counts.get("airframe", 0)),
                 "none": int(counts.get("none", 0)),
-                "verdict_right": float((g.verdict_after == spec.truth)[detected].mean())
+                "verdict_right": float(_right(g.verdict_after, spec.truth)[detected].mean())
                 if detected.any()
                 else math.nan,
             }

@@ -483,3 +483,14 @@ def test_the_threshold_law_counts_periods_over_the_check_rates_threshold(tmp_pat
     text = summary_markdown(flights)
     promised = 28 * alpha
     assert f"| oracle (upper bound: knows the gusts) | probing | 28 | 3 | {promised:.1f} |" in text
+
+
+def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
+    """The monitor has no sensor verdict: for a biased sensor every verdict but airframe is
+    right; for the others only their own class."""
+    from analysis.monitoring import _right
+
+    verdicts = pd.Series(["actuator", "airframe", "none"])
+    assert list(_right(verdicts, "sensor")) == [True, False, True]
+    assert list(_right(verdicts, "airframe")) == [False, True, False]
+    assert list(_right(verdicts, "actuator")) == [True, False, False]
