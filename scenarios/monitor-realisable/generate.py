@@ -93,7 +93,7 @@ def main() -> None:
     for name, drifts in (("none-gust", gust), ("none-bounds", bounds)):
         flights = HEALTHY_FLIGHTS[drifts[0]]
         assert all(HEALTHY_FLIGHTS[d] == flights for d in drifts)
-        zipped = {"disturbance.seed": list(range(101, 101 + flights))}
+        zipped = {"disturbance.seed": list(range(201, 201 + flights))}
         text = f"no fault: {flights} flights of 1 h x {', '.join(drifts)}"
         tables = {"fixed": healthy, "grid": {"output.drift": drifts}, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
