@@ -182,6 +182,12 @@ def _events(alarm: np.ndarray) -> int:
     return int(np.sum(a & ~np.concatenate(([False], a[:-1]))))
 
 
+def _to_first(alarm: np.ndarray) -> int:
+    """Tested periods up to and including the first alarmed one (all of them without)."""
+    a = np.asarray(alarm, dtype=bool)
+    return int(np.argmax(a)) + 1 if a.any() else len(a)
+
+
 def _per_period(rows: pd.DataFrame) -> pd.DataFrame:
     """Tested rows folded to one per period: alarmed if any channel's was, the largest
     statistic over threshold, the period's end."""
@@ -233,6 +239,9 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
         row = {
             "healthy_h": len(healthy) * f.period_s / 3600.0,
             "false_alarms": _events(healthy.alarm.to_numpy()),
+            # the monitor until its first false alarm (a sliding baseline freezes there)
+            "first_false_alarm": bool(healthy.alarm.any()),
+            "hours_to_first": _to_first(healthy.alarm.to_numpy()) * f.period_s / 3600.0,
             "delay_s": delay,
             "delay_periods": delay / f.period_s,
             "verdict_after": meta[b"probing.verdict"].decode()
@@ -257,12 +266,19 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     return pd.concat([study.reset_index(drop=True), pd.DataFrame(rows)], axis=1)
 
 
-def false_alarm_rate(flights: pd.DataFrame, level: float = 0.95) -> tuple[int, float, float, float]:
+def false_alarm_rate(
+    flights: pd.DataFrame, level: float = 0.95, first: bool = False
+) -> tuple[int, float, float, float]:
     """False-alarm events, monitored healthy hours, and the exact Poisson interval of the
-    rate per hour at ``level``: (events, hours, low, high)."""
+    rate per hour at ``level``: (events, hours, low, high).  With ``first``, only each
+    flight's first false alarm and the hours until it (the monitor hands over at an alarm,
+    and a sliding baseline freezes there: what follows in that flight is not the rate)."""
     from scipy.stats import chi2
 
-    events, hours = int(flights.false_alarms.sum()), float(flights.healthy_h.sum())
+    if first:
+        events, hours = int(flights.first_false_alarm.sum()), float(flights.hours_to_first.sum())
+    else:
+        events, hours = int(flights.false_alarms.sum()), float(flights.healthy_h.sum())
     tail = (1 - level) / 2
     low = chi2.ppf(tail, 2 * events) / 2 / hours if events else 0.0
     high = chi2.ppf(1 - tail, 2 * events + 2) / 2 / hours
@@ -396,9 +412,12 @@ def summary_markdown(flights: pd.DataFrame) -> str:
         *probe, drift = key if isinstance(key, tuple) else (key,)
         events, hours, low, high = false_alarm_rate(g)
         what = f"{probe[0]} probe, {drift}" if probe else drift
+        first, to_first, first_low, first_high = false_alarm_rate(g, first=True)
         lines.append(
             f"\nFlights without a fault alone, {what}: {events} events in {hours:.2f} h "
-            f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f})."
+            f"({events / hours:.3f} per hour, 95 % interval {low:.3f} - {high:.3f}); "
+            f"first false alarms: {first} of {len(g)} flights, in {to_first:.2f} h up to "
+            f"them ({first / to_first:.3f} per hour, {first_low:.3f} - {first_high:.3f})."
         )
     lines += _threshold_law_lines(healthy, keys)
     lines += _detection_lines(fault_table(flights), several)

@@ -118,6 +118,21 @@ def test_false_alarms_are_events_in_healthy_monitored_periods(study):
     assert d2.false_alarms == 1 and d2.healthy_h == pytest.approx(8 * T / 3600)
 
 
+def test_the_first_false_alarm_rate_counts_each_flight_up_to_its_first(study):
+    """h1 first alarms at period 20, its 9th tested (12..20); h2 never, in 28 periods; d2
+    at 15, its 4th.  The flights without a fault: one first alarm in 9 + 28 periods."""
+    s = study.set_index("point_id")
+    assert s.loc["h1"].first_false_alarm and s.loc["h1"].hours_to_first == pytest.approx(
+        9 * T / 3600
+    )
+    assert not s.loc["h2"].first_false_alarm
+    assert s.loc["h2"].hours_to_first == pytest.approx(28 * T / 3600)
+    assert s.loc["d2"].hours_to_first == pytest.approx(4 * T / 3600)
+    healthy = study[study.fault == "none"]
+    events, hours, _, _ = false_alarm_rate(healthy, first=True)
+    assert (events, hours) == (1, pytest.approx(37 * T / 3600))
+
+
 def test_delay_and_verdict_after_the_onset(study):
     s = study.set_index("point_id")
     assert s.loc["d1"].delay_s == pytest.approx(46.0 - 41.0)
