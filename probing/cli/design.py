@@ -38,7 +38,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return _error(f"infeasible: {exc}", 2)
         if args.json:
-            payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
+            fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
+            payload = {"feasible": True, **fields, "modes": _modes_dict(modes)}
             print(strict_json(payload, indent=2, sort_keys=False))
             return 0
         print(
@@ -165,8 +166,11 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
             if exclusive not in groups:
                 groups[exclusive] = parser.add_mutually_exclusive_group()
             where = groups[exclusive]
-        kind, nargs = _argument_type(hints[f.name])
         default = None if f.default is dataclasses.MISSING else f.default
+        if hints[f.name] is bool:  # a switch
+            where.add_argument(_flag(f.name), action="store_true", default=default, **keywords)
+            continue
+        kind, nargs = _argument_type(hints[f.name])
         if nargs is not None:
             keywords["nargs"] = nargs
         where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
