@@ -388,15 +388,18 @@ def _window(
         shapes[found.amplitude_deg] = found
         return _scenario(request, base, found, scn.estimator, b + w)
 
+    flown: dict[float, dict[str, np.ndarray]] = {}
+
     def sigma_of(design: Scenario) -> float:
-        gusts.samples = turbulence_residual(design, gusts.seeds) if gusts.on else {}
-        gusts.periods = design.periods
+        samples = turbulence_residual(design, gusts.seeds) if gusts.on else {}
+        flown[design.amplitude_deg] = samples
         h_ref = noise_free_reference(design)[request.channel]
-        return period_gain_std(design, gusts.samples, h_ref, request.channel)
+        return period_gain_std(design, samples, h_ref, request.channel)
 
     goal = request.gain_goal(scn.period_s)
     room = _amplitude_room(request, surface_room)
     found = smallest_amplitude(with_periods(scn, b + w), build, sigma_of, goal, (w, b), room)
+    gusts.samples, gusts.periods = flown[found.amplitude_deg], found.scenario.periods
     return shapes[found.amplitude_deg], found
 
 
