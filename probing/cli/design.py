@@ -104,6 +104,14 @@ def _design_table(d: Any) -> str:
         f"h se {fmt(d.predicted_h_stderr, 3)} {unit}/deg, z se {fmt(d.predicted_z_stderr, 3)} "
         f"{unit}; bias of h (slow modes) {fmt(d.predicted_h_bias, 3)} {unit}/deg"
     )
+    if d.window:
+        w = d.window
+        lines.append(
+            f"monitor window: one period's gain se {fmt(w['period_gain_stderr'], 3)}; over "
+            f"{w['window_periods']} periods against a baseline of {w['baseline_periods']}: "
+            f"{fmt(w['window_gain_stderr'], 3)} (target {fmt(w['target_gain_stderr'], 3)}, "
+            f"false alarm per test {fmt(w['false_alarm'], 3)})"
+        )
     lines += [f"warning: {w}" for w in d.warnings]
     lines += [
         "",
