@@ -38,7 +38,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return _error(f"infeasible: {exc}", 2)
         if args.json:
-            payload = {"feasible": True, **asdict(d), "modes": _modes_dict(modes)}
+            fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
+            payload = {"feasible": True, **fields, "modes": _modes_dict(modes)}
             print(strict_json(payload, indent=2, sort_keys=False))
             return 0
         print(
@@ -103,6 +104,14 @@ def _design_table(d: Any) -> str:
         f"h se {fmt(d.predicted_h_stderr, 3)} {unit}/deg, z se {fmt(d.predicted_z_stderr, 3)} "
         f"{unit}; bias of h (slow modes) {fmt(d.predicted_h_bias, 3)} {unit}/deg"
     )
+    if d.window:
+        w = d.window
+        lines.append(
+            f"monitor window: one period's gain se {fmt(w['period_gain_stderr'], 3)}; over "
+            f"{w['window_periods']} periods against a baseline of {w['baseline_periods']}: "
+            f"{fmt(w['window_gain_stderr'], 3)} (target {fmt(w['target_gain_stderr'], 3)}, "
+            f"false alarm per test {fmt(w['false_alarm'], 3)})"
+        )
     lines += [f"warning: {w}" for w in d.warnings]
     lines += [
         "",
@@ -165,8 +174,11 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
             if exclusive not in groups:
                 groups[exclusive] = parser.add_mutually_exclusive_group()
             where = groups[exclusive]
-        kind, nargs = _argument_type(hints[f.name])
         default = None if f.default is dataclasses.MISSING else f.default
+        if hints[f.name] is bool:  # a switch
+            where.add_argument(_flag(f.name), action="store_true", default=default, **keywords)
+            continue
+        kind, nargs = _argument_type(hints[f.name])
         if nargs is not None:
             keywords["nargs"] = nargs
         where.add_argument(_flag(f.name), type=kind, default=default, **keywords)

@@ -37,8 +37,26 @@ import numpy as np
 
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
-from probing.experiment.design_request import DesignInputError, DesignRequest, detectable_stderr
-from probing.experiment.design_runs import noise_free_reference, turbulence_residual
+from probing.experiment.design_request import (
+    DesignError,
+    DesignInputError,
+    DesignRequest,
+    detectable_stderr,
+)
+from probing.experiment.design_runs import (
+    Gusts,
+    noise_free_reference,
+    turbulence_residual,
+    with_periods,
+)
+from probing.experiment.design_window import (
+    WindowDesign,
+    missed,
+    period_gain_std,
+    smallest_amplitude,
+    window_dict,
+    window_reasons,
+)
 from probing.experiment.noise import ChannelPrediction, predict, scatter_models
 from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
@@ -56,10 +74,6 @@ __all__ = [
     "recommend",
     "turbulence_residual",
 ]
-
-
-class DesignError(ValueError):
-    """The request cannot be met; the message says why."""
 
 
 @dataclass
@@ -106,6 +120,7 @@ class Design:
     reasons: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     estimators: dict[str, float] = field(default_factory=dict)
+    window: dict[str, Any] = field(default_factory=dict)  # --window-periods: what it found
 
 
 def fewest_periods(scatter: Callable[[int], float], target: float, max_periods: int) -> int:
@@ -289,26 +304,38 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     drive = plant.drive()
     lo, hi = drive.range
     trim = drive.trim_position
+    room = (trim - lo, hi - trim)
     modes = longitudinal_modes(plant)
     shape = probe_shape(
         request,
         short_period_settling_s=modes.short_period_settling_s,
         phugoid_settling_s=modes.phugoid_settling_s,
-        surface_room_deg=(trim - lo, hi - trim),
+        surface_room_deg=room,
     )
     scn = _scenario(request, base, shape, request.estimator or "streaming", 1)
-    gusts = _Gusts(request.calibration_seeds, scn.turbulence != "none")
+    # the residual is measured in turbulence, and with sensors whose noise the loop carries
+    gusts = Gusts(request.calibration_seeds, scn.turbulence != "none" or scn.sensors is not None)
     target = request.target
     estimator, scores = _estimator(request, scn, gusts, target)
     scn = _scenario(request, base, shape, estimator, 4)
+    window = None
+    if request.window_periods is not None:
+        shape, window = _window(request, base, shape, scn, gusts, modes, room)
+        scn = window.scenario
     reference = noise_free_reference(scn)
     pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[request.channel]
-    if target is not None:
+    if target is not None and window is None:
         scn, reference, pred = _meet(request, shape, scn, reference, gusts, target)
     periods = scn.settled_periods
     reasons = dict(shape.reasons)
     reasons["estimator"] = _estimator_reason(request, estimator, scores, target)
     reasons["periods"] = _periods_reason(request, periods, pred, target, gusts.on)
+    warnings = list(shape.warnings)
+    if window is not None:
+        reasons.update(window_reasons(request, window))
+        warnings += [w for w in [missed(window, request.gain_goal(scn.period_s))] if w]
+    if request.closed_loop:  # the linearisation is the open loop's: no bias of the loop's h
+        pred = replace(pred, h_bias=math.nan)
     design = Design(
         order=shape.order,
         bits_per_period=shape.bits_per_period,
@@ -327,13 +354,55 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
         phugoid_settling_s=modes.phugoid_settling_s,
         scenario_toml=_toml(scn, request),
         reasons=reasons,
-        warnings=list(shape.warnings) + _notes(request, pred),
+        warnings=warnings + _notes(request, pred),
         estimators=scores,
+        window=window_dict(request, window),
     )
     return design, modes, scn
 
 
 # ------------------------------------------------------------------ helpers of recommend
+def _window(
+    request: DesignRequest,
+    base: Scenario,
+    shape: ProbeShape,
+    scn: Scenario,
+    gusts: Gusts,
+    modes: LongitudinalModes,
+    surface_room: tuple[float, float],
+) -> tuple[ProbeShape, WindowDesign]:
+    """``--window-periods``: the smallest amplitude whose gain standard error over a window
+    of W periods against a baseline of B meets the target (:mod:`design_window`), on a
+    design of B + W settled periods; the residual is flown at each amplitude tried (and
+    kept in ``gusts`` for the prediction); ``surface_room``: deg below and above trim."""
+    w, b = request.window_periods or 1, request.baseline_periods
+    shapes = {shape.amplitude_deg: shape}
+
+    def build(amplitude_deg: float) -> Scenario:
+        found = probe_shape(
+            replace(request, amplitude_deg=amplitude_deg),
+            short_period_settling_s=modes.short_period_settling_s,
+            phugoid_settling_s=modes.phugoid_settling_s,
+            surface_room_deg=surface_room,
+        )
+        shapes[found.amplitude_deg] = found
+        return _scenario(request, base, found, scn.estimator, b + w)
+
+    flown: dict[float, dict[str, np.ndarray]] = {}
+
+    def sigma_of(design: Scenario) -> float:
+        samples = turbulence_residual(design, gusts.seeds) if gusts.on else {}
+        flown[design.amplitude_deg] = samples
+        h_ref = noise_free_reference(design)[request.channel]
+        return period_gain_std(design, samples, h_ref, request.channel)
+
+    goal = request.gain_goal(scn.period_s)
+    room = _amplitude_room(request, surface_room)
+    found = smallest_amplitude(with_periods(scn, b + w), build, sigma_of, goal, (w, b), room)
+    gusts.samples, gusts.periods = flown[found.amplitude_deg], found.scenario.periods
+    return shapes[found.amplitude_deg], found
+
+
 def _scenario(
     request: DesignRequest, base: Scenario, shape: ProbeShape, estimator: str, periods: int
 ) -> Scenario:
@@ -354,38 +423,6 @@ def _scenario(
         raise DesignError(f"the design is no valid scenario: {exc.field}: {exc.message}") from None
 
 
-def _with_periods(scn: Scenario, periods: int) -> Scenario:
-    """``scn`` with ``periods`` settled periods (after its settling periods)."""
-    try:
-        return scn.replace({"probe.periods": scn.settle_periods + periods})
-    except ScenarioError as exc:
-        raise DesignError(f"the design is no valid scenario: {exc.field}: {exc.message}") from None
-
-
-class _Gusts:
-    """The turbulence residual (:func:`turbulence_residual`) of a design, flown once per
-    length: a longer design reflies it as long (the seeds are fixed, so a shorter one is its
-    beginning)."""
-
-    def __init__(self, seeds: int, on: bool) -> None:
-        self.seeds, self.on = seeds, on
-        self.samples: dict[str, np.ndarray] = {}
-        self.periods = 0
-
-    def of(self, scn: Scenario, periods: int | None = None) -> dict[str, np.ndarray]:
-        """Realisations covering ``periods`` (default: all) of ``scn``'s periods."""
-        if not self.on:
-            return {}
-        periods = scn.periods if periods is None else periods
-        if periods > self.periods:
-            self.samples = turbulence_residual(
-                _with_periods(scn, periods - scn.settle_periods), self.seeds
-            )
-            self.periods = periods
-        m = scn.bits_per_period
-        return {c: x[:, : periods * m] for c, x in self.samples.items()}
-
-
 def _score(p: ChannelPrediction, kind: str) -> float:
     return p.gain_stderr if kind == "gain" else p.h_stderr
 
@@ -399,7 +436,7 @@ _CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming
 
 
 def _estimator(
-    request: DesignRequest, scn: Scenario, gusts: _Gusts, target: tuple[str, float] | None
+    request: DesignRequest, scn: Scenario, gusts: Gusts, target: tuple[str, float] | None
 ) -> tuple[str, dict[str, float]]:
     """The estimator with the smallest predicted scatter of the target, one settled period
     each (``ac`` does not estimate h itself, so it is no candidate for an h target)."""
@@ -422,7 +459,7 @@ def _meet(
     shape: ProbeShape,
     scn: Scenario,
     reference: dict[str, np.ndarray],
-    gusts: _Gusts,
+    gusts: Gusts,
     target: tuple[str, float],
 ) -> tuple[Scenario, dict[str, np.ndarray], ChannelPrediction]:
     """The fewest settled periods that meet the target, with the gain's reference and the
@@ -443,12 +480,12 @@ def _meet(
     def scatter(p: int, h_ref: np.ndarray) -> float:
         flown = gusts.periods - scn.settle_periods  # settled periods the turbulence covers
         if not gusts.on or p <= flown:
-            at_p = _with_periods(scn, p)
+            at_p = with_periods(scn, p)
             return math.sqrt(variance(scatter_models(at_p, None, gusts.of(at_p))[channel], h_ref))
-        at_flown = _with_periods(scn, flown)
+        at_flown = with_periods(scn, flown)
         total = variance(scatter_models(at_flown, None, gusts.of(at_flown))[channel], h_ref)
         turbulence = max(total - variance(scatter_models(at_flown)[channel], h_ref), 0.0)
-        sensor = variance(scatter_models(_with_periods(scn, p))[channel], h_ref)
+        sensor = variance(scatter_models(with_periods(scn, p))[channel], h_ref)
         return math.sqrt(sensor + turbulence * flown / p)
 
     tried: set[int] = set()
@@ -460,7 +497,7 @@ def _meet(
             raise DesignError(_too_tight(request, shape, kind, goal, exc)) from None
         done = periods in tried or periods == scn.settled_periods
         tried.add(periods)
-        scn = _with_periods(scn, periods)
+        scn = with_periods(scn, periods)
         reference = noise_free_reference(scn)
         pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
         if done or len(tried) >= 6:
@@ -468,7 +505,7 @@ def _meet(
     while _score(pred, kind) > goal and scn.settled_periods < limit:
         grow = (_score(pred, kind) / goal) ** 2
         periods = min(limit, max(scn.settled_periods + 1, math.ceil(scn.settled_periods * grow)))
-        scn = _with_periods(scn, periods)
+        scn = with_periods(scn, periods)
         reference = noise_free_reference(scn)
         pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
     return scn, reference, pred

@@ -10,11 +10,16 @@ from dataclasses import MISSING, dataclass, field
 from typing import Any
 
 from probing.core.noise import ESTIMATORS
+from probing.core.sensors import SENSOR_SUITES
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.flight import TURBULENCE_SEVERITY
 
-__all__ = ["DesignInputError", "DesignRequest", "detectable_stderr"]
+__all__ = ["DESIGN_DRIFTS", "DesignError", "DesignInputError", "DesignRequest", "detectable_stderr"]
+
+#: The references ``probing design --drift`` calibrates turbulence against: three a real
+#: aircraft can run, and the oracle, an upper bound (docs/monitoring.md).
+DESIGN_DRIFTS = ("gust", "nominal", "detrend", "oracle")
 
 
 def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, **kw: Any) -> Any:
@@ -23,6 +28,10 @@ def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, 
     ``kw`` are further keywords of :meth:`argparse.ArgumentParser.add_argument` (``metavar``,
     ``choices``).  No default: a required value, which the command checks itself."""
     return field(default=default, metadata={"option": {"help": help, "exclusive": exclusive, **kw}})
+
+
+class DesignError(ValueError):
+    """The request cannot be met; the message says why."""
 
 
 class DesignInputError(ValueError):
@@ -45,6 +54,8 @@ _OPTIONS = {
     "output.channels": "--channel",
     "output.estimator": "--estimator",
     "disturbance.turbulence": "--turbulence",
+    "output.drift": "--drift",
+    "sensors.suite": "--sensors",
 }
 
 
@@ -76,9 +87,29 @@ class DesignRequest:
         help="turbulence level; what the reference twin does not cancel is measured",
         choices=list(TURBULENCE_SEVERITY),
     )
+    drift: str = _option(
+        "gust",
+        help="the reference the turbulence is calibrated against: gust (a calm twin through "
+        "the gust estimated from the sensors; needs --sensors and --closed-loop), nominal "
+        "(a calm twin), detrend (no model), or oracle (a twin flying the same gusts: an "
+        "upper bound that knows the gusts, simulation only); in calm air without sensors "
+        "every twin is the same aircraft",
+        choices=DESIGN_DRIFTS,
+    )
+    sensors: str | None = _option(
+        None,
+        help="the sensor suite the aircraft measures (and its autopilot flies) with: its "
+        "noise reaches the estimate through the loop and the reference, measured by the "
+        "calibration runs (default: the state itself, plus --noise-sigma)",
+        choices=list(SENSOR_SUITES),
+        metavar="SUITE",
+    )
+    closed_loop: bool = _option(
+        False, help="fly with pitch, bank and speed hold (the study's [control])"
+    )
     calibration_seeds: int = _option(
         32,
-        help="noise-free turbulence runs to measure it on (a std from K of them: 1/sqrt(2(K-1)))",
+        help="turbulence runs to measure it on (a std from K of them: 1/sqrt(2(K-1)))",
     )
     estimator: str | None = _option(
         None,
@@ -102,11 +133,27 @@ class DesignRequest:
     amplitude_deg: float = _option(0.005, help="amplitude without a deadband (deg)")
     deadband_margin: float = _option(3.0, help="a >= margin x deadband half width")
     settle_periods: int = _option(2, help="periods left out before averaging")
+    window_periods: int | None = _option(
+        None,
+        help="with a gain target: the smallest amplitude whose gain standard error over a "
+        "mean of W periods, tested against a baseline of --baseline-periods, meets it "
+        "(instead of the periods at --amplitude-deg, then the trial amplitude)",
+        metavar="W",
+    )
+    baseline_periods: int = _option(50, help="with --window-periods: the baseline's periods")
+    false_alarms_per_hour: float | None = _option(
+        None,
+        help="with --window-periods: the false-alarm rate per flight hour, per period tested, "
+        "instead of --false-alarm",
+        metavar="RATE",
+    )
 
     def base(self) -> dict[str, Any]:
         """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
         noise = {self.channel: self.noise_sigma} if self.noise_sigma else {}
-        return {
+        # in calm air without sensors every twin is the same aircraft: the reference's
+        drift = "reference" if self.turbulence == "none" and self.sensors is None else self.drift
+        data: dict[str, Any] = {
             "name": "design",
             "aircraft": {"model": self.aircraft},
             "condition": {"altitude_ft": self.altitude_ft, "speed_kcas": self.speed_kcas},
@@ -121,12 +168,16 @@ class DesignRequest:
             "nonlinearity": {"type": "none"},
             "output": {
                 "channels": [self.channel],
-                # in turbulence the twin that flies the same gusts is the oracle's
-                "drift": "reference" if self.turbulence == "none" else "oracle",
+                "drift": drift,
                 "estimator": self.estimator or "streaming",
             },
             "disturbance": {"turbulence": self.turbulence, "sensor_noise": noise},
         }
+        if self.sensors is not None:
+            data["sensors"] = {"suite": self.sensors}
+        if self.closed_loop:
+            data["control"] = {"pitch_hold": True, "bank_hold": True, "speed_hold": True}
+        return data
 
     def nonlinearities(self) -> list[tuple[str, dict[str, Any]]]:
         """The nonlinearities asked about, as (option, scenario changes), in order."""
@@ -152,6 +203,7 @@ class DesignRequest:
         DesignInputError
             Naming the option and the rule, for the first invalid value.
         """
+        self._check_reference()
         data = self.base()
         try:
             scn = parse_scenario(data)
@@ -186,13 +238,79 @@ class DesignRequest:
                 "--target-gain-se", "give one target: a gain standard error, a gain change "
                 "to detect, or a standard error of h"
             )  # fmt: skip
-        if targets and self.noise_sigma == 0 and self.turbulence == "none":
+        if targets and self.noise_sigma == 0 and self.turbulence == "none" and not self.sensors:
             raise DesignInputError(
                 "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
             )
         if not 2 <= self.calibration_seeds <= 100:
             raise DesignInputError("--calibration-seeds", "must be from 2 to 100")
+        self._check_window(bool(targets))
         return scn
+
+    def _check_reference(self) -> None:
+        """The reference's needs, as options: gust flies from the sensors with a pitch hold;
+        a suite carries its own noise."""
+        if self.sensors is not None and self.noise_sigma:
+            raise DesignInputError(
+                "--noise-sigma", "the suite's sensors carry the noise (--sensors): give one"
+            )
+        if self.drift != "gust" or (self.turbulence == "none" and self.sensors is None):
+            return
+        if self.sensors is None:
+            raise DesignInputError(
+                "--drift",
+                "gust estimates the gust from the sensors: give --sensors SUITE and "
+                "--closed-loop, or --drift oracle (an upper bound that knows the gusts)",
+            )
+        if not self.closed_loop:
+            raise DesignInputError(
+                "--drift", "gust's twin flies its own autopilot: give --closed-loop"
+            )
+
+    def _check_window(self, targeted: bool) -> None:
+        """``--window-periods`` needs a gain target; its settings are the monitor's."""
+        from probing.core.monitor import MonitorSettings, SettingError
+
+        if self.window_periods is None:
+            if self.false_alarms_per_hour is not None:
+                raise DesignInputError("--false-alarms-per-hour", "needs --window-periods")
+            return
+        if not targeted or self.target_h_se is not None:
+            raise DesignInputError(
+                "--window-periods", "needs a gain target (--detect-gain-change or "
+                "--target-gain-se)"
+            )  # fmt: skip
+        try:
+            MonitorSettings(
+                baseline_periods=self.baseline_periods,
+                false_alarms_per_hour=self.false_alarms_per_hour or 0.1,
+                window_periods=self.window_periods,
+            )
+        except SettingError as exc:
+            raise DesignInputError("--" + exc.field.replace("_", "-"), exc.message) from None
+
+    def false_alarm_of(self, period_s: float) -> float:
+        """The two-sided false-alarm probability of one test: ``--false-alarm``, or with
+        ``--false-alarms-per-hour`` the monitor's per period (one channel) for a period of
+        ``period_s`` (s)."""
+        if self.false_alarms_per_hour is None:
+            return self.false_alarm
+        from probing.core.monitor import MonitorSettings
+
+        settings = MonitorSettings(
+            baseline_periods=self.baseline_periods, false_alarms_per_hour=self.false_alarms_per_hour
+        )
+        return settings.alpha(period_s, 1)
+
+    def gain_goal(self, period_s: float) -> float:
+        """The gain's standard error to meet (dimensionless): ``--target-gain-se``, or that
+        at which ``--detect-gain-change`` is detected, at the false alarm of one test
+        (:meth:`false_alarm_of` a period of ``period_s``, s)."""
+        if self.detect_gain_change is None:
+            assert self.target_gain_se is not None
+            return self.target_gain_se
+        alpha = self.false_alarm_of(period_s)
+        return detectable_stderr(self.detect_gain_change, alpha, self.detection_probability)
 
     @property
     def target(self) -> tuple[str, float] | None:

@@ -735,7 +735,8 @@ def test_every_design_option_defaults_to_its_design_request_field() -> None:
         required = f.default is dataclasses.MISSING
         assert action.default == (None if required else f.default), f.name
         text = formatter._expand_help(action)
-        stated = None if required or f.default is None else f"(default: {f.default})"
+        switch = f.default is False  # a flag's False is not stated
+        stated = None if required or f.default is None or switch else f"(default: {f.default})"
         if stated is not None:
             assert text.count("(default:") == 1 and stated in text, (f.name, text)
     condition = ["--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
@@ -769,12 +770,20 @@ def test_every_design_option_reaches_the_request() -> None:
         amplitude_deg=0.01,
         deadband_margin=2.0,
         settle_periods=3,
+        drift="nominal",
+        sensors="nasa_t2",
+        closed_loop=True,
+        window_periods=4,
+        baseline_periods=20,
+        false_alarms_per_hour=0.5,
     )
 
     def argv(request: DesignRequest) -> list[str]:
         out = ["design"]
         for name, value in vars(request).items():
-            if value is not None:
+            if value is True:  # a switch
+                out.append("--" + name.replace("_", "-"))
+            elif value is not None:
                 values = value if isinstance(value, tuple) else (value,)
                 out += ["--" + name.replace("_", "-"), *map(str, values)]
         return out

@@ -291,11 +291,11 @@ GAIN_CASES = {
                             "--noise-sigma", "1e-5", "--detect-gain-change", "0.1"],
     "gtm-rate-limit-sensor": ["gtm_t2", "800", "75", "--rate-limit-deg-s", "1",
                               "--noise-sigma", "1e-5", "--detect-gain-change", "0.2"],
-    "a320-none-turbulence": ["A320", "5000", "250", "--turbulence", "light",
-                             "--calibration-seeds", "100", "--target-gain-se", "0.02"],
+    "a320-none-turbulence": ["A320", "5000", "250", "--turbulence", "light", "--drift",
+                             "oracle", "--calibration-seeds", "100", "--target-gain-se", "0.02"],
     "737-saturation-turbulence": ["737", "5000", "250", "--saturation-deg", "-0.01", "0.01",
-                                  "--turbulence", "moderate", "--calibration-seeds", "100",
-                                  "--target-gain-se", "0.01"],
+                                  "--turbulence", "moderate", "--drift", "oracle",
+                                  "--calibration-seeds", "100", "--target-gain-se", "0.01"],
 }  # fmt: skip
 
 

@@ -1,0 +1,124 @@
+"""``probing design --drift``, ``--sensors``, ``--closed-loop`` and ``--window-periods``: the
+options and their refusals, calm-air designs unchanged by the reference, the per-period gain
+standard deviation a gust design predicts against runs of its own scenario, and the refusal
+of an amplitude the surface has no room for."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from probing.cli import main as cli_main
+from probing.experiment.design_check import measured
+from probing.experiment.design_window import window_stderr
+
+CONDITION = ["design", "--aircraft", "gtm_t2", "--altitude-ft", "800", "--speed-kcas", "75"]
+STUDY = ["--turbulence", "light", "--sensors", "nasa_t2", "--closed-loop", "--estimator", "ac"]
+
+
+def _one_line_refusal(argv: list[str], option: str, capsys: pytest.CaptureFixture[str]) -> str:
+    assert cli_main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith(f"probing: error: {option}"), err
+    return err
+
+
+@pytest.mark.parametrize(
+    ("extra", "option", "says"),
+    [
+        (["--turbulence", "light"], "--drift", "--sensors SUITE and --closed-loop"),
+        (["--turbulence", "light", "--sensors", "nasa_t2"], "--drift", "--closed-loop"),
+        (["--sensors", "nasa_t2", "--noise-sigma", "1e-5"], "--noise-sigma", "give one"),
+        (["--noise-sigma", "1e-5", "--window-periods", "4"], "--window-periods", "gain target"),
+        (
+            ["--noise-sigma", "1e-5", "--target-h-se", "1e-4", "--window-periods", "4"],
+            "--window-periods",
+            "gain target",
+        ),
+        (["--noise-sigma", "1e-5", "--false-alarms-per-hour", "0.1"], "--false-alarms", "needs"),
+        (
+            [
+                *("--noise-sigma", "1e-5", "--target-gain-se", "0.1", "--window-periods", "4"),
+                *("--baseline-periods", "5"),
+            ],
+            "--baseline-periods",
+            "more than windows",
+        ),
+        (["--drift", "reference"], "", "invalid choice"),
+        (["--sensors", "no-such-suite"], "", "invalid choice"),
+    ],
+    ids=lambda v: " ".join(v) if isinstance(v, list) else v,
+)
+def test_bad_combinations_are_one_line_and_exit_2(extra, option, says, capsys):
+    """Refused before anything is trimmed; argparse's own refusals are its usage line and
+    one error line (exit 2 as well)."""
+    if option:
+        err = _one_line_refusal([*CONDITION, *extra], option, capsys)
+    else:
+        with pytest.raises(SystemExit) as exc:
+            cli_main([*CONDITION, *extra])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+    assert says in err, err
+
+
+def test_oracle_says_it_is_an_upper_bound_that_knows_the_gusts(capsys):
+    with pytest.raises(SystemExit):
+        cli_main(["design", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "upper bound that knows the gusts" in text
+    assert "--closed-loop" in text and "--window-periods W" in text
+
+
+@pytest.mark.jsbsim
+def test_a_calm_air_design_is_the_same_whatever_the_drift(capsys):
+    """In calm air without sensors every twin is the same aircraft: byte for byte."""
+    argv = [*CONDITION, "--noise-sigma", "1e-5", "--detect-gain-change", "0.2", "--json"]
+    outputs = []
+    for drift in ([], ["--drift", "oracle"], ["--drift", "nominal"], ["--drift", "detrend"]):
+        assert cli_main([*argv, *drift]) == 0
+        outputs.append(capsys.readouterr().out)
+    assert all(out == outputs[0] for out in outputs)
+    design = json.loads(outputs[0])
+    assert "window" not in design and 'drift = "reference"' in design["scenario_toml"]
+
+
+@pytest.mark.jsbsim
+def test_an_amplitude_the_surface_has_no_room_for_is_one_line(capsys):
+    """Sensor noise alone (nothing flown): a gain standard error of 1e-6 over 4 periods
+    needs far more than the elevator's range."""
+    argv = [*CONDITION, "--noise-sigma", "1e-4", "--target-gain-se", "1e-6"]
+    err = _one_line_refusal([*argv, "--window-periods", "4"], "infeasible: ", capsys)
+    assert "no acceptable probe" in err and "elevator's range about trim" in err
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+def test_a_gust_design_predicts_the_per_period_gain_scatter_of_its_runs(capsys):
+    """The study's flight (light turbulence, NASA's T2 sensors, pitch, bank and speed hold,
+    the gust reference), a short design (8 baseline + 4 window periods): the per-period gain
+    standard deviation it predicts from 16 calibration runs (seeds 1000 on) against 16 runs
+    of its own scenario (seeds 0 to 15), within 25 %.
+
+    Sampling error: each side a standard deviation from 16 seeds x 12 periods, about 7 %
+    if the periods were independent (they are not quite), so 25 % is about 2.5 sigma of the
+    difference.  Calibrated on the oracle's residual instead (no gusts left but their effect
+    on h) the design predicts 0.37 of what its runs scatter by, and this test fails.  The
+    pitch sensor's white noise (0.02 deg) added again on top of the residual moves the
+    prediction by under 1 % (the suite's noise acts through the autopilot, which the
+    residual holds), which no test of this size sees."""
+    argv = [*CONDITION, *STUDY, "--drift", "gust", "--detect-gain-change", "0.2"]
+    argv += ["--window-periods", "4", "--baseline-periods", "8", "--calibration-seeds", "16"]
+    assert cli_main([*argv, "--amplitude-deg", "0.2", "--json"]) == 0
+    design = json.loads(capsys.readouterr().out)
+    window = design["window"]
+    assert design["periods"] == 2 + 8 + 4
+    assert window["window_gain_stderr"] == pytest.approx(
+        window_stderr(window["period_gain_stderr"], 4, 8)
+    )
+    assert window["window_gain_stderr"] == pytest.approx(window["target_gain_stderr"], rel=0.1)
+    found = measured(design["scenario_toml"], 16)
+    ratio = window["period_gain_stderr"] / found["period_gain_std"]
+    assert ratio == pytest.approx(1.0, abs=0.25), (window, found)
