@@ -509,3 +509,21 @@ def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
     assert list(_right(verdicts, "sensor")) == [True, False, True]
     assert list(_right(verdicts, "airframe")) == [False, True, False]
     assert list(_right(verdicts, "actuator")) == [True, False, False]
+
+
+@pytest.mark.parametrize(
+    ("sweep", "fault"),
+    [
+        ("monitor-none", "none"),
+        ("monitor-none-gust", "none"),
+        ("monitor-none-bounds", "none"),
+        ("monitor-damage5", "damage5"),
+        ("monitor-sensor-bias", "sensor-bias"),
+        ("monitor-rate-limit", "rate-limit"),
+        ("monitor-aileron-damage1", "damage1"),
+    ],
+)
+def test_a_sweep_names_its_fault_with_a_suffix_telling_sweeps_apart(sweep, fault):
+    from analysis.monitoring import _fault_key
+
+    assert _fault_key(sweep, pd.Series(dtype=object)) == fault
