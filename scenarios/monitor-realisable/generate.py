@@ -98,5 +98,6 @@ def main() -> None:
         tables = {"fixed": healthy, "grid": {"output.drift": drifts}, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
 
+
 if __name__ == "__main__":
     main()
