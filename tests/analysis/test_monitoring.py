@@ -527,3 +527,12 @@ def test_a_sweep_names_its_fault_with_a_suffix_telling_sweeps_apart(sweep, fault
     from analysis.monitoring import _fault_key
 
     assert _fault_key(sweep, pd.Series(dtype=object)) == fault
+
+
+def test_the_threshold_law_stops_at_the_detectors_first_alarm(study):
+    """h1 alarms first at period 20: its law counts the tested periods 12..20 (the baseline
+    freezes there), all over the check's threshold (statistics 5 and 20 > 2.56)."""
+    h1 = study.set_index("point_id").loc["h1"]
+    assert (h1.tested_probing, h1.over_check_probing) == (9, 9)
+    h2 = study.set_index("point_id").loc["h2"]
+    assert h2.tested_probing == 28
