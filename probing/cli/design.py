@@ -15,6 +15,7 @@ from probing.cli.common import (
     UsageError,
     _error,
     _load_scenario,
+    _out_file,
     _path,
     _simulating,
     command,
@@ -23,20 +24,24 @@ from probing.cli.common import (
 
 def _cmd_design(args: argparse.Namespace) -> int:
     if args.simultaneous is not None:
+        if args.export_probe or args.save_scenario is not None:
+            raise UsageError("design --simultaneous: checks a scenario; there is no probe to write")
         return _check_simultaneous(args.simultaneous)
     request = _request(args)
+    _check_exports(args)
     from probing.experiment.design import DesignError, DesignInputError, recommend
     from probing.experiment.storage import strict_json
 
     def job() -> int:
         try:
-            d, modes, _ = recommend(request)
+            d, modes, scn = recommend(request)
         except DesignInputError as exc:
             raise UsageError(str(exc)) from None
         except DesignError as exc:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return _error(f"infeasible: {exc}", 2)
+        _write_exports(args, d, scn)
         if args.json:
             fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
             payload = {"feasible": True, **fields, "modes": _modes_dict(modes)}
@@ -51,6 +56,34 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return 0
 
     return _simulating(job, f"--aircraft {args.aircraft}")
+
+
+def _check_exports(args: argparse.Namespace) -> None:
+    """``--export-probe`` and ``--save-scenario``: writable files of a known kind, checked
+    before the design starts (UsageError)."""
+    from probing.experiment.probe_export import EXPORT_SUFFIXES
+
+    args.export_probe = args.export_probe or []
+    for path in args.export_probe:
+        _out_file(path, "--export-probe")
+        if path.suffix not in EXPORT_SUFFIXES:
+            raise UsageError(f"--export-probe {path}: the file must end in .csv or .h")
+    if args.save_scenario is not None:
+        _out_file(args.save_scenario, "--save-scenario")
+    paths = [*args.export_probe, *([args.save_scenario] if args.save_scenario else [])]
+    if len({p.resolve() for p in paths}) < len(paths):
+        raise UsageError("design: one file named twice by --export-probe and --save-scenario")
+
+
+def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> None:
+    """Write the designed probe (``--export-probe``) and the scenario (``--save-scenario``)."""
+    from probing.experiment.probe_export import export_probe
+    from probing.experiment.storage import write_text_atomic
+
+    for path in args.export_probe:
+        export_probe(scn, path)
+    if args.save_scenario is not None:
+        write_text_atomic(args.save_scenario, d.scenario_toml)
 
 
 def _check_simultaneous(path: Path) -> int:
@@ -183,6 +216,23 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
             keywords["nargs"] = nargs
         where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--export-probe",
+        type=_path,
+        action="append",
+        default=None,
+        metavar="FILE",
+        help="write one period of the designed probe for a flight computer: FILE.csv (one "
+        "row per bit: time_s, command_<unit> relative to trim) or FILE.h (a C array of +-1, "
+        "its generator in comments); give it twice for both (docs/formats.md)",
+    )
+    parser.add_argument(
+        "--save-scenario",
+        type=_path,
+        default=None,
+        metavar="FILE",
+        help="write the recommended scenario (probing run FILE flies it)",
+    )
 
 
 def _argument_type(hint: Any) -> tuple[Any, int | None]:

@@ -92,6 +92,7 @@ __all__ = [
     "units",
     "versions",
     "write_json_atomic",
+    "write_text_atomic",
 ]
 
 _PROJECT_ROOT = Path(__file__).resolve().parents[2]
@@ -224,11 +225,20 @@ def write_json_atomic(path: Path, payload: Any, compact: bool = False) -> None:
     ``compact``: one line, no indentation (Python's C encoder then writes it, about twice
     as fast: for files written per run that hold long lists of floats).
     """
+    write_text_atomic(path, strict_json(payload, indent=None if compact else 1) + "\n")
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` under a temporary name in the same folder, then rename it into place:
+    a reader sees the old file or the whole new one, never a part (parents are created)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{writer_tag()}.{uuid.uuid4().hex[:8]}.tmp")
-    tmp.write_text(strict_json(payload, indent=None if compact else 1) + "\n")
-    os.replace(tmp, path)
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 class AtomicParquetWriter:

@@ -332,6 +332,7 @@ MONITORED = ROOT / "scenarios" / "monitor" / "base.toml"  # name gtm-monitored, 
 def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every command's work fails the test: a refusal must come before any of it."""
     import analysis.fig4
+    import probing.experiment.design
     import probing.experiment.fig4
     import probing.experiment.gtm_damage
     import probing.experiment.modes
@@ -345,6 +346,7 @@ def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
 
     for module, name in [
         (probing.experiment.run, "run_scenario"),
+        (probing.experiment.design, "recommend"),
         (probing.experiment.truth, "compute_truth"),
         (probing.experiment.monitor, "monitor_scenario"),
         (probing.experiment.fig4, "run_set"),
@@ -424,6 +426,28 @@ OUTPUT_FILES = [
     ["plot", "manoeuvres", "{dir}/r", "--summary", "{target}"],
     ["modes", "--docs", "{target}", "--figure", "{dir}/f/gtm_modes"],
     ["modes", "--figure", "{target}", "--docs", "{dir}/d/gtm.md"],
+    [
+        "design",
+        "--aircraft",
+        "737",
+        "--altitude-ft",
+        "15000",
+        "--speed-kcas",
+        "280",
+        "--save-scenario",
+        "{target}",
+    ],
+    [
+        "design",
+        "--aircraft",
+        "737",
+        "--altitude-ft",
+        "15000",
+        "--speed-kcas",
+        "280",
+        "--export-probe",
+        "{target}",
+    ],
 ]
 OUTPUT_FOLDERS = [
     ["run", str(BASELINE), "--out", "{target}"],
