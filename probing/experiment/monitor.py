@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
@@ -330,9 +332,14 @@ def replay_monitor(
     stream: TextIO | None = None,
     folder: str | Path | None = None,
     twin_cache: bool = True,
+    table: pa.Table | None = None,
 ) -> MonitorResult:
     """Recompute a monitored flight's ``monitor.parquet`` and ``probing.parquet`` from its
     log (``sensors.parquet``) alone, into ``out/<name>/`` (or ``folder``).
+
+    ``table``: the log already in memory, its schema's metadata the footer (a log recorded
+    elsewhere, translated by :func:`probing.experiment.foreign_log.foreign_log`); ``log``
+    then only names it.
 
     The log's own metadata gives the scenario and the sensors' reading of the trim; its
     rows go through the same :class:`~probing.experiment.onboard.Onboard` and detectors,
@@ -349,8 +356,8 @@ def replay_monitor(
         If the file cannot be read.
     """
     log = Path(log)
-    meta = read_footer(log)
-    scn, baseline = logged_scenario(log, meta)
+    meta = read_footer(log) if table is None else dict(table.schema.metadata or {})
+    scn, baseline = logged_scenario(log, meta, None if table is None else table.schema.names)
     settings = scn.monitor_settings()
     monitor = _Monitor(scn, settings)
     probe = scn.probe
@@ -367,7 +374,7 @@ def replay_monitor(
         with output_folder(folder, kept) as outputs:
             w_probe = outputs.writer("probing.parquet", list(scn.channels), scn.surface_unit)
             monitor.open(outputs)
-            rows = pq.ParquetFile(log).iter_batches(batch_size=chunk_periods * period_steps)
+            rows = _batches(log, table, chunk_periods * period_steps)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
                 first = 0
                 for batch in rows:
@@ -391,8 +398,19 @@ def replay_monitor(
     return monitor.result(None, folder, None if ended is None else ended.decode())
 
 
-def logged_scenario(log: Path, meta: dict[bytes, bytes]) -> tuple[Scenario, np.ndarray]:
-    """The scenario a log was flown with and the sensors' reading of the trim."""
+def _batches(log: Path, table: pa.Table | None, rows: int) -> Iterator[pa.RecordBatch]:
+    """The log's rows in batches of ``rows`` (the last one shorter): from the file, or from
+    ``table`` when given."""
+    if table is None:
+        return pq.ParquetFile(log).iter_batches(batch_size=rows)
+    return iter(table.combine_chunks().to_batches(max_chunksize=rows))
+
+
+def logged_scenario(
+    log: Path, meta: dict[bytes, bytes], names: Sequence[str] | None = None
+) -> tuple[Scenario, np.ndarray]:
+    """The scenario a log was flown with and the sensors' reading of the trim (``names``:
+    the log's columns, read from the file if None)."""
     resolved = meta.get(b"probing.scenario")
     trim = meta.get(b"probing.trim_measured")
     digest = meta.get(b"probing.scenario_digest")
@@ -408,7 +426,7 @@ def logged_scenario(log: Path, meta: dict[bytes, bytes]) -> tuple[Scenario, np.n
         raise ReplayError(
             f"{log}: drift follow flew its twin alongside the aircraft; it cannot be replayed"
         )
-    names = set(read_schema(log).names)
+    names = set(read_schema(log).names if names is None else names)
     missing = [c for c in scn.channels if c not in names]
     if missing:
         raise ReplayError(f"{log}: no column {', '.join(missing)}")
