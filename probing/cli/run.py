@@ -116,6 +116,10 @@ def _cmd_truth(args: argparse.Namespace) -> int:
 def _cmd_monitor(args: argparse.Namespace) -> int:
     from probing.experiment.scenario import ScenarioError
 
+    if args.map is not None:
+        if args.scenario is None or args.replay is None:
+            raise UsageError("monitor --map: give the scenario and --replay LOG with it")
+        return _replay(args)
     if (args.scenario is None) == (args.replay is None):
         raise UsageError("monitor: give a scenario, or --replay LOG (not both)")
     if args.replay is not None:
@@ -144,18 +148,33 @@ def _replay(args: argparse.Namespace) -> int:
 
     if args.timeseries:
         raise UsageError("monitor --replay: a log has no timeseries to write")
+    table = None if args.map is None else _foreign(args)
     try:
-        scn, _ = logged_scenario(args.replay, read_footer(args.replay))
+        meta = read_footer(args.replay) if table is None else table.schema.metadata
+        scn, _ = logged_scenario(args.replay, meta, None if table is None else table.column_names)
     except (ReplayError, StoredFileError) as exc:
         raise UsageError(str(exc)) from None
     _run_folder(args.out, scn)
 
     def job() -> int:
-        result = replay_monitor(args.replay, args.out)
+        result = replay_monitor(args.replay, args.out, table=table)
         print(f"{scn.name} (replayed): {result.line()} -> {result.out_dir / 'monitor.parquet'}")
         return 0
 
     return _simulating(job, str(args.replay))
+
+
+def _foreign(args: argparse.Namespace) -> Any:
+    """``--replay LOG --map MAP`` with a scenario: the log recorded elsewhere, translated
+    (:func:`probing.experiment.foreign_log.foreign_log`; UsageError)."""
+    from probing.experiment.foreign_log import foreign_log, read_map
+    from probing.experiment.monitor import ReplayError
+
+    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
+    try:
+        return foreign_log(args.replay, read_map(args.map), scn)
+    except ReplayError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def register(sub: Subcommands) -> None:
@@ -194,7 +213,15 @@ def register(sub: Subcommands) -> None:
         "--replay",
         type=_path,
         metavar="LOG",
-        help="recompute the monitor from a flight's sensors.parquet alone (no scenario)",
+        help="recompute the monitor from a flight's sensors.parquet alone (no scenario), "
+        "or, with --map and a scenario, from a log recorded elsewhere",
+    )
+    monitor.add_argument(
+        "--map",
+        type=_path,
+        metavar="MAP",
+        help="a TOML map of a foreign --replay log (CSV or Parquet): the project's columns "
+        "-> the file's, unit scale factors, the trim reading (docs/formats.md)",
     )
     monitor.add_argument(
         "--timeseries", action="store_true", help="also write timeseries.parquet (large)"

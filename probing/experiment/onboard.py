@@ -40,12 +40,14 @@ from probing.sim.gust_twin import GustTwin
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = [
+    "LOG_DRIFTS",
     "Estimated",
     "GustSource",
     "Onboard",
     "ReferenceSource",
     "TwinSource",
     "calm_nominal",
+    "log_columns",
     "open_reference_twin",
     "reference_source",
     "twin_flight",
@@ -137,6 +139,22 @@ def reference_source(scn: Scenario, twin: ReferenceTwin | None) -> ReferenceSour
     if scn.drift == "gust":
         return GustSource(scn)
     return TwinSource(twin) if twin is not None else None
+
+
+#: The drift modes whose reference is computed from the log alone and the nominal model:
+#: a log recorded elsewhere can be monitored with these (the others fly the simulated
+#: atmosphere, or step a twin alongside the flight).
+LOG_DRIFTS = ("gust", "nominal", "detrend", "none")
+
+
+def log_columns(scn: Scenario) -> tuple[str, ...]:
+    """The columns of a log that :class:`Onboard` reads for ``scn``: ``time_s``, the
+    scenario's channels and, with the ``gust`` reference, the sensors its estimate and its
+    twin need (:data:`probing.core.gust.GUST_SENSORS`, roll rate, bank, altitude)."""
+    names = ["time_s", *scn.channels]
+    if scn.drift == "gust":
+        names += [*GUST_SENSORS, "p_rad_s", "phi_rad", "h_ft"]
+    return tuple(dict.fromkeys(names))
 
 
 def open_reference_twin(
