@@ -330,6 +330,14 @@ def _nonlinearity(
 
 
 # ------------------------------------------------------------- the sections, in file order
+def resolve_model(model: str, folder: Path | None) -> str:
+    """``aircraft.model`` as a scenario keeps it: a plain name as it is, a folder's path made
+    absolute from ``folder`` (the file that gives it; None: the current folder)."""
+    if not is_path(model):
+        return model
+    return str(((folder or Path.cwd()) / Path(model).expanduser()).resolve())
+
+
 def _aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
     """The ``[aircraft]`` section: a model found among the aircraft files, or the path of an
     aircraft folder, relative to ``folder`` (the scenario file's; else the current folder),
@@ -337,8 +345,7 @@ def _aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
     model = data["aircraft"]["model"]
     if not isinstance(model, str):
         raise ScenarioError("aircraft.model", f"must be a string, got {model!r}")
-    if is_path(model):
-        model = str(((folder or Path.cwd()) / Path(model).expanduser()).resolve())
+    model = resolve_model(model, folder)
     try:
         find_aircraft(model)  # looks at files only: no JSBSim is loaded
     except AircraftNotFoundError as exc:

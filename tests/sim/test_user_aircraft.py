@@ -128,3 +128,20 @@ def test_a_folder_that_does_not_trim_is_exit_2(tmp_path: Path, cache: None, caps
     stock = scenario_file(tmp_path, "slow-stock", "737", **slow)
     assert cli_main(["run", str(stock), "--out", str(tmp_path / "out")]) == 1  # a run failed
     one_line(capsys, "trim failed")
+
+
+def test_a_sweep_takes_a_folder_relative_to_the_sweep_file(tmp_path: Path) -> None:
+    from probing.sweep import load_sweep
+
+    (tmp_path / "planes").mkdir()
+    folder = copy_737(tmp_path / "planes")
+    sweeps = tmp_path / "sweeps"
+    sweeps.mkdir()
+    scenario_file(sweeps, "base", "737")
+    path = sweeps / "models.toml"
+    path.write_text(
+        'name = "models"\nbase = "base.toml"\n'
+        '[grid]\n"aircraft.model" = ["737", "../planes/my737"]\n'
+    )
+    models = [p.scenario.model for p in load_sweep(path).points]
+    assert models == ["737", str(folder.resolve())]
