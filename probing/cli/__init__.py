@@ -1,5 +1,5 @@
 """The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes, gtm-damage,
-cache.
+examples, cache.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
 folder or file that cannot be written, a Dask scheduler that does not answer), with one line
@@ -20,11 +20,12 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from probing.cli import cache, design, fig4, gtm, plot, run, sweep
+from probing import __version__
+from probing.cli import cache, design, examples, fig4, gtm, plot, run, sweep
 from probing.cli.common import UsageError, _error, _Parser
 from probing.core.forked import INTERRUPTS
 
-__all__ = ["build_parser", "main", "package_version"]
+__all__ = ["build_parser", "main"]
 
 #: The top-level help's text; the commands are listed by argparse, from the parser itself.
 DESCRIPTION = (
@@ -39,14 +40,7 @@ See README.md and docs/ for the formats and the method."""
 
 #: The command modules, in the order of the top-level help: each adds its commands to the
 #: parser (``register``) and runs them (``args.func``).  A new command is a module here.
-COMMANDS = (run, sweep, fig4, plot, design, gtm, cache)
-
-
-def package_version() -> str:
-    """The installed package's version (its metadata: the version in pyproject.toml)."""
-    from importlib import metadata
-
-    return metadata.version("probing")
+COMMANDS = (run, sweep, fig4, plot, design, gtm, examples, cache)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -57,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"probing {package_version()}")
+    parser.add_argument("--version", action="version", version=f"probing {__version__}")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, metavar="command")
     for module in COMMANDS:
         module.register(sub)

@@ -20,6 +20,7 @@ import xml.etree.ElementTree as ET
 from importlib import metadata
 from pathlib import Path
 
+from probing.data import AIRCRAFT
 from probing.sim.errors import AircraftNotFoundError
 
 __all__ = [
@@ -39,7 +40,7 @@ __all__ = [
     "stock_root",
 ]
 
-PROJECT_AIRCRAFT = Path(__file__).resolve().parents[2] / "aircraft"
+PROJECT_AIRCRAFT = AIRCRAFT
 
 
 @functools.cache
