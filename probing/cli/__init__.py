@@ -2,9 +2,10 @@
 examples, cache.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
-folder or file that cannot be written, a Dask scheduler that does not answer), with one line
-on stderr (argparse's own errors too) and nothing written: every output folder and file is
-checked before any work (:func:`probing.experiment.storage.check_output_folder` and
+folder or file that cannot be written, a Dask scheduler that does not answer, an aircraft
+folder of the user's that JSBSim cannot load or trim), with one line on stderr (argparse's
+own errors too) and nothing written: every output folder and file is checked before any work
+(:func:`probing.experiment.storage.check_output_folder` and
 :func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
 divergence), a sweep with failed points or a sweep folder in use by another process; 130
 interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up.
