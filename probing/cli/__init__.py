@@ -1,9 +1,11 @@
-"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes, gtm-damage.
+"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes, gtm-damage,
+examples, cache.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
-folder or file that cannot be written, a Dask scheduler that does not answer), with one line
-on stderr (argparse's own errors too) and nothing written: every output folder and file is
-checked before any work (:func:`probing.experiment.storage.check_output_folder` and
+folder or file that cannot be written, a Dask scheduler that does not answer, an aircraft
+folder of the user's that JSBSim cannot load or trim), with one line on stderr (argparse's
+own errors too) and nothing written: every output folder and file is checked before any work
+(:func:`probing.experiment.storage.check_output_folder` and
 :func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
 divergence), a sweep with failed points or a sweep folder in use by another process; 130
 interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up.
@@ -19,7 +21,8 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from probing.cli import design, fig4, gtm, plot, run, sweep
+from probing import __version__
+from probing.cli import cache, design, examples, fig4, gtm, plot, run, sweep
 from probing.cli.common import UsageError, _error, _Parser
 from probing.core.forked import INTERRUPTS
 
@@ -38,7 +41,7 @@ See README.md and docs/ for the formats and the method."""
 
 #: The command modules, in the order of the top-level help: each adds its commands to the
 #: parser (``register``) and runs them (``args.func``).  A new command is a module here.
-COMMANDS = (run, sweep, fig4, plot, design, gtm)
+COMMANDS = (run, sweep, fig4, plot, design, gtm, examples, cache)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"probing {__version__}")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, metavar="command")
     for module in COMMANDS:
         module.register(sub)

@@ -57,13 +57,22 @@ def _load_scenario(path: Path) -> Any:
         raise UsageError(str(exc)) from None
 
 
-def _simulating(job: Callable[[], int], where: str) -> int:
-    """Run ``job``; a trim failure or divergence is one line and exit code 1."""
-    from probing.sim.errors import DivergenceError, TrimError
+def _simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
+    """Run ``job``; a trim failure or divergence is one line and exit code 1.
+
+    An aircraft JSBSim cannot load, and a trim failure of an aircraft folder of the user's
+    (``model`` a path: the model is the input), are one line and exit code 2.
+    """
+    from probing.sim.aircraft import is_path
+    from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
 
     try:
         return job()
-    except (TrimError, DivergenceError) as exc:
+    except AircraftNotFoundError as exc:
+        return _error(f"{where}: {exc}", 2)
+    except TrimError as exc:
+        return _error(f"{where}: {exc}", 2 if model is not None and is_path(model) else 1)
+    except DivergenceError as exc:
         return _error(f"{where}: {exc}", 1)
 
 

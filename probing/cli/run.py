@@ -40,7 +40,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return _simulating(job, str(args.scenario), scn.model)
 
 
 def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
@@ -62,7 +62,7 @@ def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
             print(result.table())
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return _simulating(job, str(args.scenario), scn.model)
 
 
 def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
@@ -82,7 +82,7 @@ def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
         )
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return _simulating(job, str(args.scenario), scn.model)
 
 
 def _print_truth(scn: Any, out: Path) -> None:
@@ -110,7 +110,7 @@ def _cmd_truth(args: argparse.Namespace) -> int:
         _print_truth(scn, args.out)
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return _simulating(job, str(args.scenario), scn.model)
 
 
 def _cmd_monitor(args: argparse.Namespace) -> int:
@@ -138,7 +138,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         print(f"{scn.name}: {result.line()} -> {result.out_dir / 'monitor.parquet'}")
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return _simulating(job, str(args.scenario), scn.model)
 
 
 def _replay(args: argparse.Namespace) -> int:

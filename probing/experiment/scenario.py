@@ -374,7 +374,13 @@ def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
     target[parts[-1]] = value
 
 
-def parse_scenario(data: dict[str, Any], *, text: str = "", source: str | None = None) -> Scenario:
+def parse_scenario(
+    data: dict[str, Any],
+    *,
+    text: str = "",
+    source: str | None = None,
+    folder: Path | None = None,
+) -> Scenario:
     """Validate a scenario given as a dict (the TOML layout).
 
     Parameters
@@ -385,6 +391,9 @@ def parse_scenario(data: dict[str, Any], *, text: str = "", source: str | None =
         The original file text, kept for provenance.
     source : str, optional
         File name, prefixed to error messages.
+    folder : pathlib.Path, optional
+        The scenario file's folder: a relative ``aircraft.model`` path is taken from there
+        (the current folder without one); the scenario keeps it absolute.
 
     Raises
     ------
@@ -392,7 +401,7 @@ def parse_scenario(data: dict[str, Any], *, text: str = "", source: str | None =
         On the first invalid entry, naming it and what is allowed.
     """
     try:
-        return _parse(data, text)
+        return _parse(data, text, folder)
     except ScenarioError as exc:
         if source and exc.source is None:
             raise ScenarioError(exc.field, exc.message, source) from None
@@ -416,12 +425,12 @@ def check_name(name: Any, source: str | None = None) -> str:
     return name
 
 
-def _parse(data: dict[str, Any], text: str) -> Scenario:
+def _parse(data: dict[str, Any], text: str, folder: Path | None = None) -> Scenario:
     """The scenario of ``data``, its sections read in file order (so the first error is
     always the same one)."""
     _check_keys(data)
     name = check_name(data["name"])
-    model = _aircraft(data)
+    model = _aircraft(data, folder)
     condition = _condition(data["condition"])
     dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
     probe = _probe(data["probe"], dt)
@@ -475,4 +484,4 @@ def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     data, text = read_toml(path)
     source = str(path)
-    return parse_scenario(data, text=text, source=source)
+    return parse_scenario(data, text=text, source=source, folder=path.parent)

@@ -9,6 +9,7 @@ given it as ``scn``).
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Any
 
 from probing.core.faults import FAULTS
@@ -35,7 +36,7 @@ from probing.experiment.scenario_schema import (
     _number,
     field_label,
 )
-from probing.sim.aircraft import find_aircraft
+from probing.sim.aircraft import find_aircraft, is_path
 from probing.sim.channels import CHANNEL_NAMES
 from probing.sim.errors import AircraftNotFoundError
 from probing.sim.flight import (
@@ -329,11 +330,22 @@ def _nonlinearity(
 
 
 # ------------------------------------------------------------- the sections, in file order
-def _aircraft(data: dict[str, Any]) -> str:
-    """The ``[aircraft]`` section: a model found among the aircraft files."""
+def resolve_model(model: str, folder: Path | None) -> str:
+    """``aircraft.model`` as a scenario keeps it: a plain name as it is, a folder's path made
+    absolute from ``folder`` (the file that gives it; None: the current folder)."""
+    if not is_path(model):
+        return model
+    return str(((folder or Path.cwd()) / Path(model).expanduser()).resolve())
+
+
+def _aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
+    """The ``[aircraft]`` section: a model found among the aircraft files, or the path of an
+    aircraft folder, relative to ``folder`` (the scenario file's; else the current folder),
+    returned absolute."""
     model = data["aircraft"]["model"]
     if not isinstance(model, str):
         raise ScenarioError("aircraft.model", f"must be a string, got {model!r}")
+    model = resolve_model(model, folder)
     try:
         find_aircraft(model)  # looks at files only: no JSBSim is loaded
     except AircraftNotFoundError as exc:

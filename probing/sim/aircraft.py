@@ -1,7 +1,8 @@
 """Aircraft lookup, content digests and sanitised copies: files only, no JSBSim loaded.
 
-An aircraft is found in the project's ``aircraft/`` first, then among JSBSim's stock models
-(located through the installed package's folder, without importing it).  The plant loads a
+An aircraft is a folder of the user's given by its path, or a name found in the project's
+``aircraft/`` first, then among JSBSim's stock models (located through the installed
+package's folder, without importing it).  The plant loads a
 *sanitised* copy (every top-level ``<input>`` and ``<output>`` directive removed, so no model
 opens a network socket or writes a log file of its own) kept in the cache.
 """
@@ -19,6 +20,7 @@ import xml.etree.ElementTree as ET
 from importlib import metadata
 from pathlib import Path
 
+from probing.data import AIRCRAFT
 from probing.sim.errors import AircraftNotFoundError
 
 __all__ = [
@@ -27,15 +29,18 @@ __all__ = [
     "PROJECT_AIRCRAFT",
     "ROLL_OBSERVER_GAIN_PER_S",
     "aircraft_digest",
+    "aircraft_name",
     "alpha_range_rad",
     "cache_dir",
     "find_aircraft",
+    "is_path",
     "jsbsim_version",
+    "model_file",
     "sanitised_root",
     "stock_root",
 ]
 
-PROJECT_AIRCRAFT = Path(__file__).resolve().parents[2] / "aircraft"
+PROJECT_AIRCRAFT = AIRCRAFT
 
 
 @functools.cache
@@ -55,33 +60,73 @@ def stock_root() -> Path:
     return Path(next(iter(spec.submodule_search_locations)))
 
 
+def is_path(model: str) -> bool:
+    """True if ``aircraft.model`` names a folder by its path rather than by a plain name."""
+    return "/" in model or os.sep in model or model in (".", "..") or model.startswith("~")
+
+
+def aircraft_name(model: str) -> str:
+    """The name JSBSim loads the aircraft by: the folder's own name (``<name>/<name>.xml``)."""
+    return Path(model).name if is_path(model) else model
+
+
 def find_aircraft(model: str) -> Path:
-    """Folder of an aircraft: the project's ``aircraft/`` first, then JSBSim's stock models.
+    """Folder of an aircraft: a folder given by its path, else a plain name looked up in the
+    project's ``aircraft/`` first, then among JSBSim's stock models.
 
     Parameters
     ----------
     model : str
-        Aircraft name, a plain folder name (e.g. ``"737"``).
+        Aircraft name, a plain folder name (e.g. ``"737"``), or the absolute path of a JSBSim
+        aircraft folder ``<name>`` holding ``<name>.xml`` (a scenario file resolves a
+        relative one against its own folder).
 
     Returns
     -------
     pathlib.Path
-        The folder holding ``<model>.xml``.
+        The folder holding ``<name>.xml``.
 
     Raises
     ------
     AircraftNotFoundError
-        For a name that is not plain, or an aircraft found nowhere.
+        For a name found nowhere, or a path that is not an aircraft folder.
     """
-    if not model or Path(model).name != model or model.startswith("."):
-        raise AircraftNotFoundError(f"aircraft.model must be a plain name, got {model!r}")
+    if is_path(model):
+        return _user_folder(Path(model))
+    if not model or model.startswith("."):
+        raise AircraftNotFoundError(f"aircraft.model must be a name or a path, got {model!r}")
     for base in (PROJECT_AIRCRAFT, stock_root() / "aircraft"):
         folder = base / model
         if (folder / f"{model}.xml").is_file():
             return folder
     raise AircraftNotFoundError(
         f"aircraft.model {model!r} is not in {PROJECT_AIRCRAFT} nor in JSBSim's aircraft"
+        f" (a folder of your own: give its path, e.g. './{model}')"
     )
+
+
+def _user_folder(folder: Path) -> Path:
+    """A user's aircraft folder, checked: absolute, holding ``<name>.xml``, a JSBSim model."""
+    if not folder.is_absolute():
+        raise AircraftNotFoundError(f"aircraft.model {str(folder)!r}: the path must be absolute")
+    main = folder / f"{folder.name}.xml"
+    if not main.is_file():
+        raise AircraftNotFoundError(
+            f"aircraft.model {str(folder)!r} is not a JSBSim aircraft folder"
+            f" (no {folder.name}.xml in it)"
+        )
+    try:
+        tag = ET.parse(main).getroot().tag
+    except (ET.ParseError, OSError) as exc:
+        raise AircraftNotFoundError(
+            f"aircraft.model {str(folder)!r}: {main.name} cannot be read ({exc})"
+        ) from None
+    if tag != "fdm_config":
+        raise AircraftNotFoundError(
+            f"aircraft.model {str(folder)!r}: {main.name} is not a JSBSim aircraft"
+            f" (<{tag}>, not <fdm_config>)"
+        )
+    return folder
 
 
 def cache_dir() -> Path:
@@ -182,25 +227,32 @@ def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
         computer's gust twin (``drift = "gust"``) flies it.
     """
     folder = find_aircraft(model)
+    name = aircraft_name(model)
     flavour = f"-gust{GUST_ROOT_VERSION}" if gust_inputs else ""
-    root = cache_dir() / "jsbsim-root" / f"{model}{flavour}-{aircraft_digest(model)[:16]}"
-    if (root / "aircraft" / model / f"{model}.xml").is_file():
+    root = cache_dir() / "jsbsim-root" / f"{name}{flavour}-{aircraft_digest(model)[:16]}"
+    if model_file(root, model).is_file():
         return root
     root.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{model}-", dir=root.parent))
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root.parent))
     try:
-        target = tmp / "aircraft" / model
+        target = tmp / "aircraft" / name
         shutil.copytree(folder, target)
         for xml in target.rglob("*.xml"):
             _sanitise(xml, xml)
         if gust_inputs:
-            _add_gust_inputs(target / f"{model}.xml")
+            _add_gust_inputs(target / f"{name}.xml")
         os.replace(tmp, root)
     except OSError:
         shutil.rmtree(tmp, ignore_errors=True)
-        if not (root / "aircraft" / model / f"{model}.xml").is_file():
+        if not model_file(root, model).is_file():
             raise
     return root
+
+
+def model_file(root: Path, model: str) -> Path:
+    """The aircraft's main file in a JSBSim root made by :func:`sanitised_root`."""
+    name = aircraft_name(model)
+    return root / "aircraft" / name / f"{name}.xml"
 
 
 def _add_gust_inputs(xml_path: Path) -> None:

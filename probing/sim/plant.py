@@ -23,6 +23,7 @@ import numpy as np
 from probing.core.faults import onset_step
 from probing.core.forked import can_fork, forked_map
 from probing.core.sensors import FPS_PER_KT
+from probing.sim import aircraft as aircraft_files
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
 from probing.sim.drive import SurfaceDrive, calibrate
@@ -70,7 +71,7 @@ class Plant:
     Parameters
     ----------
     model : str
-        Aircraft name (project ``aircraft/`` first, then JSBSim's stock models).
+        Aircraft name or folder path (:func:`probing.sim.aircraft.find_aircraft`).
     dt_s : float
         Integration step in seconds.
     turbulence : str
@@ -111,11 +112,11 @@ class Plant:
         fdm["simulation/randomseed"] = self.seed
         fdm["atmosphere/randomseed"] = self.seed  # the turbulence generator; set before loading
         fdm.set_dt(self.dt_s)  # before loading: FCS components keep the dt they were built with
-        if not fdm.load_model(model):
+        if not fdm.load_model(aircraft_files.aircraft_name(model)):
             raise AircraftNotFoundError(f"JSBSim could not load aircraft {model!r}")
         fdm.set_dt(self.dt_s)
         self.fdm = fdm
-        self._alpha_range = alpha_range_rad(root / "aircraft" / model / f"{model}.xml")
+        self._alpha_range = alpha_range_rad(aircraft_files.model_file(root, model))
         self._pm = fdm.get_property_manager()
         self.trim_result: TrimResult | None = None
         self.turn_trim: TurnTrim | None = None  # how the last trim found its turn, if a turn

@@ -42,6 +42,7 @@ from probing.experiment.scenario import (
     load_scenario,
     read_toml,
 )
+from probing.experiment.scenario_sections import resolve_model
 
 __all__ = [
     "MAX_POINTS",
@@ -338,6 +339,8 @@ def parse_sweep(data: dict[str, Any], *, path: str | Path, text: str = "") -> Sw
         values = dict(zip(grid_keys, combo, strict=True))
         values.update({k: tables["zip"][k][row] for k in zip_keys})
         changes = {**tables["fixed"], **values, "name": name}
+        if isinstance(changes.get("aircraft.model"), str):  # a path: from the sweep file
+            changes["aircraft.model"] = resolve_model(changes["aircraft.model"], path.parent)
         scn = _point_scenario(base, changes, values, index, seen, source)
         pid = scn.digest()
         if pid in by_id:

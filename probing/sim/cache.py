@@ -1,0 +1,98 @@
+"""What the project keeps in its cache, and how much: sanitised aircraft and reference twins.
+
+The cache root is :func:`probing.sim.aircraft.cache_dir` (``$PROBING_CACHE``, else
+``$XDG_CACHE_HOME/probing``, by default ``~/.cache/probing``); the twins may live apart
+(``$PROBING_TWIN_CACHE``, :func:`probing.sim.twins.twin_cache_dir`).  Everything in it is
+made again when missing, so clearing it costs time, never results.
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from probing.sim.aircraft import cache_dir
+from probing.sim.twins import twin_cache_dir
+
+__all__ = ["CacheFolderError", "CacheKind", "cache_kinds", "clear_cache"]
+
+
+class CacheFolderError(ValueError):
+    """A cache folder that is not a folder, or cannot be read or removed."""
+
+
+@dataclass(frozen=True)
+class CacheKind:
+    """One kind of cached entry: its name, folder, number of entries and bytes on disk."""
+
+    name: str
+    folder: Path
+    entries: int
+    size_bytes: int
+
+
+def _folders() -> dict[str, Path]:
+    """Each kind's folder: ``aircraft`` (sanitised JSBSim roots) and ``twins``."""
+    return {"aircraft": cache_dir() / "jsbsim-root", "twins": twin_cache_dir()}
+
+
+def _measure(name: str, folder: Path) -> CacheKind:
+    if not folder.exists():
+        return CacheKind(name, folder, 0, 0)
+    if not folder.is_dir():
+        raise CacheFolderError(f"cache folder {folder} is not a folder")
+    try:
+        if name == "twins":
+            files = list(folder.glob("*.npy"))
+            entries = sum(1 for p in files if not p.name.startswith("."))
+        else:
+            files = [p for p in folder.rglob("*") if p.is_file()]
+            entries = sum(1 for p in folder.iterdir() if not p.name.startswith("."))
+        size = sum(p.stat().st_size for p in files)
+    except OSError as exc:
+        raise CacheFolderError(f"cache folder {folder} cannot be read ({exc.strerror})") from None
+    return CacheKind(name, folder, entries, size)
+
+
+def cache_kinds() -> list[CacheKind]:
+    """Every kind of cached entry with its folder, entries (temporaries left out) and bytes.
+
+    Raises
+    ------
+    CacheFolderError
+        If a folder exists but is not a folder or cannot be read.
+    """
+    return [_measure(name, folder) for name, folder in _folders().items()]
+
+
+def clear_cache() -> list[CacheKind]:
+    """Remove the cached entries: the sanitised aircraft's folder (``jsbsim-root``, a name the
+    project owns) and the twins' ``.npy`` files; nothing else is touched.
+
+    Returns
+    -------
+    list of CacheKind
+        What was there before, as :func:`cache_kinds` measured it.
+
+    Raises
+    ------
+    CacheFolderError
+        If a folder is not a folder, or cannot be read or emptied (every kind is measured
+        before anything is removed).
+    """
+    kinds = cache_kinds()
+    for kind in kinds:
+        if not kind.folder.exists():
+            continue
+        try:
+            if kind.name == "twins":
+                for path in kind.folder.glob("*.npy"):
+                    path.unlink(missing_ok=True)
+            else:
+                shutil.rmtree(kind.folder)
+        except OSError as exc:
+            raise CacheFolderError(
+                f"cache folder {kind.folder} cannot be emptied ({exc.strerror})"
+            ) from None
+    return kinds
