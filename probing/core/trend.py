@@ -13,13 +13,27 @@ subspace) decides the c_k; the whole fitted trend is then subtracted.  The trend
 at the record's first sample: the constant stays in the periodic part (it cannot be told
 from the response's own mean, the DC direction of the probe).  A periodic signal plus a
 polynomial trend of order <= K is recovered exactly, to rounding.
+
+Without a model (drift mode ``detrend``, ``probing analyze`` without a reference column)
+the record's offset is not known either: :func:`detrend_periodic` removes the mean as well,
+i.e. it fits y[n] = p[n mod N] + c_0 + sum_k c_k (n / L)^k with the periodic part's mean
+fixed at zero and subtracts c_0 and the trend.  The offset cannot be told from the probe's
+response to its own mean (a +-1 m-sequence sums to -1), so the DC-corrected estimate is then
+h - sum(h) / M on every tap, in the periodic steady state.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["periodic_trend_basis", "remove_periodic_trend", "trend_projector"]
+__all__ = [
+    "detrend_matrix",
+    "detrend_periodic",
+    "periodic_trend_basis",
+    "remove_periodic_trend",
+    "trend_projector",
+    "window_periods",
+]
 
 
 def periodic_trend_basis(length: int, period: int, order: int) -> tuple[np.ndarray, np.ndarray]:
@@ -102,3 +116,37 @@ def remove_periodic_trend(y: np.ndarray, period: int, order: int = 1) -> np.ndar
         return y.copy()
     coef, *_ = np.linalg.lstsq(orth, y, rcond=None)
     return y - trend @ coef
+
+
+def window_periods(order: int) -> int:
+    """Periods a detrended estimate reads: the joint fit of a trend of ``order`` needs
+    order + 1 of them, and at least 2 (the streaming estimator reads the period before)."""
+    return max(2, int(order) + 1)
+
+
+def detrend_periodic(y: np.ndarray, period: int, order: int = 1) -> np.ndarray:
+    """The drift mode ``detrend``: the jointly fitted trend and the mean removed (module
+    docstring); shape and unit of ``y`` ((L,) or (L, C), L a whole number of periods).
+
+    Examples
+    --------
+    >>> p = np.array([1.0, -2.0, 0.5])
+    >>> y = np.tile(p, 4) + 3.0 + 0.3 * np.arange(12)
+    >>> np.allclose(detrend_periodic(y, 3), np.tile(p - p.mean(), 4))
+    True
+    """
+    out = remove_periodic_trend(y, period, order)
+    return out - out.mean(axis=0)
+
+
+def detrend_matrix(length: int, period: int, order: int) -> np.ndarray:
+    """The linear map of :func:`detrend_periodic`: ``detrend_periodic(y) == D @ y``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (L, L), dimensionless: (I - J)(I - T) with J the averaging matrix and T
+        :func:`trend_projector`.
+    """
+    d = np.eye(length) - trend_projector(length, period, order)
+    return d - d.mean(axis=0, keepdims=True)

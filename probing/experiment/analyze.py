@@ -4,7 +4,7 @@ A record (:mod:`probing.experiment.record`) holds the injected probe and measure
 The probe is checked to be the m-sequence of the order and bit duration given
 (:func:`probing.core.recorded.align_probe`); whole periods from the sequence's phase 0 are
 used.  Drift: ``detrend`` fits each output's periodic part and a linear trend together
-(:func:`probing.core.trend.remove_periodic_trend`) and removes the trend and the output's
+(:func:`probing.core.trend.detrend_periodic`) and removes the trend and the output's
 mean; ``none`` removes the mean only; a ``reference`` column is subtracted instead (it
 carries the baseline, nothing else is removed).  Without a reference the record's offset
 cannot be told from the response's mean: every tap of h_est is then h - sum(h) / M.
@@ -22,7 +22,7 @@ import pyarrow as pa
 
 from probing.core.prbs import steps_per_bit
 from probing.core.recorded import NotAnMSequence, align_probe, period_estimates, tap_bounds
-from probing.core.trend import remove_periodic_trend
+from probing.core.trend import detrend_periodic
 from probing.experiment.layouts import BOUNDS_SCHEMA, CHANNEL_UNIT, PER_DEG, field, probing_block
 from probing.experiment.record import RecordError, file_sha256, read_columns, sample_step_s
 from probing.experiment.storage import output_folder, provenance
@@ -81,7 +81,7 @@ def _deviations(req: AnalysisRequest, cols: dict[str, np.ndarray], m: int) -> np
     if req.reference is not None:
         return y - cols[req.reference][:, None]
     if req.drift == "detrend":
-        y = remove_periodic_trend(y, m, 1)
+        return detrend_periodic(y, m, 1)
     return y - y.mean(axis=0)
 
 
