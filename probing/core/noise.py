@@ -50,12 +50,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.trend import detrend_matrix, window_periods
+
 __all__ = [
     "ESTIMATORS",
     "NoiseModel",
     "cyclic_estimates",
-    "detrend",
-    "detrend_basis",
     "estimator_weights",
     "noise_model",
     "sample_autocovariance",
@@ -155,18 +155,6 @@ def cyclic_estimates(
     z = np.fft.irfft(np.fft.rfft(y, axis=-1) * np.conj(np.fft.rfft(ref)), m, axis=-1)
     zeta = z + z.sum(axis=-1, keepdims=True) if dc else z
     return z, zeta, zeta / (a * (m + 1))
-
-
-def detrend_basis(length: int, order: int) -> np.ndarray:
-    """Polynomials up to ``order`` over ``length`` samples (columns), on t in [-1, 1]."""
-    return np.vander(np.linspace(-1.0, 1.0, length), order + 1)
-
-
-def detrend(y: np.ndarray, order: int) -> np.ndarray:
-    """Remove the least-squares polynomial of ``order`` from each column of ``y``."""
-    basis = detrend_basis(y.shape[0], order)
-    coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
-    return y - basis @ coef
 
 
 def white(sigma: float) -> np.ndarray:
@@ -326,8 +314,10 @@ def noise_model(
         Autocovariance r(0), r(1), ... of the noise on the bit samples (output units
         squared); :func:`white` for sensor noise.
     detrend_order : int, optional
-        The window each period reads is first detrended with a polynomial of this order
-        (drift mode ``detrend``); the weights become those of the detrended window.
+        Drift mode ``detrend``: each estimate reads the window of
+        :func:`probing.core.trend.window_periods` periods ending with its own, detrended by
+        :func:`probing.core.trend.detrend_periodic` (a trend of this order fitted together
+        with a periodic part, and the mean, removed); the weights become those on the window.
 
     Returns
     -------
@@ -343,9 +333,11 @@ def noise_model(
     if int(periods) < 1:
         raise ValueError(f"periods must be >= 1, got {periods}")
     z, h = estimator_weights(reference, amplitude, estimator)
-    if detrend_order is not None:  # rows @ (I - B B+): the estimate of the detrended window
-        basis = detrend_basis(z.shape[1], detrend_order)
-        pinv = np.linalg.pinv(basis)
-        z, h = z - (z @ basis) @ pinv, h - (h @ basis) @ pinv
+    if detrend_order is not None:  # rows @ D: the estimate of the detrended window
+        m = z.shape[0]
+        width = window_periods(detrend_order) * m
+        pad = ((0, 0), (width - z.shape[1], 0))  # the estimate reads the window's end
+        d = detrend_matrix(width, m, detrend_order)
+        z, h = np.pad(z, pad) @ d, np.pad(h, pad) @ d
     acov = np.atleast_1d(np.asarray(acov, dtype=float))
     return NoiseModel(estimator, z, h, z.shape[0], int(periods), acov)

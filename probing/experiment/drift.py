@@ -1,7 +1,8 @@
 """Drift correction of a run's estimates, by ``[output] drift`` and ``estimator``: the
-streaming correlator (eqs. 5, 9), the same after detrending each window (drift = "detrend"),
-or the cyclic estimators of :mod:`probing.core.noise` (``cyclic``, ``ac``).  Each turns
-the measured output, sampled at the end of each bit, into per-period estimates."""
+streaming correlator (eqs. 5, 9), the same on each detrended window (drift = "detrend": a
+periodic part and a trend fitted together, :mod:`probing.core.trend`), or the cyclic
+estimators of :mod:`probing.core.noise` (``cyclic``, ``ac``).  Each turns the measured
+output, sampled at the end of each bit, into per-period estimates."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.correlator import StreamingCorrelator
-from probing.core.noise import cyclic_estimates, detrend
+from probing.core.noise import cyclic_estimates
 from probing.core.prbs import Probe
+from probing.core.trend import detrend_periodic, window_periods
 from probing.experiment.scenario import Scenario
 
 __all__ = ["drift_correction"]
@@ -56,50 +58,64 @@ class _Streaming:
 
 
 class _Detrended:
-    """Drift mode ``detrend`` with the streaming estimator: each period's z windows reach
-    back one period, so the bit samples of periods p-1 and p are detrended together
-    (least-squares polynomial of ``order``) and correlated afresh; period 0 has no estimate."""
+    """Drift mode ``detrend``: each estimate reads the window of
+    :func:`~probing.core.trend.window_periods` periods that ends with its own period, detrended
+    by :func:`~probing.core.trend.detrend_periodic` (a periodic part and a trend of ``order``
+    fitted together, the trend and the window's mean removed), then estimated afresh from the
+    window's last periods (streaming: the last two; cyclic, ac: the last); the first periods,
+    whose window is not complete, have no estimate."""
 
-    def __init__(self, probe: Probe, order: int) -> None:
-        self.probe, self.order = probe, order
-        self.prev: np.ndarray | None = None
+    def __init__(self, probe: Probe, order: int, estimator: str) -> None:
+        self.probe, self.order, self.estimator = probe, order, estimator
+        self.window = window_periods(order)
+        self.prev = np.zeros((0, 0))
+
+    def _estimate(self, window: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z, zeta, h), each (C, M), of the window's last period."""
+        m = self.probe.length
+        if self.estimator != "streaming":
+            last = window[-m:].T[None]  # (1, C, M)
+            dc = self.estimator == "cyclic"
+            est = cyclic_estimates(last, self.probe.reference(), self.probe.amplitude_deg, dc)
+            return est[0][0], est[1][0], est[2][0]
+        rows = []
+        for j in range(window.shape[1]):
+            fresh = _correlator(self.probe, 2 * m)
+            fresh.push(window[-2 * m :, j])
+            e = fresh.pop_periods()
+            rows.append((e.z[1], e.zeta[1], e.h[1]))
+        z, zeta, h = (np.array([r[x] for r in rows]) for x in range(3))
+        return z, zeta, h
 
     def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
-        m = self.probe.length
-        n_ch = y_bits.shape[1]
-        periods, rows = [], []
-        for i in range(y_bits.shape[0] // m):
-            bits = y_bits[i * m : (i + 1) * m]
-            if self.prev is not None:
-                window = detrend(np.vstack((self.prev, bits)), self.order)
-                per_channel = []
-                for j in range(n_ch):
-                    fresh = _correlator(self.probe, 2 * m)
-                    fresh.push(window[:, j])
-                    est = fresh.pop_periods()
-                    per_channel.append((est.z[1], est.zeta[1], est.h[1]))
-                periods.append(first + i)
-                rows.append(per_channel)
-            self.prev = bits.copy()
-        z, zeta, h = (
-            np.array([[e[x] for e in pc] for pc in rows]).reshape(-1, n_ch, m) for x in range(3)
-        )
+        m, n_ch = self.probe.length, y_bits.shape[1]
+        bits = y_bits[: (y_bits.shape[0] // m) * m]
+        history = bits if first == 0 or self.prev.size == 0 else np.vstack((self.prev, bits))
+        behind = history.shape[0] // m - bits.shape[0] // m  # periods before this chunk
+        periods, out = [], []
+        for i in range(bits.shape[0] // m):
+            end = (behind + i + 1) * m
+            if end < self.window * m:
+                continue
+            window = detrend_periodic(history[end - self.window * m : end], m, self.order)
+            periods.append(first + i)
+            out.append(self._estimate(window))
+        self.prev = history[-(self.window - 1) * m :].copy()
+        z, zeta, h = (np.array([e[x] for e in out]).reshape(-1, n_ch, m) for x in range(3))
         return _Estimates(np.array(periods, dtype=np.int64), z, zeta, h)
 
 
 class _Cyclic:
-    """Estimators ``cyclic`` and ``ac``: each period from its own samples alone (detrended
-    first with drift mode ``detrend``), so every period, period 0 included, has an estimate."""
+    """Estimators ``cyclic`` and ``ac``: each period from its own samples alone, so every
+    period, period 0 included, has an estimate."""
 
-    def __init__(self, probe: Probe, dc: bool, detrend_order: int | None) -> None:
-        self.probe, self.dc, self.detrend_order = probe, dc, detrend_order
+    def __init__(self, probe: Probe, dc: bool) -> None:
+        self.probe, self.dc = probe, dc
 
     def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
         m = self.probe.length
         count = y_bits.shape[0] // m
-        y = y_bits.reshape(count, m, -1)  # (P, M, C)
-        if self.detrend_order is not None:
-            y = np.stack([detrend(period, self.detrend_order) for period in y])
+        y = y_bits[: count * m].reshape(count, m, -1)  # (P, M, C)
         z, zeta, h = cyclic_estimates(
             np.moveaxis(y, 1, 2), self.probe.reference(), self.probe.amplitude_deg, self.dc
         )  # (P, C, M)
@@ -108,9 +124,8 @@ class _Cyclic:
 
 def drift_correction(scn: Scenario, probe: Probe, push_bits: int) -> object:
     """The object that turns a chunk's deviations into estimates, by estimator and drift."""
-    detrend_order = scn.detrend_order if scn.detrends else None
+    if scn.detrends:
+        return _Detrended(probe, scn.detrend_order, scn.estimator)
     if scn.estimator != "streaming":
-        return _Cyclic(probe, scn.estimator == "cyclic", detrend_order)
-    if detrend_order is not None:
-        return _Detrended(probe, detrend_order)
+        return _Cyclic(probe, scn.estimator == "cyclic")
     return _Streaming(probe, len(scn.channels), push_bits)

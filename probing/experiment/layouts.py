@@ -18,6 +18,7 @@ from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
     "AUTOPILOT_COLUMNS",
+    "BOUNDS_SCHEMA",
     "CHANNEL_UNIT",
     "MANOEUVRE_SCHEMA",
     "MONITOR_SCHEMA",
@@ -53,6 +54,19 @@ PROBING_SCHEMA = pa.schema(
         field("z", pa.float64(), CHANNEL_UNIT, "probing output, eq. (5), in tap order"),
         field("zeta", pa.float64(), CHANNEL_UNIT, "DC-corrected probing output, eq. (9)"),
         field("h_est", pa.float64(), PER_DEG, "pulse-response estimate zeta / (a (M+1))"),
+    ]
+)
+
+#: ``probing analyze``'s per-tap bounds: the mean over the periods used and its interval.
+BOUNDS_SCHEMA = pa.schema(
+    [
+        field("channel", pa.string(), "", "output column"),
+        field("tap", pa.int32(), "1", "tap i: the response i bits after a one-bit pulse"),
+        field("lag_s", pa.float64(), "s", "lag of the tap, i t0"),
+        field("h_est", pa.float64(), PER_DEG, "mean over the periods used of h_est"),
+        field("h_low", pa.float64(), PER_DEG, "lower bound of the mean's 95 % Student-t interval"),
+        field("h_high", pa.float64(), PER_DEG, "upper bound of the mean's 95 % Student-t interval"),
+        field("h_std", pa.float64(), PER_DEG, "period-to-period standard deviation (ddof 1)"),
     ]
 )
 
@@ -214,6 +228,13 @@ OUTPUT_FILES: dict[str, OutputFile] = {
             "probing output z (eq. 5), its DC-corrected form zeta (eq. 9) and the "
             "pulse-response estimate h_est, one row per channel, period and tap",
             PROBING_SCHEMA,
+        ),
+        OutputFile(
+            "bounds.parquet",
+            "probing analyze: the mean over the periods used of h_est per channel and tap, "
+            "with the 95 % Student-t confidence interval of that mean over the P periods "
+            "(P - 1 degrees of freedom) and the period-to-period standard deviation",
+            BOUNDS_SCHEMA,
         ),
         OutputFile(
             "timeseries.parquet",

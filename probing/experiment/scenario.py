@@ -23,6 +23,7 @@ from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
+from probing.core.trend import window_periods
 from probing.experiment.scenario_schema import (
     DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
 )
@@ -182,8 +183,11 @@ class Scenario:
 
     @property
     def first_estimated_period(self) -> int:
-        """The first period with an estimate: the streaming estimator (and detrending, which
-        reads the period before) needs the previous period; the cyclic ones do not."""
+        """The first period with an estimate: the streaming estimator needs the previous
+        period, the cyclic ones do not; detrending reads a window of
+        :func:`probing.core.trend.window_periods` periods ending with the period's own."""
+        if self.detrends:
+            return window_periods(self.detrend_order) - 1
         return 1 if self.estimator == "streaming" else 0
 
     @property

@@ -12,13 +12,13 @@ import pytest
 from probing.core.correlator import StreamingCorrelator
 from probing.core.noise import (
     cyclic_estimates,
-    detrend,
     estimator_weights,
     noise_model,
     sample_autocovariance,
     white,
 )
 from probing.core.prbs import mls
+from probing.core.trend import detrend_periodic, window_periods
 
 A = 0.3  # probe amplitude
 
@@ -164,17 +164,23 @@ def test_gain_std_matches_monte_carlo() -> None:
     assert gains.std() / model.gain_std(h_ref) == pytest.approx(1.0, abs=0.05)
 
 
-def test_detrended_weights_match_monte_carlo() -> None:
-    """Drift mode detrend: each cyclic period is detrended (order 1) before it is estimated."""
+@pytest.mark.parametrize(("estimator", "order"), [("cyclic", 1), ("streaming", 1), ("ac", 2)])
+def test_detrended_weights_match_monte_carlo(estimator: str, order: int) -> None:
+    """Drift mode detrend: each period's estimate reads the window of window_periods(order)
+    periods ending with its own, detrended by the joint fit (probing.core.trend); a linear
+    drift goes exactly, so the scatter is the model's."""
     ref = mls(5)
-    m, periods = ref.size, 3
+    m, periods, w = ref.size, 3, window_periods(order)
     rng = np.random.default_rng(5)
-    u = rng.standard_normal((3000, periods * m)) + np.linspace(0, 50, periods * m)  # + a drift
+    n = (periods + w - 1) * m
+    u = rng.standard_normal((3000, n)) + np.linspace(0, 50, n)  # + a drift
+    _, h_rows = estimator_weights(ref, A, estimator)
     got = []
     for row in u:
-        windows = np.stack([detrend(w[:, None], 1)[:, 0] for w in row.reshape(periods, m)])
-        got.append(cyclic_estimates(windows, ref, A)[2].mean(axis=0))
-    model = noise_model(ref, A, "cyclic", periods, white(1.0), detrend_order=1)
+        ends = [(p + w) * m for p in range(periods)]
+        windows = [detrend_periodic(row[e - w * m : e], m, order) for e in ends]
+        got.append(np.mean([h_rows @ x[-h_rows.shape[1] :] for x in windows], axis=0))
+    model = noise_model(ref, A, estimator, periods, white(1.0), detrend_order=order)
     assert rms(np.std(got, axis=0)) / rms(model.h_std()) == pytest.approx(1.0, abs=0.05)
 
 

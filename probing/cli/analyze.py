@@ -1,0 +1,92 @@
+"""``probing analyze``: pulse compression on a recorded file (docs/analyze.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+from probing.cli.common import Subcommands, UsageError, _out_folder, _path, command
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _cmd_analyze(args: argparse.Namespace) -> int:
+    from probing.experiment.analyze import AnalysisRequest, analyze, write_analysis
+    from probing.experiment.record import RecordError
+
+    _out_folder(args.out, "--out")
+    if not args.file.is_file():
+        raise UsageError(f"FILE {args.file}: no such file")
+    req = AnalysisRequest(
+        path=args.file,
+        input=args.input,
+        outputs=tuple(args.output),
+        order=args.order,
+        bit_duration_s=args.bit_duration_s,
+        time=args.time,
+        dt_s=args.dt_s,
+        amplitude=args.amplitude,
+        drift=args.drift,
+        reference=args.reference,
+    )
+    try:
+        result = analyze(req)
+    except RecordError as exc:
+        raise UsageError(str(exc)) from None
+    from analysis.analyze_plots import draw_bounds
+
+    written = write_analysis(result, args.out)
+    figure = draw_bounds(args.out / "bounds.parquet", args.out / "pulse_response")
+    f = result.found
+    print(
+        f"{args.file.name}: sequence shift {f['sequence_shift_bits']} bits, bit boundary at "
+        f"sample {f['bit_offset_samples']}, {f['periods_used']} whole periods used from sample "
+        f"{f['first_sample']} ({f['samples_unused']} of {f['samples']} samples unused), "
+        f"amplitude {result.amplitude:g}"
+    )
+    for path in (*written, figure):
+        print(f"-> {path}")
+    return 0
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``analyze`` to ``sub``."""
+    p = command(
+        sub,
+        "analyze",
+        "pulse compression on recorded data (CSV, Parquet or MATLAB .mat): probing.parquet, "
+        "bounds.parquet and pulse_response.png in --out (docs/analyze.md)",
+    )
+    p.add_argument("file", type=_path, metavar="FILE", help="the record: .csv, .parquet or .mat")
+    p.add_argument("--input", required=True, metavar="COL", help="the probe as injected")
+    p.add_argument(
+        "--output", required=True, nargs="+", metavar="COL", help="one or more measured outputs"
+    )
+    base = p.add_mutually_exclusive_group(required=True)
+    base.add_argument("--time", metavar="COL", help="time column (s), uniform step")
+    base.add_argument("--dt-s", type=_positive, help="sample step (s)")
+    p.add_argument("--order", type=int, required=True, help="m-sequence order n (M = 2^n - 1)")
+    p.add_argument("--bit-duration-s", type=_positive, required=True, help="bit duration t0 (s)")
+    p.add_argument(
+        "--amplitude",
+        type=_positive,
+        help="probe amplitude a in the probe's unit (default: half the difference of the "
+        "probe column's two levels)",
+    )
+    drift = p.add_mutually_exclusive_group()
+    drift.add_argument(
+        "--drift",
+        choices=("detrend", "none"),
+        default="detrend",
+        help="detrend: a periodic part and a linear trend fitted together, the trend and the "
+        "mean removed; none: the mean removed",
+    )
+    drift.add_argument(
+        "--reference", metavar="COL", help="a reference subtracted from each output instead"
+    )
+    p.add_argument("--out", type=_path, required=True, help="output folder")
+    p.set_defaults(func=_cmd_analyze)

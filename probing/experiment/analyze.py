@@ -1,0 +1,190 @@
+"""``probing analyze``: pulse compression on recorded data, no simulation.
+
+A record (:mod:`probing.experiment.record`) holds the injected probe and measured outputs.
+The probe is checked to be the m-sequence of the order and bit duration given
+(:func:`probing.core.recorded.align_probe`); whole periods from the sequence's phase 0 are
+used.  Drift: ``detrend`` fits each output's periodic part and a linear trend together
+(:func:`probing.core.trend.detrend_periodic`) and removes the trend and the output's
+mean; ``none`` removes the mean only; a ``reference`` column is subtracted instead (it
+carries the baseline, nothing else is removed).  Without a reference the record's offset
+cannot be told from the response's mean: every tap of h_est is then h - sum(h) / M.
+Estimates per period are those of the ``cyclic`` estimator; bounds per tap are the
+two-sided Student-t interval of the mean over the P periods.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+
+from probing.core.prbs import steps_per_bit
+from probing.core.recorded import NotAnMSequence, align_probe, period_estimates, tap_bounds
+from probing.core.trend import detrend_periodic
+from probing.experiment.layouts import BOUNDS_SCHEMA, CHANNEL_UNIT, PER_DEG, field, probing_block
+from probing.experiment.record import RecordError, file_sha256, read_columns, sample_step_s
+from probing.experiment.storage import output_folder, provenance
+
+__all__ = ["LEVEL", "Analysis", "AnalysisRequest", "analyze", "write_analysis"]
+
+#: Confidence level of the per-tap bounds.
+LEVEL = 0.95
+
+
+@dataclass(frozen=True)
+class AnalysisRequest:
+    """What ``probing analyze`` is asked: the file, its columns and the probe.
+
+    ``time`` or ``dt_s`` (s) gives the time base; ``amplitude`` (probe unit) None: read
+    from the probe column; ``drift`` ``detrend`` or ``none``, unless ``reference`` names a
+    column subtracted from each output.
+    """
+
+    path: Path
+    input: str
+    outputs: tuple[str, ...]
+    order: int
+    bit_duration_s: float
+    time: str | None = None
+    dt_s: float | None = None
+    amplitude: float | None = None
+    drift: str = "detrend"
+    reference: str | None = None
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """The estimates of a record: z, zeta, h (P, C, M), the bounds, and what was found."""
+
+    request: AnalysisRequest
+    dt_s: float
+    amplitude: float
+    found: dict[str, object]
+    z: np.ndarray
+    zeta: np.ndarray
+    h: np.ndarray
+    bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    sha256: str
+
+
+def _columns(req: AnalysisRequest) -> dict[str, np.ndarray]:
+    names = [req.input, *req.outputs]
+    names += [n for n in (req.time, req.reference) if n is not None]
+    return read_columns(req.path, list(dict.fromkeys(names)))
+
+
+def _deviations(req: AnalysisRequest, cols: dict[str, np.ndarray], m: int) -> np.ndarray:
+    """(P M, C) end-of-bit output samples of the periods used, drift removed (see module)."""
+    y = np.column_stack([cols[c] for c in req.outputs])
+    if req.reference is not None:
+        return y - cols[req.reference][:, None]
+    if req.drift == "detrend":
+        return detrend_periodic(y, m, 1)
+    return y - y.mean(axis=0)
+
+
+def analyze(req: AnalysisRequest) -> Analysis:
+    """Read the record, check the probe, and estimate (module docstring).
+
+    Raises
+    ------
+    RecordError
+        Bad file, column or time base, or a probe that is not the m-sequence asked for.
+    """
+    cols = _columns(req)
+    where = f"{req.path}"
+    dt = sample_step_s(cols[req.time], f"{where}: {req.time}") if req.time else float(req.dt_s)
+    try:
+        spb = steps_per_bit(req.bit_duration_s, dt)
+    except ValueError as exc:
+        raise RecordError(f"{where}: {exc}") from None
+    try:
+        al = align_probe(cols[req.input], spb, req.order)
+    except NotAnMSequence as exc:
+        raise RecordError(
+            f"{where}: column {req.input} is not an m-sequence of order {req.order} with "
+            f"{req.bit_duration_s} s bits: {exc}"
+        ) from None
+    if al.periods < 2:
+        raise RecordError(f"{where}: {al.periods} whole period from the sequence's start; need 2")
+    m = 2**req.order - 1
+    ends = al.first_sample + spb - 1 + spb * np.arange(al.periods * m)
+    used = {k: v[ends] for k, v in cols.items()}
+    amplitude = al.amplitude if req.amplitude is None else float(req.amplitude)
+    z, zeta, h = period_estimates(_deviations(req, used, m), req.order, al.sign, amplitude)
+    found = {
+        "samples": int(cols[req.input].size),
+        "samples_per_bit": spb,
+        "bit_offset_samples": al.offset_samples,
+        "sequence_shift_bits": al.shift_bits,
+        "sign": al.sign,
+        "first_sample": al.first_sample,
+        "periods_used": al.periods,
+        "whole_bits": al.bits,
+        "samples_unused": int(cols[req.input].size - al.periods * m * spb),
+        "levels": [al.mid - al.amplitude, al.mid + al.amplitude],
+    }
+    return Analysis(
+        req, dt, amplitude, found, z, zeta, h, tap_bounds(h, LEVEL), file_sha256(req.path)
+    )
+
+
+def _units(req: AnalysisRequest) -> dict[str, object]:
+    out: dict[str, object] = {"lag_s": "s"}
+    for f in (*BOUNDS_SCHEMA, field("z", pa.float64(), CHANNEL_UNIT, "")):
+        unit = (f.metadata or {}).get(b"unit", b"").decode()
+        if unit in (CHANNEL_UNIT, PER_DEG):
+            per = "" if unit == CHANNEL_UNIT else f"/(unit of {req.input})"
+            out[f.name] = {c: f"(unit of {c}){per}" for c in req.outputs}
+    out["zeta"] = out["z"]
+    return out
+
+
+def write_analysis(result: Analysis, out: Path) -> list[Path]:
+    """Write ``probing.parquet`` (per period) and ``bounds.parquet`` (per tap) into ``out``.
+
+    Both carry the provenance: the input file's name and SHA-256, the request, what was
+    found in the record (:func:`analyze`), the drift handling and the confidence level.
+    """
+    req = result.request
+    m = 2**req.order - 1
+    meta = provenance(
+        input={"file": req.path.name, "sha256": result.sha256},
+        analysis={
+            "input_column": req.input,
+            "outputs": list(req.outputs),
+            "order": req.order,
+            "bit_duration_s": req.bit_duration_s,
+            "dt_s": result.dt_s,
+            "amplitude": result.amplitude,
+            "amplitude_from": "given" if req.amplitude is not None else "probe levels",
+            **result.found,
+        },
+        drift=f"reference column {req.reference}" if req.reference else req.drift,
+        estimator="cyclic",
+        confidence={"level": LEVEL, "interval": "Student-t", "dof": result.h.shape[0] - 1},
+    )
+    units = _units(req)
+    channels = list(req.outputs)
+    lag_s = np.arange(m) * req.bit_duration_s
+    periods = np.arange(result.h.shape[0])
+    with output_folder(out, meta) as folder:
+        w = folder.writer("probing.parquet", [], own_units=units)
+        w.write(probing_block(channels, periods, lag_s, result.z, result.zeta, result.h))
+        wb = folder.writer("bounds.parquet", [], own_units=units)
+        mean, low, high, std = result.bounds
+        block = probing_block(channels, [0], lag_s, mean[None], low[None], high[None])
+        wb.write(
+            {
+                "channel": block["channel"],
+                "tap": block["tap"],
+                "lag_s": block["lag_s"],
+                "h_est": mean.reshape(-1),
+                "h_low": low.reshape(-1),
+                "h_high": high.reshape(-1),
+                "h_std": std.reshape(-1),
+            }
+        )
+    return [out / "probing.parquet", out / "bounds.parquet"]

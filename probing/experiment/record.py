@@ -1,0 +1,133 @@
+"""Recorded data read from a file: named columns of a CSV, Parquet or MATLAB ``.mat`` file,
+and the checks of its time base.
+
+A ``.mat`` file is read with :func:`scipy.io.loadmat` (MATLAB v5 to v7.2, not v7.3/HDF5):
+each column is a variable holding a vector (a row or a column); structs are not read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["FORMATS", "RecordError", "file_sha256", "read_columns", "sample_step_s"]
+
+#: File suffix -> format name.
+FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
+
+#: Relative tolerance of a uniform time step.
+STEP_TOLERANCE = 1e-6
+
+
+class RecordError(ValueError):
+    """A record that cannot be analysed; the message names the file or column and why."""
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of the file's bytes, hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _available(path: Path, kind: str) -> dict[str, np.ndarray] | list[str]:
+    if kind == "csv":
+        import pandas as pd
+
+        return {c: frame for c, frame in pd.read_csv(path).items()}
+    if kind == "parquet":
+        import pyarrow.parquet as pq
+
+        return pq.read_schema(path).names
+    from scipy.io import loadmat
+
+    return {k: v for k, v in loadmat(path).items() if not k.startswith("__")}
+
+
+def read_columns(path: Path, names: list[str]) -> dict[str, np.ndarray]:
+    """The named columns of a CSV, Parquet or ``.mat`` file as float arrays.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file; its suffix says the format (:data:`FORMATS`).
+    names : list of str
+        Column (or ``.mat`` variable) names.
+
+    Returns
+    -------
+    dict
+        Name -> 1-D float64 array; all of one length.
+
+    Raises
+    ------
+    RecordError
+        Unknown file type, unreadable file, a missing or non-numeric column, a ``.mat``
+        variable that is not a vector, columns of different lengths, a NaN or infinity.
+    """
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise RecordError(f"{path}: unknown file type (use {', '.join(FORMATS)})")
+    try:
+        found = _available(path, kind)
+        missing = [n for n in names if n not in found]
+        if missing:
+            have = ", ".join(list(found)[:20])
+            raise RecordError(f"{path}: no column {', '.join(missing)} (it has: {have})")
+        if kind == "parquet":
+            import pyarrow.parquet as pq
+
+            table = pq.read_table(path, columns=names)
+            found = {n: table.column(n).to_numpy() for n in names}
+        out = {n: np.asarray(found[n], dtype=float) for n in names}
+    except RecordError:
+        raise
+    except (OSError, ValueError, TypeError, NotImplementedError) as exc:
+        reason = " ".join(str(exc).split()) or exc.__class__.__name__
+        raise RecordError(f"{path}: cannot read it as {kind} ({reason})") from None
+    return _checked(path, out)
+
+
+def _checked(path: Path, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    for name, col in columns.items():
+        if col.ndim > 1 and sorted(col.shape)[:-1] == [1] * (col.ndim - 1):
+            col = columns[name] = col.reshape(-1)
+        if col.ndim != 1:
+            raise RecordError(f"{path}: column {name} is not a vector (shape {col.shape})")
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size:
+            raise RecordError(f"{path}: column {name} has NaN or infinity at row {bad[0]}")
+    lengths = {c.size for c in columns.values()}
+    if len(lengths) > 1:
+        raise RecordError(f"{path}: columns of different lengths {sorted(lengths)}")
+    return columns
+
+
+def sample_step_s(time_s: np.ndarray, where: str) -> float:
+    """The time step of a strictly increasing, uniform time column (s).
+
+    Raises
+    ------
+    RecordError
+        Fewer than 2 samples, a step that is not positive (not monotonic), or a step that
+        differs from the median step by more than :data:`STEP_TOLERANCE` of it (a gap).
+    """
+    if time_s.size < 2:
+        raise RecordError(f"{where}: fewer than 2 samples")
+    steps = np.diff(time_s)
+    if np.any(steps <= 0):
+        row = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise RecordError(f"{where}: time is not strictly increasing at row {row}")
+    typical = float(np.median(steps))
+    off = np.abs(steps - typical) > STEP_TOLERANCE * typical
+    if np.any(off):
+        row = int(np.flatnonzero(off)[0]) + 1
+        raise RecordError(
+            f"{where}: time step not uniform at row {row} ({steps[row - 1]:g} s, "
+            f"elsewhere {typical:g} s)"
+        )
+    return float((time_s[-1] - time_s[0]) / (time_s.size - 1))

@@ -1,0 +1,215 @@
+"""``probing analyze`` on records of systems nobody here simulated: a known discrete system
+driven through scipy.signal.dlsim by an m-sequence, with noise and a slow drift.
+
+Tolerances come from the noise: the cyclic estimator's tap noise is sqrt(2 / (M + 1)) sigma / a
+per period (docs/noise.md), so the mean over P periods is sigma_h = that / sqrt(P); every tap
+must be within 5 sigma_h of the known response (M taps: a false failure about once in 10^4
+records), and the 95 % bounds must hold the known response on at least 85 % of the taps
+(binomial spread 1.4 % at M = 255)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+import scipy.io
+from scipy import signal
+
+from probing.cli import main as cli_main
+from probing.core.prbs import mls
+
+ORDER, M, AMPLITUDE, SIGMA, DT_S = 8, 255, 0.5, 0.01, 0.05
+SYSTEM = (  # a lightly damped second-order discrete system (poles 0.85 +- 0.3j) plus a D term
+    np.array([[1.7, -0.8125], [1.0, 0.0]]),
+    np.array([[1.0], [0.0]]),
+    np.array([[0.3, -0.1]]),
+    np.array([[0.05]]),
+    DT_S,
+)
+
+
+def pulse_response(spb: int) -> np.ndarray:
+    """The known response to a one-bit pulse of unit amplitude, at the end of each bit."""
+    u = np.zeros(M * spb)
+    u[:spb] = 1.0
+    y = signal.dlsim(SYSTEM, u)[1][:, 0]
+    return y[spb - 1 :: spb]
+
+
+def make_record(
+    spb: int = 1,
+    lead_bits: int = 40,
+    lead_samples: int = 0,
+    tail_samples: int = 0,
+    scipy_sequence: bool = True,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """6 periods and a bit, recorded from probe bit ``lead_bits`` (mid-sequence) and mid-bit
+    (``lead_samples`` of the bit before), ending ``tail_samples`` into an unfinished bit."""
+    seq = 2.0 * signal.max_len_seq(ORDER)[0] - 1.0 if scipy_sequence else mls(ORDER)
+    u = 1.5 + AMPLITUDE * np.repeat(np.tile(seq, 8), spb)
+    y = signal.dlsim(SYSTEM, u - 1.5)[1][:, 0]
+    start = lead_bits * spb - lead_samples
+    stop = start + lead_samples + (6 * M + 1) * spb + tail_samples
+    t = np.arange(stop - start) * DT_S
+    drift = 0.2 + 0.02 * t  # an offset and a slow drift, 25 sigma over the record
+    noise = SIGMA * np.random.default_rng(seed).standard_normal(t.size)
+    return pd.DataFrame(
+        {
+            "t_s": t,
+            "u_deg": u[start:stop],
+            "y": y[start:stop] + drift + noise,
+            "ref": drift,
+        }
+    )
+
+
+def write(frame: pd.DataFrame, path: Path) -> Path:
+    if path.suffix == ".csv":
+        frame.to_csv(path, index=False, float_format="%.17g")
+    elif path.suffix == ".parquet":
+        pq.write_table(pa.Table.from_pandas(frame, preserve_index=False), path)
+    else:
+        scipy.io.savemat(path, {c: frame[c].to_numpy()[:, None] for c in frame})
+    return path
+
+
+def analyze(path: Path, out: Path, *extra: str) -> int:
+    return cli_main(
+        [
+            "analyze", str(path), "--input", "u_deg", "--output", "y", "--time", "t_s",
+            "--order", str(ORDER), "--bit-duration-s", str(DT_S * int(extra[0]) if extra and
+            extra[0].isdigit() else DT_S), "--out", str(out),
+            *(e for e in extra if not e.isdigit()),
+        ]
+    )  # fmt: skip
+
+
+def bounds(out: Path) -> pd.DataFrame:
+    return pq.read_table(out / "bounds.parquet").to_pandas()
+
+
+def sigma_h(periods: int) -> float:
+    return np.sqrt(2.0 / (M + 1)) * SIGMA / AMPLITUDE / np.sqrt(periods)
+
+
+def check_estimate(out: Path, expected: np.ndarray) -> None:
+    b = bounds(out)
+    periods = json.loads(pq.read_metadata(out / "bounds.parquet").metadata[b"probing.confidence"])
+    tol = 5 * sigma_h(periods["dof"] + 1)
+    err = b.h_est.to_numpy() - expected
+    assert np.max(np.abs(err)) < tol, (np.max(np.abs(err)), tol)
+    inside = (b.h_low.to_numpy() <= expected) & (expected <= b.h_high.to_numpy())
+    assert inside.mean() >= 0.85, inside.mean()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".mat"])
+def test_every_format_gives_the_known_response(tmp_path: Path, suffix: str) -> None:
+    """Drift removed by the joint fit: the known response less its mean sum(h) / M (the
+    offset a record does not state); with the reference column, the response itself."""
+    path = write(make_record(), tmp_path / f"rec{suffix}")
+    h = pulse_response(1)
+    assert analyze(path, tmp_path / "detrend") == 0
+    check_estimate(tmp_path / "detrend", h - h.sum() / M)
+    assert analyze(path, tmp_path / "ref", "--reference", "ref") == 0
+    check_estimate(tmp_path / "ref", h)
+    table = pq.read_table(tmp_path / "ref" / "probing.parquet")
+    assert table.num_rows == 5 * M  # 6 periods and a bit from mid-sequence: 5 whole ones
+    assert set(table.column("period").to_pylist()) == set(range(5))
+
+
+def test_same_estimate_from_each_format(tmp_path: Path) -> None:
+    frame = make_record(seed=3)
+    got = []
+    for suffix in (".csv", ".parquet", ".mat"):
+        assert analyze(write(frame, tmp_path / f"r{suffix}"), tmp_path / suffix) == 0
+        got.append(bounds(tmp_path / suffix).h_est.to_numpy())
+    np.testing.assert_allclose(got[0], got[1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[0], got[2], rtol=0, atol=1e-12)
+
+
+def test_mid_bit_start_several_samples_per_bit_and_project_sequence(tmp_path: Path) -> None:
+    """Three samples per bit, the record starting one sample into a bit and ending inside
+    one; the project's own m-sequence (the scipy one inverted) is accepted as well."""
+    frame = make_record(spb=3, lead_bits=100, lead_samples=1, tail_samples=2, scipy_sequence=False)
+    path = write(frame, tmp_path / "rec.csv")
+    assert analyze(path, tmp_path / "out", "3", "--reference", "ref") == 0
+    check_estimate(tmp_path / "out", pulse_response(3))
+    meta = json.loads(pq.read_metadata(tmp_path / "out" / "probing.parquet").metadata[
+        b"probing.analysis"
+    ])  # fmt: skip
+    assert meta["bit_offset_samples"] == 1 and meta["samples_per_bit"] == 3
+    assert meta["sequence_shift_bits"] == 100 and meta["sign"] == 1
+    assert meta["first_sample"] == 1 + 3 * (M - 100)
+    assert meta["periods_used"] == 5
+
+
+def test_drift_none_is_biased_by_the_drift(tmp_path: Path) -> None:
+    """The trend the joint fit removes is what ``--drift none`` leaves in the estimate."""
+    path = write(make_record(), tmp_path / "rec.parquet")
+    h = pulse_response(1)
+    assert analyze(path, tmp_path / "none", "--drift", "none") == 0
+    err = bounds(tmp_path / "none").h_est.to_numpy() - (h - h.sum() / M)
+    assert np.max(np.abs(err)) > 10 * sigma_h(5)
+
+
+def test_provenance_sha256_and_same_bytes(tmp_path: Path) -> None:
+    path = write(make_record(), tmp_path / "rec.csv")
+    assert analyze(path, tmp_path / "a") == 0 and analyze(path, tmp_path / "b") == 0
+    sha = hashlib.sha256(path.read_bytes()).hexdigest()
+    for name in ("probing.parquet", "bounds.parquet"):
+        meta = pq.read_metadata(tmp_path / "a" / name).metadata
+        assert json.loads(meta[b"probing.input"]) == {"file": "rec.csv", "sha256": sha}
+        assert json.loads(meta[b"probing.confidence"])["level"] == 0.95
+    for name in ("probing.parquet", "bounds.parquet", "pulse_response.png"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
+def _gap(f: pd.DataFrame) -> pd.DataFrame:
+    return f.drop(index=300).reset_index(drop=True)
+
+
+def _nan(f: pd.DataFrame) -> pd.DataFrame:
+    f.loc[500, "y"] = np.nan
+    return f
+
+
+def _backwards(f: pd.DataFrame) -> pd.DataFrame:
+    f.loc[[200, 201], "t_s"] = f.loc[[201, 200], "t_s"].to_numpy()
+    return f
+
+
+def _not_msequence(f: pd.DataFrame) -> pd.DataFrame:
+    f.loc[700, "u_deg"] = 3.0 - f.loc[700, "u_deg"]  # one bit flipped
+    return f
+
+
+@pytest.mark.parametrize(
+    ("spoil", "suffix", "extra", "needle"),
+    [
+        (_gap, ".csv", (), "not uniform at row 300"),
+        (_nan, ".parquet", (), "column y has NaN"),
+        (_backwards, ".mat", (), "not strictly increasing"),
+        (_not_msequence, ".csv", (), "not an m-sequence of order 8"),
+        (lambda f: f, ".csv", ("--output", "pitch"), "no column pitch"),
+        (lambda f: f, ".txt", (), "unknown file type"),
+    ],
+)
+def test_bad_input_one_line_exit_2_nothing_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], spoil, suffix, extra, needle
+) -> None:
+    frame = spoil(make_record())
+    path = tmp_path / f"rec{suffix}"
+    write(frame, path) if suffix != ".txt" else frame.to_csv(path, index=False)
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert analyze(path, out, *extra) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("probing: error: ") and needle in err[0], err
+    assert not out.exists()
