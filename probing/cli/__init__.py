@@ -1,5 +1,5 @@
-"""The probing command line: run, truth, monitor, sweep, fig4, plot, design, modes, gtm-damage,
-examples, cache, analyze.
+"""The probing command line: run, truth, monitor, live, sweep, fig4, plot, design, modes,
+gtm-damage, analyze, examples, cache.
 
 Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused, an output
 folder or file that cannot be written, a Dask scheduler that does not answer, an aircraft
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from probing import __version__
-from probing.cli import analyze, cache, design, examples, fig4, gtm, plot, run, sweep
+from probing.cli import analyze, cache, design, examples, fig4, gtm, live, plot, run, sweep
 from probing.cli.common import UsageError, _error, _Parser
 from probing.core.forked import INTERRUPTS
 
@@ -41,7 +41,7 @@ See README.md and docs/ for the formats and the method."""
 
 #: The command modules, in the order of the top-level help: each adds its commands to the
 #: parser (``register``) and runs them (``args.func``).  A new command is a module here.
-COMMANDS = (run, sweep, fig4, plot, design, gtm, analyze, examples, cache)
+COMMANDS = (run, live, sweep, fig4, plot, design, gtm, analyze, examples, cache)
 
 
 def build_parser() -> argparse.ArgumentParser:

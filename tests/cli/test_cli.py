@@ -571,7 +571,8 @@ def test_help_states_each_default_once_and_never_none() -> None:
 def test_top_level_help_lists_every_command_once() -> None:
     text = build_parser().format_help()
     names = list(_subcommands())
-    assert "gtm-damage" in names and "analyze" in names and len(names) == 12
+    assert "gtm-damage" in names and "analyze" in names and "live" in names
+    assert len(names) == 13
     listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ")]
     listed = [word for word in listed if word in names]
     assert listed == names, text

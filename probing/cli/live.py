@@ -1,0 +1,112 @@
+"""``probing live``: a scenario flown on a JSBSim process started apart, with the monitor."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _load_scenario,
+    _out_folder,
+    _path,
+    _run_folder,
+    _simulating,
+    command,
+)
+
+if TYPE_CHECKING:
+    from probing.experiment.scenario import Scenario
+
+#: Simulated time the written script flies beyond the scenario, s (set-up and margin).
+END_MARGIN_S = 60.0
+
+
+def _cmd_live(args: argparse.Namespace) -> int:
+    from probing.experiment.live import LiveError, check_live
+
+    if (args.connect is None) == (args.write_sim is None):
+        raise UsageError("live: give --connect HOST:PORT or --write-sim DIR (one of them)")
+    scn = _load_scenario(args.scenario)
+    try:
+        check_live(scn)
+    except LiveError as exc:
+        raise UsageError(str(exc)) from None
+    if args.write_sim is not None:
+        return _write_sim(scn, args)
+    return _connect(scn, args)
+
+
+def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
+    """``--write-sim DIR``: the simulator's files, and the command that starts it."""
+    from probing.sim.live_sim import write_sim
+
+    folder = _out_folder(args.write_sim, "--write-sim")
+    end_s = scn.total_steps * scn.dt_s + END_MARGIN_S
+    line = write_sim(scn.flight, folder, args.port, end_s)
+    print(shlex.join(line))
+    return 0
+
+
+def _connect(scn: Scenario, args: argparse.Namespace) -> int:
+    """``--connect HOST:PORT``: the live flight (the output folder checked first)."""
+    from probing.experiment.live import LiveError, live_monitor
+    from probing.experiment.sim_socket import SimConnectionError, is_loopback, parse_address
+
+    try:
+        host, port = parse_address(args.connect)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if not is_loopback(host) and not args.allow_remote:
+        raise UsageError(
+            f"--connect {args.connect}: not this machine's loopback; give --allow-remote to "
+            "fly a simulator elsewhere"
+        )
+    _run_folder(args.out, scn)
+
+    def job() -> int:
+        try:
+            result = live_monitor(scn, host, port, args.out, realtime=args.realtime)
+        except (SimConnectionError, LiveError) as exc:
+            raise UsageError(str(exc)) from None
+        print(f"{scn.name} (live): {result.monitor.line()} -> {result.monitor.out_dir}")
+        print(f"{scn.name} (live): {result.headroom_line()}")
+        return 0
+
+    return _simulating(job, str(args.scenario))
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``live`` to ``sub``."""
+    live = command(
+        sub,
+        "live",
+        "fly a scenario on a JSBSim process started apart (its input socket, lock step) with "
+        "the monitor: sensors.parquet, probing.parquet, monitor.parquet (docs/live.md)",
+    )
+    live.add_argument("scenario", type=_path, help="scenario TOML file (docs/scenarios.md)")
+    live.add_argument("--connect", metavar="HOST:PORT", help="the simulator's input socket")
+    live.add_argument(
+        "--write-sim",
+        type=_path,
+        metavar="DIR",
+        help="write the simulator's JSBSim root into DIR and print the command that starts it",
+    )
+    live.add_argument(
+        "--port", type=int, default=5139, help="with --write-sim: the input socket's TCP port"
+    )
+    live.add_argument(
+        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+    )
+    live.add_argument(
+        "--realtime", action="store_true", help="pace the frames at the wall clock (dt each)"
+    )
+    live.add_argument(
+        "--allow-remote",
+        action="store_true",
+        help="connect to a HOST other than this machine's loopback",
+    )
+    live.set_defaults(func=_cmd_live)

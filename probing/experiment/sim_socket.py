@@ -1,0 +1,165 @@
+"""The flight computer's side of JSBSim's input socket: a text client over TCP.
+
+A JSBSim whose aircraft has ``<input type="SOCKET" port="P" protocol="TCP"/>`` answers
+lines ending in ``\\r\\n``: ``set <property> <value>`` (``set successful``), ``get
+<property>`` (``<property> = <value>``, printed with 6 significant digits), ``hold``
+(``Holding``), ``resume`` (``Resuming``), ``iterate <n>``, ``quit``.  With
+``action="BLOCKING_INPUT"`` a running simulator waits in every frame, after integrating the
+state and before the flight-control system, until a message comes, and answers every
+command in it: one message is one frame.  Each reply line is followed by the
+prompt ``JSBSim> `` in a segment of its own; the client reads reply *lines* and never waits
+for a prompt, and acknowledges every segment at once (:data:`QUICKACK`).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import socket
+import time
+
+__all__ = ["SimConnectionError", "SimSocket", "is_loopback", "parse_address"]
+
+PROMPT = "JSBSim> "
+
+#: Acknowledge each segment at once (Linux): JSBSim sends a reply and its prompt in separate
+#: small segments, and with Nagle's algorithm on its side each one after the first waits for
+#: the acknowledgement of the one before, which a delayed ACK holds back 40 ms.
+QUICKACK = getattr(socket, "TCP_QUICKACK", None)
+
+
+class SimConnectionError(ConnectionError):
+    """The simulator cannot be reached or answered something else; the message says which."""
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` -> (host, port).
+
+    Raises
+    ------
+    ValueError
+        If it is not ``HOST:PORT`` with a port 1..65535.
+    """
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"--connect {text!r}: give HOST:PORT (a port 1..65535)")
+    return host.strip("[]"), int(port)
+
+
+def is_loopback(host: str) -> bool:
+    """True if ``host`` names this machine's loopback (``localhost``, 127.0.0.0/8, ``::1``);
+    a name is not resolved: any other is treated as remote."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class SimSocket:
+    """A connection to a JSBSim input socket.
+
+    Parameters
+    ----------
+    host, port
+        Where the simulator listens.
+    timeout_s : float
+        The longest wait for a connection or a reply, s.
+
+    Attributes
+    ----------
+    wait_s : float
+        Time spent waiting for the simulator's replies since the connection, s.
+    """
+
+    def __init__(self, host: str, port: int, timeout_s: float = 10.0) -> None:
+        self.where = f"{host}:{port}"
+        try:
+            self.sock = socket.create_connection((host, port), timeout=timeout_s)
+        except OSError as exc:
+            reason = exc.strerror or exc.__class__.__name__
+            raise SimConnectionError(f"no simulator at {self.where} ({reason})") from None
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.buffer = ""
+        self.wait_s = 0.0
+        greeting = self._lines(1)[0]
+        if "JSBSim" not in greeting:
+            self.close()
+            raise SimConnectionError(f"{self.where} is not a JSBSim input socket: {greeting!r}")
+
+    def _lines(self, count: int) -> list[str]:
+        """The next ``count`` reply lines (prompts removed)."""
+        lines: list[str] = []
+        start = time.perf_counter()
+        while len(lines) < count:
+            while "\r\n" not in self.buffer:
+                try:
+                    if QUICKACK is not None:  # every time: the kernel turns it off again
+                        self.sock.setsockopt(socket.IPPROTO_TCP, QUICKACK, 1)
+                    data = self.sock.recv(65536)
+                except OSError as exc:
+                    raise SimConnectionError(f"{self.where}: {exc}") from None
+                if not data:
+                    raise SimConnectionError(f"{self.where} closed the connection")
+                self.buffer += data.decode("ascii", "replace")
+            line, self.buffer = self.buffer.split("\r\n", 1)
+            line = line.replace(PROMPT, "").strip()
+            if line:
+                lines.append(line)
+        self.wait_s += time.perf_counter() - start
+        return lines
+
+    def _send(self, commands: list[str]) -> list[str]:
+        """Send ``commands`` together; their replies, one line each."""
+        try:
+            self.sock.sendall("".join(f"{c}\r\n" for c in commands).encode("ascii"))
+        except OSError as exc:
+            raise SimConnectionError(f"{self.where}: {exc}") from None
+        return self._lines(len(commands))
+
+    def hold(self) -> None:
+        """Stop the simulator's clock (``hold``)."""
+        self._expect(["hold"], ["Holding"])
+
+    def resume(self) -> None:
+        """Start the simulator's clock (``resume``)."""
+        self._expect(["resume"], ["Resuming"])
+
+    def exchange(self, values: dict[str, float], names: list[str]) -> list[float]:
+        """Write ``values`` (full precision) and read the properties ``names`` in one message:
+        with a blocking input socket, one frame of the simulator."""
+        commands = [f"set {name} {value!r}" for name, value in values.items()]
+        replies = self._send([*commands, *(f"get {n}" for n in names)])
+        for command, reply in zip(commands, replies, strict=False):
+            if reply != "set successful":
+                raise SimConnectionError(f"{self.where}: {command}: {reply!r}")
+        return [
+            _value(self.where, n, line)
+            for n, line in zip(names, replies[len(commands) :], strict=True)
+        ]
+
+    def get(self, names: list[str]) -> list[float]:
+        """The properties ``names`` (6 significant digits: JSBSim's reply)."""
+        return self.exchange({}, names)
+
+    def _expect(self, commands: list[str], wanted: list[str]) -> None:
+        """Send ``commands``; their replies must be ``wanted``."""
+        for command, reply, ok in zip(commands, self._send(commands), wanted, strict=True):
+            if reply != ok:
+                raise SimConnectionError(f"{self.where}: {command}: {reply!r}")
+
+    def close(self) -> None:
+        """Say ``quit`` (the simulator stays held) and close."""
+        try:
+            self.sock.sendall(b"quit\r\n")
+        except OSError:
+            pass
+        self.sock.close()
+
+
+def _value(where: str, name: str, line: str) -> float:
+    """The value in a ``get`` reply ``<name> = <value>``."""
+    key, sep, value = line.partition(" = ")
+    if not sep or key.strip() != name:
+        raise SimConnectionError(f"{where}: get {name}: {line!r}")
+    return float(value)

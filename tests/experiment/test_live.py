@@ -1,0 +1,156 @@
+"""``probing live``: a scenario flown on a JSBSim process started apart from the project
+(the ``jsbsim`` executable, on a free loopback port), through its input socket in lock step.
+
+The live flight's tables equal a replay of the log it recorded bit for bit, and its
+estimates agree with the same scenario flown in this process (``probing monitor``)."""
+
+from __future__ import annotations
+
+import shlex
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from probing.cli import main
+from probing.experiment.monitor import monitor_scenario, replay_monitor
+from probing.experiment.scenario import load_scenario
+
+pytestmark = pytest.mark.jsbsim
+
+SCENARIO = """\
+name = "live-737"
+[aircraft]
+model = "737"
+[condition]
+altitude_ft = 15000
+speed_kcas = 280
+[simulation]
+dt_s = 0.01
+[probe]
+order = 5
+bit_duration_s = 0.02
+amplitude_deg = 0.5
+periods = 10
+settle_periods = 2
+[nonlinearity]
+type = "none"
+[output]
+channels = ["theta_rad", "q_rad_s", "alpha_rad"]
+drift = "detrend"
+[disturbance]
+turbulence = "none"
+sensor_noise = { theta_rad = 1e-6 }
+seed = 3
+[monitor]
+baseline_periods = 5
+windows = 3
+"""
+
+#: The longest the simulator may take to load and trim, s.
+START_S = 60.0
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    """The scenario flown live on a separate jsbsim process (always stopped afterwards)."""
+    base = tmp_path_factory.mktemp("live")
+    scenario = base / "live.toml"
+    scenario.write_text(SCENARIO)
+    port = _free_port()
+    sim_dir = base / "sim"
+    assert main(["live", str(scenario), "--write-sim", str(sim_dir), "--port", str(port)]) == 0
+    line = shlex.split((sim_dir / "command.txt").read_text())
+    line[0] = str(Path(sys.executable).with_name("jsbsim"))
+    log = (base / "jsbsim.log").open("w")
+    proc = subprocess.Popen(line, stdout=log, stderr=subprocess.STDOUT, cwd=base)
+    try:
+        deadline = time.monotonic() + START_S
+        while "Execution beginning" not in (base / "jsbsim.log").read_text():
+            assert proc.poll() is None and time.monotonic() < deadline, "jsbsim did not start"
+            time.sleep(0.1)
+        code = main(["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(base)])
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        log.close()
+    assert code == 0
+    return base, load_scenario(scenario)
+
+
+def _table(folder: Path, name: str):
+    return pq.read_table(folder / name).to_pandas()
+
+
+def test_the_live_flight_writes_the_monitors_files(live):
+    base, scn = live
+    for name in ("sensors.parquet", "probing.parquet", "monitor.parquet"):
+        assert (base / scn.name / name).is_file(), name
+    log = _table(base / scn.name, "sensors.parquet")
+    assert len(log) == scn.total_steps and np.isfinite(log.to_numpy(dtype=float)).all()
+
+
+def test_a_replay_of_the_live_log_is_the_live_monitor_bit_for_bit(live, tmp_path):
+    base, scn = live
+    again = replay_monitor(base / scn.name / "sensors.parquet", tmp_path, progress=False)
+    for name in ("monitor.parquet", "probing.parquet"):
+        a, b = _table(base / scn.name, name), _table(again.out_dir, name)
+        assert len(a) > 0 and a.equals(b), name
+
+
+def test_the_live_estimate_agrees_with_the_flight_in_this_process(live, tmp_path):
+    base, scn = live
+    monitor_scenario(scn, tmp_path, progress=False)
+    a = _table(base / scn.name, "probing.parquet")
+    b = _table(tmp_path / scn.name, "probing.parquet")
+    for first, tolerance in ((scn.settle_periods, SETTLED), (LATE_PERIOD, LATE)):
+        for channel in scn.channels:
+            ha = a[(a.channel == channel) & (a.period >= first)].h_est.to_numpy()
+            hb = b[(b.channel == channel) & (b.period >= first)].h_est.to_numpy()
+            assert ha.size == hb.size > 0
+            assert np.abs(ha - hb).max() <= tolerance * np.abs(hb).max(), (channel, first)
+
+
+#: The live estimate's largest difference from this process's, relative to the largest tap:
+#: over the settled periods (measured: 3.0e-2), and from period 6 on (measured: 4.4e-3).
+#: The flight in this process starts with a kick the separate simulator does not have (its
+#: first frame after the elevator's calibration, q = 5.6e-5 rad/s with the trim command
+#: held), which decays; the separate simulator's readings have 6 significant digits
+#: (docs/live.md, "Agreement with this process").
+SETTLED, LATE_PERIOD, LATE = 0.05, 6, 0.01
+
+
+def test_a_remote_host_is_refused_without_allow_remote(tmp_path, capsys):
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO)
+    code = main(["live", str(scenario), "--connect", "192.0.2.1:5139", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and "--allow-remote" in err and err.count("\n") == 1
+    assert not (tmp_path / "live-737").exists()
+
+
+def test_nothing_listening_is_one_line_and_exit_2(tmp_path, capsys):
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO)
+    out = tmp_path / "out"
+    code = main(
+        ["live", str(scenario), "--connect", f"127.0.0.1:{_free_port()}", "--out", str(out)]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and "no simulator at" in err and err.count("\n") == 1
+    assert not (out / "live-737").exists()
