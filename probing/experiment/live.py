@@ -10,8 +10,12 @@ adds it) and is fed to the same :class:`~probing.experiment.onboard.Onboard` and
 (:class:`probing.experiment.monitor._Monitor`) in the same chunks as ``probing monitor``
 and its replay, so ``probing monitor --replay`` of the log gives the same tables bit for bit.
 
-Supported: open loop (no ``[control]``), calm air, no ``[fault]``, no ``[sensors]`` suite,
-``output.drift`` ``none`` or ``detrend`` (:func:`check_live`).
+With a ``[sensors]`` suite the values read are the true states: the suite's sensors
+(:class:`probing.sim.sensing.SensorBank`, seeded as a flight in this process seeds them) are
+applied on the flight computer's side before the rows are logged and estimated.
+
+Supported: open loop (no ``[control]``), calm air, no ``[fault]``, ``output.drift``
+``none`` or ``detrend`` (:func:`check_live`).
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from probing.experiment.storage import metadata, output_folder, probing_block
 from probing.sim.channels import CHANNELS
 from probing.sim.errors import DivergenceError
 from probing.sim.plant import Plant, make_plant
+from probing.sim.sensing import SensorBank
 from probing.sim.surfaces import SURFACES
 
 __all__ = ["LIVE_DRIFTS", "LiveError", "LiveResult", "check_live", "live_monitor"]
@@ -44,8 +49,8 @@ __all__ = ["LIVE_DRIFTS", "LiveError", "LiveResult", "check_live", "live_monitor
 LIVE_DRIFTS = ("none", "detrend")
 
 SUPPORTED = (
-    "probing live supports open-loop scenarios (no [control]) in calm air, without [fault] or "
-    "[sensors], with output.drift none or detrend"
+    "probing live supports open-loop scenarios (no [control]) in calm air, without [fault], "
+    "with output.drift none or detrend"
 )
 
 
@@ -64,8 +69,6 @@ def check_live(scn: Scenario) -> None:
         reasons.append(f"turbulence is {scn.turbulence}")
     if scn.fault_type != "none":
         reasons.append(f"it has a [fault] ({scn.fault_type})")
-    if scn.sensors is not None:
-        reasons.append("it has a [sensors] suite")
     if scn.simultaneous is not None or scn.manoeuvre is not None:
         reasons.append("it has a [simultaneous] or [manoeuvre] section")
     if reasons:
@@ -145,7 +148,28 @@ STATE_PREFIXES = (
     *(f"velocities/{v}" for v in ("p-rad_sec", "q-rad_sec", "r-rad_sec", "u-fps", "v-fps")),
     "velocities/w-fps",
     "velocities/h-dot-fps",
+    *(f"velocities/v-{d}-fps" for d in ("north", "east", "down")),
 )
+
+
+class _Read:
+    """What the flight computer reads of the simulator, taken at the trim: the channels it
+    logs (the suite's, with ``[sensors]``, else the scenario's), their properties, the
+    sensors (None without a suite) and the trim as measured (the scenario's channels).
+
+    Without a suite the values read are what is measured; with one they are the true values,
+    and the suite's sensors, started in steady state at the trim's true values, measure them.
+    """
+
+    def __init__(self, scn: Scenario, sim: SimSocket) -> None:
+        suite = scn.sensors
+        self.channels = list(suite.sensors) if suite is not None else list(scn.channels)
+        self.props = [CHANNELS[c].prop for c in self.channels]
+        true = sim.get(self.props)
+        self.sensors = None if suite is None else SensorBank(suite, scn.dt_s, scn.seed, true)
+        measured = self.sensors.current if self.sensors is not None else true
+        trim = dict(zip(self.channels, measured, strict=True))
+        self.y_trim = np.array([trim[c] for c in scn.channels])
 
 
 class _Lockstep:
@@ -202,11 +226,10 @@ def live_monitor(
         (dt_sim,) = sim.get(["simulation/dt"])
         if not math.isclose(dt_sim, scn.dt_s, rel_tol=1e-5):
             raise LiveError(f"{sim.where} steps at dt {dt_sim:g} s, the scenario at {scn.dt_s:g} s")
-        props = [CHANNELS[c].prop for c in scn.channels]
-        y_trim = np.array(sim.get(props))  # held: the trimmed aircraft
+        read = _Read(scn, sim)  # held: the trimmed aircraft
         sim.resume()  # it runs the frame's rest at the trim, then waits in the next frame
         target = Path(folder) if folder is not None else Path(out) / scn.name
-        return _fly(scn, plant, sim, props, y_trim, target, realtime, progress, stream)
+        return _fly(scn, plant, sim, read, target, realtime, progress, stream)
     finally:
         sim.close()
 
@@ -215,8 +238,7 @@ def _fly(
     scn: Scenario,
     plant: Plant,
     sim: SimSocket,
-    props: list[str],
-    y_trim: np.ndarray,
+    read: _Read,
     folder: Path,
     realtime: bool,
     progress: bool | None,
@@ -225,16 +247,17 @@ def _fly(
     """The flight after the connection: chunks of whole periods stepped, logged, estimated."""
     monitor = _Monitor(scn, scn.monitor_settings())
     actuator = _Actuator(scn, plant)
-    flown = _Chunks(scn, actuator, _Lockstep(sim, props, actuator.names), realtime)
+    lock = _Lockstep(sim, read.props, actuator.names)
+    flown = _Chunks(scn, actuator, lock, read.sensors, realtime)
     m, channels = scn.bits_per_period, list(scn.channels)
-    onboard = Onboard(scn, None, y_trim, flown.chunk * m)
+    onboard = Onboard(scn, None, read.y_trim, flown.chunk * m)
     lag_s = np.arange(m) * scn.probe.bit_duration_s
     wait0, start, chunk_s = sim.wait_s, time.perf_counter(), 0.0
     meta = scenario_provenance(scn, plant.trim_result, drift=scn.drift, live=sim.where)
     with output_folder(folder, meta) as outputs, _bar(scn, stream, progress) as bar:
-        schema = sensors_schema(channels, False, scn.surface)
-        w_log = outputs.writer("sensors.parquet", channels, scn.surface_unit, schema=schema)
-        trim = dict(zip(channels, y_trim.tolist(), strict=True))
+        schema = sensors_schema(read.channels, False, scn.surface)
+        w_log = outputs.writer("sensors.parquet", read.channels, scn.surface_unit, schema=schema)
+        trim = dict(zip(channels, read.y_trim.tolist(), strict=True))
         w_log.add_metadata(metadata(trim_measured=trim))
         w_probe = outputs.writer("probing.parquet", channels, scn.surface_unit)
         monitor.open(outputs)
@@ -258,10 +281,19 @@ def _fly(
 
 class _Chunks:
     """The flight in chunks of whole periods, as ``probing monitor`` and its replay chunk it:
-    each chunk's rows of ``sensors.parquet`` (sensor noise added as a flight adds it)."""
+    each chunk's rows of ``sensors.parquet`` (the suite's sensors applied, or
+    ``disturbance.sensor_noise`` added, as a flight in this process does)."""
 
-    def __init__(self, scn: Scenario, actuator: _Actuator, lock: _Lockstep, realtime: bool) -> None:
+    def __init__(
+        self,
+        scn: Scenario,
+        actuator: _Actuator,
+        lock: _Lockstep,
+        sensors: SensorBank | None,
+        realtime: bool,
+    ) -> None:
         self.scn, self.actuator, self.lock, self.realtime = scn, actuator, lock, realtime
+        self.sensors = sensors
         self.n_steps = scn.probe.length * scn.steps_per_bit
         self.chunk = max(1, CHUNK_STEPS // self.n_steps)
         self.sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
@@ -278,7 +310,7 @@ class _Chunks:
         start = time.perf_counter()
         for first in range(0, scn.periods, self.chunk):
             k = min(self.chunk, scn.periods - first)
-            out = np.full((k * n, len(scn.channels)), np.nan)
+            out = np.full((k * n, len(lock.props)), np.nan)
             for i in range(k):
                 for step, command in enumerate(self.actuator.period().tolist()):
                     row = i * n + step
@@ -305,8 +337,11 @@ class _Chunks:
         scn, n = self.scn, self.n_steps
         if not np.all(np.isfinite(out)):
             raise DivergenceError("the simulator's outputs are not finite")
-        measured = _measured(out, self.rng, self.sigma, None, scn, first * n)
-        recorded = dict(zip(scn.channels, measured.T, strict=True))
+        if self.sensors is not None:  # the true values, measured by the suite's sensors
+            recorded = dict(zip(self.sensors.channels, self.sensors.measure(out).T, strict=True))
+        else:
+            measured = _measured(out, self.rng, self.sigma, None, scn, first * n)
+            recorded = dict(zip(scn.channels, measured.T, strict=True))
         count = out.shape[0] // n
         return _log(scn, first * n, self.actuator.x_period, count, None, recorded, len(out))
 

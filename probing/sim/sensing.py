@@ -5,7 +5,9 @@ sensor suite (:data:`probing.core.sensors.SENSOR_SUITES`) and passes it through 
 channel's :class:`~probing.core.sensors.Sensor` (noise, bias, scale factor, lag, sample
 rate).  The autopilot (:class:`probing.sim.control.ClosedLoop`) flies on these
 measurements, and they are what a flight records (``sensors.parquet``): nothing else of the
-simulation reaches the flight computer.
+simulation reaches the flight computer.  A :class:`SensorBank` is the same sensors, seeded
+alike, on true values handed in: a live flight (:mod:`probing.experiment.live`) applies
+them on the flight computer's side to what the separate simulator gives.
 """
 
 from __future__ import annotations
@@ -16,14 +18,64 @@ from probing.core.faults import SensorBias, onset_step
 from probing.core.sensors import Sensor, SensorSuite
 from probing.sim.plant import Plant
 
-__all__ = ["SENSOR_STREAM", "Sensing"]
+__all__ = ["SENSOR_STREAM", "Sensing", "SensorBank"]
 
 #: The sensors' noise stream: ``numpy.random.default_rng([seed, SENSOR_STREAM])``, apart from
 #: the scenario seed's other uses (JSBSim's turbulence, ``disturbance.sensor_noise``).
 SENSOR_STREAM = 1
 
 
-class Sensing:
+class SensorBank:
+    """The sensors of a suite, each started in steady state at its true trim value: what
+    they measure of true values handed in (a plant here, or a simulator elsewhere).
+
+    Parameters
+    ----------
+    suite : SensorSuite
+        The sensors, channel -> spec; the channels are measured in the suite's order.
+    dt_s : float
+        The simulation step, s.
+    seed : int
+        The scenario's seed (the noise comes from stream :data:`SENSOR_STREAM` of it).
+    trim : list of float
+        The true value of each channel at the trim, in the suite's order.
+    """
+
+    def __init__(self, suite: SensorSuite, dt_s: float, seed: int, trim: list[float]) -> None:
+        self.channels: tuple[str, ...] = tuple(suite.sensors)
+        self.sensors = [Sensor(suite.sensors[c], dt_s) for c in self.channels]
+        for sensor, value in zip(self.sensors, trim, strict=True):
+            sensor.reset(value)
+        #: The latest measurement of each channel (at the start: the trim's, noise-free); the
+        #: loop updates it in place after every step.
+        self.current: list[float] = [s.output for s in self.sensors]
+        self.rng = np.random.default_rng([int(seed), SENSOR_STREAM])
+
+    def index(self, channel: str) -> int:
+        """The column of ``channel`` in the measurements (ValueError if not measured)."""
+        if channel not in self.channels:
+            raise ValueError(f"no sensor measures {channel}")
+        return self.channels.index(channel)
+
+    def noise(self, n: int) -> list[list[float]]:
+        """The next ``n`` steps' standard-normal draws, one per sensor and step."""
+        return self.rng.standard_normal((n, len(self.sensors))).tolist()
+
+    def measure(self, true: np.ndarray) -> np.ndarray:
+        """The measurements ``(n, sensors)`` of the next ``n`` steps' true values ``true``
+        ``(n, sensors)``, as a plant's loop measures them step by step."""
+        noise = self.noise(true.shape[0])
+        steps = [s.step for s in self.sensors]
+        rows = [
+            [st(v, e) for st, v, e in zip(steps, row, draws, strict=True)]
+            for row, draws in zip(true.tolist(), noise, strict=True)
+        ]
+        if rows:
+            self.current[:] = rows[-1]
+        return np.array(rows, dtype=np.float64).reshape(true.shape)
+
+
+class Sensing(SensorBank):
     """The sensors of a suite on a trimmed plant, each started in steady state at its trim.
 
     Parameters
@@ -42,16 +94,9 @@ class Sensing:
     def __init__(
         self, plant: Plant, suite: SensorSuite, seed: int, fault: SensorBias | None = None
     ) -> None:
-        self.channels: tuple[str, ...] = tuple(suite.sensors)
-        nodes = plant.channel_nodes(list(self.channels))
+        nodes = plant.channel_nodes(list(suite.sensors))
         self.getters = [node.get_double_value for node in nodes]
-        self.sensors = [Sensor(suite.sensors[c], plant.dt_s) for c in self.channels]
-        for sensor, get in zip(self.sensors, self.getters, strict=True):
-            sensor.reset(get())
-        #: The latest measurement of each channel (at the start: the trim's, noise-free); the
-        #: loop updates it in place after every step.
-        self.current: list[float] = [s.output for s in self.sensors]
-        self.rng = np.random.default_rng([int(seed), SENSOR_STREAM])
+        super().__init__(suite, plant.dt_s, seed, [get() for get in self.getters])
         self.fault_channel: int | None = None
         self.fault_bias = 0.0
         self.fault_onset = -1
@@ -61,13 +106,3 @@ class Sensing:
             self.fault_channel = self.channels.index(fault.channel)
             self.fault_bias = float(fault.bias)
             self.fault_onset = onset_step(fault.onset_s, plant.dt_s)
-
-    def index(self, channel: str) -> int:
-        """The column of ``channel`` in the measurements (ValueError if not measured)."""
-        if channel not in self.channels:
-            raise ValueError(f"no sensor measures {channel}")
-        return self.channels.index(channel)
-
-    def noise(self, n: int) -> list[list[float]]:
-        """The next ``n`` steps' standard-normal draws, one per sensor and step."""
-        return self.rng.standard_normal((n, len(self.sensors))).tolist()

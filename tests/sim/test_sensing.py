@@ -12,7 +12,7 @@ from probing.core.sensors import SENSOR_SUITES
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Control, Flight
 from probing.sim.plant import make_plant
-from probing.sim.sensing import Sensing
+from probing.sim.sensing import Sensing, SensorBank
 
 pytestmark = pytest.mark.jsbsim
 
@@ -80,3 +80,21 @@ def test_the_same_seed_measures_the_same_bits_and_another_seed_does_not(flight):
     other = _fly(seed=2)[3]
     assert np.array_equal(measured, again)
     assert not np.array_equal(measured, other)
+
+
+def test_a_sensor_bank_on_the_same_true_values_measures_the_same_bits():
+    """What a live flight does on the flight computer's side (probing.experiment.live): the
+    suite's sensors, seeded alike and started at the same true trim, on the true values
+    handed in (in chunks of any size) measure what the sensors on the plant measured."""
+    plant = make_plant(FLIGHT)
+    sensing = Sensing(plant, SUITE, 3)
+    trim = [get() for get in sensing.getters]
+    loop = ClosedLoop(plant, CONTROL, control_power(FLIGHT), sensing=sensing)
+    nodes = plant.channel_nodes(list(sensing.channels))
+    true, measured = np.empty((500, len(nodes))), np.empty((500, len(nodes)))
+    loop.step(None, nodes, true[:300], measured=measured[:300])
+    loop.step(None, nodes, true[300:], measured=measured[300:])
+    bank = SensorBank(SUITE, plant.dt_s, 3, trim)
+    got = np.vstack([bank.measure(true[:123]), bank.measure(true[123:])])
+    assert np.array_equal(got, measured)
+    assert bank.current == sensing.current
