@@ -4,11 +4,13 @@ The simulator is started separately (:func:`probing.sim.live_sim.write_sim` writ
 needs) and driven through its input socket (:class:`~probing.experiment.sim_socket.SimSocket`)
 in lock step: held, then per step the probed surface's command written (trim plus the
 probe after the scenario's nonlinearity, through the model's command-to-position map),
-one frame iterated, the channels read.  Each chunk of whole periods becomes the rows of
-``sensors.parquet`` (:func:`probing.experiment.run._log`, sensor noise added as a flight
-adds it) and is fed to the same :class:`~probing.experiment.onboard.Onboard` and monitor
-(:class:`probing.experiment.monitor._Monitor`) in the same chunks as ``probing monitor``
-and its replay, so ``probing monitor --replay`` of the log gives the same tables bit for bit.
+one frame iterated, the channels read.  Each period (:data:`LIVE_CHUNK_PERIODS`) becomes
+the rows of ``sensors.parquet`` (:func:`probing.experiment.run._log`, sensor noise added as
+a flight adds it) and is fed to the same :class:`~probing.experiment.onboard.Onboard` and
+monitor (:class:`probing.experiment.monitor._Monitor`) as ``probing monitor``'s, and a line
+per period reports it; the log's footer records the chunk (``probing.chunk_periods``) and
+``probing monitor --replay`` of the log chunks it alike, so it gives the same tables bit for
+bit.
 
 With a ``[sensors]`` suite the values read are the true states: the suite's sensors
 (:class:`probing.sim.sensing.SensorBank`, seeded as a flight in this process seeds them) are
@@ -33,7 +35,7 @@ from probing.experiment.layouts import sensors_schema
 from probing.experiment.monitor import MonitorResult, _Monitor
 from probing.experiment.onboard import Onboard
 from probing.experiment.progress import Progress, progress_bar
-from probing.experiment.run import CHUNK_STEPS, _log, _measured, scenario_provenance
+from probing.experiment.run import _log, _measured, scenario_provenance
 from probing.experiment.scenario import Scenario
 from probing.experiment.sim_socket import SimSocket
 from probing.experiment.storage import metadata, output_folder, probing_block
@@ -43,10 +45,23 @@ from probing.sim.plant import Plant, make_plant
 from probing.sim.sensing import SensorBank
 from probing.sim.surfaces import SURFACES
 
-__all__ = ["LIVE_DRIFTS", "LiveError", "LiveResult", "check_live", "live_monitor"]
+__all__ = [
+    "LIVE_CHUNK_PERIODS",
+    "LIVE_DRIFTS",
+    "LiveError",
+    "LiveResult",
+    "check_live",
+    "live_monitor",
+]
 
 #: The drift modes a live flight supports: no model of the aircraft flies beside it.
 LIVE_DRIFTS = ("none", "detrend")
+
+#: The periods a live flight logs and estimates at a time: one, so each period's estimate and
+#: the monitor's state are known (and reported) as the period ends.  The log's footer records
+#: it (``probing.chunk_periods``): its replay chunks the rows alike, so its tables are equal
+#: bit for bit (a flight in this process chunks by ``probing.experiment.run.CHUNK_STEPS``).
+LIVE_CHUNK_PERIODS = 1
 
 SUPPORTED = (
     "probing live supports open-loop scenarios (no [control]) in calm air, without [fault], "
@@ -258,10 +273,10 @@ def _fly(
         schema = sensors_schema(read.channels, False, scn.surface)
         w_log = outputs.writer("sensors.parquet", read.channels, scn.surface_unit, schema=schema)
         trim = dict(zip(channels, read.y_trim.tolist(), strict=True))
-        w_log.add_metadata(metadata(trim_measured=trim))
+        w_log.add_metadata(metadata(trim_measured=trim, chunk_periods=flown.chunk))
         w_probe = outputs.writer("probing.parquet", channels, scn.surface_unit)
         monitor.open(outputs)
-        for first, log in flown.logs(bar):
+        for first, log in flown.logs():
             begun = time.perf_counter()
             w_log.write(log)
             done = onboard.estimates(log, first)
@@ -269,7 +284,7 @@ def _fly(
             if est.periods.size:
                 w_probe.write(probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h))
             monitor.update(est.periods, est.h, est.z, done.trajectory)
-            _report(bar, monitor, est)
+            _report(bar, monitor, est, first, len(log["time_s"]) // flown.n_steps)
             chunk_s = max(chunk_s, time.perf_counter() - begun)
         monitor.finish()
     wall = time.perf_counter() - start
@@ -295,15 +310,14 @@ class _Chunks:
         self.scn, self.actuator, self.lock, self.realtime = scn, actuator, lock, realtime
         self.sensors = sensors
         self.n_steps = scn.probe.length * scn.steps_per_bit
-        self.chunk = max(1, CHUNK_STEPS // self.n_steps)
+        self.chunk = LIVE_CHUNK_PERIODS
         self.sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
         self.rng = np.random.default_rng(scn.seed)
         self.slept_s = 0.0  # the pacing's sleeps (--realtime), s
 
-    def logs(self, bar: Progress) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        """(first period, the chunk's log) for every chunk, each period counted on ``bar``;
-        a chunk is handed on once its last row is complete (in the next chunk's first
-        frame)."""
+    def logs(self) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """(first period, the chunk's log) for every chunk; a chunk is handed on once its
+        last row is complete (in the next chunk's first frame)."""
         scn, n, lock = self.scn, self.n_steps, self.lock
         state, later = lock.state, lock.later
         done: tuple[int, np.ndarray] | None = None
@@ -326,7 +340,6 @@ class _Chunks:
                         pause = max(0.0, due - time.perf_counter())
                         time.sleep(pause)
                         self.slept_s += pause
-                bar.advance(1)
             done = (first, out)
         if done is not None:
             done[1][-1, later] = lock.last()
@@ -347,20 +360,23 @@ class _Chunks:
 
 
 def _bar(scn: Scenario, stream: TextIO | None, progress: bool | None) -> Any:
-    """The periods' progress: a bar on a terminal, a line per period in a log."""
-    return progress_bar(scn.periods, f"{scn.name} live", "periods", stream, progress, lines=True)
+    """The periods' progress: a line per period (none with ``progress`` False)."""
+    label = f"{scn.name} live"
+    return progress_bar(scn.periods, label, "periods", stream, False, lines=progress is not False)
 
 
-def _report(bar: Progress, monitor: _Monitor, est: Any) -> None:
-    """The latest period's estimate and the monitor's state, one line."""
-    if not est.periods.size:
-        return
+def _report(bar: Progress, monitor: _Monitor, est: Any, first: int, count: int) -> None:
+    """``count`` periods from ``first`` on done: one line with the last one's end time, the
+    latest estimate's largest tap of the first monitored channel and the first alarm."""
     j, channel = monitor.monitored[0]
-    h = est.h[-1, j]
-    peak = int(np.argmax(np.abs(h)))
+    end_s = (first + count) * monitor.scn.period_s
+    if est.periods.size:
+        h = est.h[-1, j]
+        peak = int(np.argmax(np.abs(h)))
+        latest = f"{channel} h peak {h[peak]:.4g} at tap {peak} (period {int(est.periods[-1])})"
+    else:
+        latest = "no estimate yet"
     alarm = monitor.first_alarm
-    text = (
-        f"period {int(est.periods[-1])}: {channel} h peak {h[peak]:.4g} at tap {peak}; "
-        f"first alarm: {'none' if alarm is None else f'period {alarm}'}"
-    )
-    print(f"{bar.label}: {text}", file=bar.stream, flush=True)
+    first_alarm = "none" if alarm is None else f"period {alarm}"
+    text = f"period {first + count - 1} at {end_s:.2f} s: {latest}; first alarm: {first_alarm}"
+    bar.advance(count, message=text)

@@ -43,7 +43,14 @@ from probing.experiment.storage import (
 )
 from probing.sim.fork import TrimmedAircraft
 
-__all__ = ["MonitorResult", "ReplayError", "logged_scenario", "monitor_scenario", "replay_monitor"]
+__all__ = [
+    "MonitorResult",
+    "ReplayError",
+    "logged_chunk_periods",
+    "logged_scenario",
+    "monitor_scenario",
+    "replay_monitor",
+]
 
 
 @dataclass
@@ -321,7 +328,22 @@ class ReplayError(ValueError):
 
 
 #: The metadata of a log that belongs to the log alone, not to what is computed from it.
-_LOG_ONLY = (b"probing.description", b"probing.units", b"probing.trim_measured")
+_LOG_ONLY = (
+    b"probing.description",
+    b"probing.units",
+    b"probing.trim_measured",
+    b"probing.chunk_periods",
+)
+
+
+def logged_chunk_periods(meta: dict[bytes, bytes], period_steps: int) -> int:
+    """The periods a log's flight estimated at a time: its footer's ``probing.chunk_periods``
+    (a live flight's: :data:`probing.experiment.live.LIVE_CHUNK_PERIODS`), else a flight's
+    in this process (about :data:`~probing.experiment.run.CHUNK_STEPS` steps)."""
+    recorded = meta.get(b"probing.chunk_periods")
+    if recorded is not None:
+        return int(json.loads(recorded))
+    return max(1, CHUNK_STEPS // period_steps)
 
 
 def replay_monitor(
@@ -343,9 +365,9 @@ def replay_monitor(
 
     The log's own metadata gives the scenario and the sensors' reading of the trim; its
     rows go through the same :class:`~probing.experiment.onboard.Onboard` and detectors,
-    in the same chunks, as the live flight's, so the tables are equal bit for bit.  An
-    ``oracle`` reference needs the simulated atmosphere: it is flown again from the
-    scenario (simulation only, as live).
+    in the same chunks as the flight's (:func:`logged_chunk_periods`), so the tables are
+    equal bit for bit.  An ``oracle`` reference needs the simulated atmosphere: it is flown
+    again from the scenario (simulation only, as live).
 
     Raises
     ------
@@ -363,7 +385,7 @@ def replay_monitor(
     probe = scn.probe
     m = probe.length
     period_steps = m * probe.steps_per_bit(scn.dt_s)
-    chunk_periods = max(1, CHUNK_STEPS // period_steps)  # the live flight's chunks
+    chunk_periods = logged_chunk_periods(meta, period_steps)  # the flight's own chunks
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     lag_s = np.arange(m) * probe.bit_duration_s
     ended = meta.get(b"probing.ended")
