@@ -81,10 +81,24 @@ __all__ = [
     "SettingError",
     "flight_verdict",
     "window_matrix",
+    "window_variance_factor",
 ]
 
 #: Smallest p-value reported (its -log10, 300, caps the statistic).
 _P_FLOOR = 1e-300
+
+
+def window_variance_factor(window_periods: int, baseline_periods: int) -> float:
+    """1/n + 1/B: the variance of the mean of n new periods less the mean of B baseline
+    periods, in units of one period's variance (periods independent).  The detector's gain
+    test and ``probing design --window-periods`` both size the window by it.
+
+    Examples
+    --------
+    >>> window_variance_factor(4, 50)
+    0.27
+    """
+    return 1.0 / window_periods + 1.0 / baseline_periods
 
 
 def window_matrix(m: int, windows: int) -> np.ndarray:
@@ -465,7 +479,8 @@ class ChangeDetector:
         v0 = base.mean
         p_t2 = base.p_value(base.t2(v - v0, n))
         g = float(v0 @ v / (v0 @ v0))
-        scale = math.sqrt(float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2 * (1.0 / n + 1.0 / self.b))
+        var = float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2  # one period's gain
+        scale = math.sqrt(var * window_variance_factor(n, self.b))
         p_gain = 2.0 * float(stdtr(self.b - 1, -abs(g - 1.0) / scale)) if scale > 0 else 1.0
         return p_t2, p_gain
 

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.monitor import window_variance_factor
 from probing.experiment.design_request import DesignError, DesignRequest
 from probing.experiment.noise import scatter_models
 from probing.experiment.scenario import Scenario
@@ -56,7 +57,7 @@ def window_stderr(period_gain_std: float, window_periods: int, baseline_periods:
     >>> round(window_stderr(0.47, 4, 50), 4)
     0.2442
     """
-    return period_gain_std * math.sqrt(1.0 / window_periods + 1.0 / baseline_periods)
+    return period_gain_std * math.sqrt(window_variance_factor(window_periods, baseline_periods))
 
 
 def period_gain_std(
