@@ -163,7 +163,10 @@ def load_study(results: str | Path) -> pd.DataFrame:
         # the probe amplitude where the sweep varies it (NaN: the base scenario's)
         df["amplitude_deg"] = df.get("probe.amplitude_deg", pd.Series(math.nan, index=df.index))
         df["folder"] = [str(summary.parent / "points" / f"point_id={p}") for p in df.point_id]
-        df["turbulence"] = df.get("disturbance.turbulence", _base_turbulence(df.folder))
+        if "disturbance.turbulence" in df:
+            df["turbulence"] = df["disturbance.turbulence"]
+        else:  # a sweep that does not vary it: its scenario's
+            df["turbulence"] = _base_turbulence(df.folder)
         frames.append(df)
     if not frames:
         raise FileNotFoundError(f"{results}: no monitor sweep (monitor-*/summary.parquet)")
