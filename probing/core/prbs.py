@@ -4,15 +4,21 @@ The probe of Ruschmann & Wu is one period sigma(k) of a maximum-length
 sequence (m-sequence) of order n, values +-1, length M = 2**n - 1, bit
 duration t0, repeated cyclically and scaled by the amplitude a.  The
 reference used by the correlator is the same sequence at unit magnitude.
+
+A :class:`Probe` may instead play a multisine or a chirp on the same M bits
+(:mod:`probing.core.excitation`): its reference is then that signal at unit
+RMS, and the amplitude its RMS.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
+
+from probing.core.excitation import PRBS, Excitation
 
 __all__ = ["MAX_ORDER", "MIN_ORDER", "Probe", "mls"]
 
@@ -126,7 +132,7 @@ def steps_per_bit(bit_duration_s: float, dt_s: float) -> int:
 
 @dataclass(frozen=True)
 class Probe:
-    """A cyclic +-a PRBS probe.
+    """A cyclic probe: the +-a PRBS, or a multisine or chirp of RMS a on the same bits.
 
     Parameters
     ----------
@@ -135,12 +141,16 @@ class Probe:
     bit_duration_s : float
         Bit duration t0 in seconds (> 0).
     amplitude_deg : float
-        Probe amplitude a in degrees of surface deflection (> 0).
+        Probe amplitude a in degrees of surface deflection (> 0): the PRBS's +-a, a
+        multisine's or chirp's RMS (the PRBS's RMS is a too).
+    excitation : Excitation
+        The signal (:class:`probing.core.excitation.Excitation`); the PRBS by default.
     """
 
     order: int
     bit_duration_s: float
     amplitude_deg: float
+    excitation: Excitation = PRBS
 
     def __post_init__(self) -> None:
         mls(self.order)  # validates the order
@@ -148,6 +158,37 @@ class Probe:
             raise ValueError(f"bit_duration_s must be > 0, got {self.bit_duration_s}")
         if not (math.isfinite(self.amplitude_deg) and self.amplitude_deg > 0):
             raise ValueError(f"amplitude_deg must be > 0, got {self.amplitude_deg}")
+        if not self.excitation.is_binary:
+            self._unit  # noqa: B018 -- validates the band against the period and the bits
+
+    @cached_property
+    def _unit(self) -> np.ndarray:
+        """One period of the unit signal (read-only), computed once."""
+        if self.excitation.is_binary:
+            unit = mls(self.order)
+        else:
+            unit = self.excitation.unit(self.order, self.bit_duration_s)
+        unit.setflags(write=False)
+        return unit
+
+    @property
+    def harmonics(self) -> np.ndarray | None:
+        """The harmonics of 1/T the signal excites; None for the PRBS (all, DC included)."""
+        return self.excitation.harmonics(self.order, self.bit_duration_s)
+
+    @property
+    def peak_deg(self) -> float:
+        """Largest deflection of the probe, deg: a for the PRBS, a times the crest factor
+        otherwise."""
+        return self.amplitude_deg * float(np.max(np.abs(self._unit)))
+
+    @property
+    def peak_step_rate_deg_s(self) -> float:
+        """Largest change between two consecutive bits (the period taken cyclically) over the
+        bit duration, deg/s: 2a/t0 for the PRBS, the rate a limiter must pass to keep up
+        within one bit (eq. 21's bound)."""
+        jumps = np.abs(np.diff(np.append(self._unit, self._unit[0])))
+        return self.amplitude_deg * float(np.max(jumps)) / self.bit_duration_s
 
     @property
     def length(self) -> int:
@@ -160,14 +201,15 @@ class Probe:
         return self.length * self.bit_duration_s
 
     def reference(self) -> np.ndarray:
-        """One period of the unit reference sequence sigma(k) (+-1), one value per bit."""
-        return mls(self.order)
+        """One period of the unit reference, one value per bit: the sequence sigma(k) (+-1),
+        or the multisine or chirp at unit RMS."""
+        return np.array(self._unit)
 
     def bits(self, periods: int = 1) -> np.ndarray:
         """The probe at the bit rate, a * sigma(k), repeated for ``periods`` periods, in deg."""
         if periods < 0:
             raise ValueError(f"periods must be >= 0, got {periods}")
-        return np.tile(self.amplitude_deg * mls(self.order), periods)
+        return np.tile(self.amplitude_deg * self._unit, periods)
 
     def steps_per_bit(self, dt_s: float) -> int:
         """Simulation steps per bit, t0 / dt; raises ValueError unless an integer."""

@@ -11,12 +11,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.excitation import SPECTRAL, spectral_estimates
 from probing.core.noise import cyclic_estimates
 from probing.core.prbs import Probe
 from probing.core.trend import detrend_periodic, window_periods
 from probing.experiment.scenario import Scenario
 
-__all__ = ["drift_correction"]
+__all__ = ["drift_correction", "each_period"]
 
 
 @dataclass
@@ -39,6 +40,17 @@ def _correlator(probe: Probe, push_size: int) -> StreamingCorrelator:
     need = max(push_size + m - 1, 2 * m)  # one block per push; the correlator needs >= 2 M
     nfft = 1 << (need - 1).bit_length()  # the smallest power of two >= need
     return StreamingCorrelator(probe.reference(), probe.amplitude_deg, block=nfft)
+
+
+def each_period(
+    probe: Probe, estimator: str, y: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """z, zeta, h of whole periods ``y`` (P, C, M), each from its own samples: ``cyclic``,
+    ``ac`` or ``spectral`` (the signal's spectrum over the input's at its harmonics)."""
+    ref, a = probe.reference(), probe.amplitude_deg
+    if estimator == SPECTRAL:
+        return spectral_estimates(y, ref, a, probe.harmonics)
+    return cyclic_estimates(y, ref, a, estimator == "cyclic")
 
 
 class _Streaming:
@@ -74,9 +86,7 @@ class _Detrended:
         """(z, zeta, h), each (C, M), of the window's last period."""
         m = self.probe.length
         if self.estimator != "streaming":
-            last = window[-m:].T[None]  # (1, C, M)
-            dc = self.estimator == "cyclic"
-            est = cyclic_estimates(last, self.probe.reference(), self.probe.amplitude_deg, dc)
+            est = each_period(self.probe, self.estimator, window[-m:].T[None])  # (1, C, M)
             return est[0][0], est[1][0], est[2][0]
         rows = []
         for j in range(window.shape[1]):
@@ -106,19 +116,17 @@ class _Detrended:
 
 
 class _Cyclic:
-    """Estimators ``cyclic`` and ``ac``: each period from its own samples alone, so every
-    period, period 0 included, has an estimate."""
+    """Estimators ``cyclic``, ``ac`` and ``spectral``: each period from its own samples alone,
+    so every period, period 0 included, has an estimate."""
 
-    def __init__(self, probe: Probe, dc: bool) -> None:
-        self.probe, self.dc = probe, dc
+    def __init__(self, probe: Probe, estimator: str) -> None:
+        self.probe, self.estimator = probe, estimator
 
     def estimates(self, y_bits: np.ndarray, first: int) -> _Estimates:
         m = self.probe.length
         count = y_bits.shape[0] // m
         y = y_bits[: count * m].reshape(count, m, -1)  # (P, M, C)
-        z, zeta, h = cyclic_estimates(
-            np.moveaxis(y, 1, 2), self.probe.reference(), self.probe.amplitude_deg, self.dc
-        )  # (P, C, M)
+        z, zeta, h = each_period(self.probe, self.estimator, np.moveaxis(y, 1, 2))  # (P, C, M)
         return _Estimates(np.arange(first, first + count, dtype=np.int64), z, zeta, h)
 
 
@@ -127,5 +135,5 @@ def drift_correction(scn: Scenario, probe: Probe, push_bits: int) -> object:
     if scn.detrends:
         return _Detrended(probe, scn.detrend_order, scn.estimator)
     if scn.estimator != "streaming":
-        return _Cyclic(probe, scn.estimator == "cyclic")
+        return _Cyclic(probe, scn.estimator)
     return _Streaming(probe, len(scn.channels), push_bits)

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from probing.core.excitation import PRBS, Excitation
 from probing.core.faults import FAULTS, FaultType
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
@@ -48,6 +49,7 @@ from probing.experiment.scenario_sections import (
 from probing.experiment.scenario_sections import (
     _aircraft,
     _check_baseline,
+    _check_estimator,
     _condition,
     _disturbance,
     _later_sections,
@@ -114,6 +116,7 @@ class Scenario:
     # {channel: {field: value}} (to write the section back)
     sensors: SensorSuite | None = None
     sensor_overrides: dict[str, dict[str, float]] = field(default_factory=dict)
+    excitation: Excitation = PRBS  # [probe] signal: the PRBS, a multisine or a chirp
     text: str = ""  # the scenario as written (TOML), kept for provenance
 
     # -------------------------------------------------------------- derived
@@ -132,7 +135,7 @@ class Scenario:
     def probe(self) -> Probe:
         """The probe of ``[probe]``: order, bit duration and amplitude (in the surface's
         unit), built once."""
-        return Probe(self.order, self.bit_duration_s, self.amplitude_deg)
+        return Probe(self.order, self.bit_duration_s, self.amplitude_deg, self.excitation)
 
     @property
     def steps_per_bit(self) -> int:
@@ -301,6 +304,8 @@ class Scenario:
                 f"amplitude_{self.surface_unit}": self.amplitude_deg,
                 "periods": self.periods,
                 "settle_periods": self.settle_periods,
+                # the PRBS is left out: digests stay as they were before other signals
+                **self._signal(),
             },
             "nonlinearity": nl,
             "output": out,
@@ -317,6 +322,15 @@ class Scenario:
             **({"manoeuvre": self.manoeuvre.to_dict()} if self.manoeuvre is not None else {}),
             **({"sensors": self._sensors()} if self.sensors is not None else {}),
         }
+
+    def _signal(self) -> dict[str, Any]:
+        """``probe.signal`` and its fields; nothing for the PRBS."""
+        exc = self.excitation
+        if exc.is_binary:
+            return {}
+        assert exc.band_hz is not None
+        out: dict[str, Any] = {"signal": exc.signal, "band_hz": list(exc.band_hz)}
+        return {**out, "sweep": exc.sweep} if exc.signal == "chirp" else out
 
     def _sensors(self) -> dict[str, Any]:
         """The ``[sensors]`` section: the suite's name and the overrides as written."""
@@ -440,6 +454,7 @@ def _parse(data: dict[str, Any], text: str, folder: Path | None = None) -> Scena
     probe = _probe(data["probe"], dt)
     nl_type, params = _nonlinearity(data["nonlinearity"])
     output = _output(data["output"])
+    output["estimator"] = _check_estimator(probe["excitation"], output["estimator"])
     disturbance = _disturbance(data.get("disturbance", {}), output["channels"])
     scn = Scenario(
         name=name,
