@@ -110,6 +110,7 @@ class PanelResult:
     measured_gain_z: float = math.nan  # the same fit on the probing output z
     shape_error_z: float = math.nan
     compensated_z: np.ndarray | None = None  # mean over settled periods
+    compensated_periods: np.ndarray | None = None  # per settled period (P, M), for bounds
     compensation_error: float = math.nan  # ||zc - z0|| / ||z0||
 
     def row(self) -> dict[str, object]:
@@ -166,11 +167,13 @@ def _panel_result(
     )
     res.measured_gain_z, res.shape_error_z = gain_and_shape(run.z.mean(axis=0), z0)
     try:
-        zc = compensate(run.z, nl, a).mean(axis=0)
+        per_period = compensate(run.z, nl, a)
     except NoApparentFormError:  # a rate limit: nothing to undo
         pass
     else:
+        zc = per_period.mean(axis=0)
         res.compensated_z = zc
+        res.compensated_periods = per_period
         res.compensation_error = float(np.linalg.norm(zc - z0) / np.linalg.norm(z0))
     return res
 
@@ -196,6 +199,7 @@ def _remedy_row(
     zr = remedy.z.mean(axis=0) / sat.predicted_gain
     remedy_row.measured_gain_z, remedy_row.shape_error_z = gain_and_shape(remedy.z.mean(axis=0), z0)
     remedy_row.compensated_z = zr
+    remedy_row.compensated_periods = remedy.z / sat.predicted_gain
     remedy_row.compensation_error = float(np.linalg.norm(zr - z0) / np.linalg.norm(z0))
     return remedy_row
 

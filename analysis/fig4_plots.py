@@ -3,6 +3,10 @@
 Kept apart from :mod:`analysis.fig4` so that computing the numbers never imports matplotlib;
 this module imports that one, never the other way round.  :func:`figures` builds the
 figures (inspectable: tests read the plotted data back), :func:`draw` saves them.
+
+With ``bounds`` the panel and compensated figures shade each estimate's 95 % confidence
+bounds: per tap, the two-sided Student-t interval of the mean over the settled periods
+(:func:`probing.core.recorded.tap_bounds`), in the plotted line's colour and scale (mrad).
 """
 
 from __future__ import annotations
@@ -19,10 +23,22 @@ from analysis.fig4 import Fig4Data, PanelResult
 from analysis.figures import RC, place_clear_of_data, save_figure
 from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
+from probing.core.recorded import tap_bounds
+from probing.experiment.layouts import BOUNDS_LEVEL
 
 __all__ = ["draw", "figures"]
 MRAD = 1e3  # rad -> mrad
 C_BASE, C_NL, C_PRED, C_FIX = "0.55", "tab:red", "k", "tab:blue"
+BAND_ALPHA = 0.25  # opacity of a confidence band
+
+
+def _band(ax: Any, lag: np.ndarray, periods: np.ndarray, color: str, bounds: bool) -> None:
+    """With ``bounds``: shade the 95 % bounds of the mean of ``periods`` (P, M; rad), in
+    mrad over ``lag`` (s); nothing with fewer than 2 periods (no scatter to bound)."""
+    if not bounds or periods.shape[0] < 2:
+        return
+    _, low, high, _ = tap_bounds(periods, BOUNDS_LEVEL)
+    ax.fill_between(lag, low * MRAD, high * MRAD, color=color, alpha=BAND_ALPHA, lw=0)
 
 
 def _title(p: PanelResult, remedy_gain: float | None = None) -> str:
@@ -96,12 +112,18 @@ def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -
     return None
 
 
-def _draw_panel(ax: Any, p: PanelResult, data: Fig4Data, z0: np.ndarray, lag: np.ndarray) -> Any:
-    """One nonlinearity's panel; returns the note on the saturation offset or None."""
+def _draw_panel(
+    ax: Any, p: PanelResult, data: Fig4Data, z0: np.ndarray, lag: np.ndarray, bounds: bool
+) -> Any:
+    """One nonlinearity's panel (``bounds``: with its estimates' confidence bands); returns
+    the note on the saturation offset or None."""
     ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+    _band(ax, lag, data.baseline.z, C_BASE, bounds)
     note = _plot_prediction(ax, p, z0, lag)
     ax.plot(lag, p.run.z.mean(axis=0) * MRAD, color=C_NL, lw=0.8, label="with nonlinearity")
+    _band(ax, lag, p.run.z, C_NL, bounds)
     if p.key == "b_saturation" and data.remedy is not None:
+        _band(ax, lag, data.remedy.z, C_FIX, bounds)
         ax.plot(
             lag,
             data.remedy.z.mean(axis=0) * MRAD,
@@ -145,14 +167,14 @@ def _info_text(data: Fig4Data) -> str:
     )
 
 
-def _panels(data: Fig4Data) -> Any:
+def _panels(data: Fig4Data, bounds: bool = False) -> Any:
     base = data.baseline
     z0 = base.z.mean(axis=0)
     lag = base.lag_s
     fig, axes = plt.subplots(4, 2, figsize=(7.0, 9.0), sharex=True, constrained_layout=True)
     offset_note = None
     for ax, p in zip(axes.flat, data.panels, strict=False):
-        note = _draw_panel(ax, p, data, z0, lag)
+        note = _draw_panel(ax, p, data, z0, lag, bounds)
         if note is not None:
             offset_note = note
     if offset_note is not None:  # once every panel is drawn: the layout is final
@@ -173,7 +195,7 @@ def _panels(data: Fig4Data) -> Any:
     return fig
 
 
-def _compensated(data: Fig4Data) -> Any:
+def _compensated(data: Fig4Data, bounds: bool = False) -> Any:
     z0 = data.baseline.z.mean(axis=0)
     lag = data.baseline.lag_s
     items = [p for p in data.panels if p.compensated_z is not None]
@@ -185,7 +207,10 @@ def _compensated(data: Fig4Data) -> Any:
     )
     for ax, p in zip(axes.flat, items, strict=False):
         ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+        _band(ax, lag, data.baseline.z, C_BASE, bounds)
         ax.plot(lag, p.compensated_z * MRAD, color=C_FIX, lw=0.8, label="compensated")
+        if p.compensated_periods is not None:
+            _band(ax, lag, p.compensated_periods, C_FIX, bounds)
         if p.letter == "b'":
             title = "(b') saturation, offset twin subtracted, / (a~/a)"
         else:
@@ -204,7 +229,8 @@ def _compensated(data: Fig4Data) -> Any:
     return fig
 
 
-def _rate_limit(data: Fig4Data) -> Any:
+def _rate_limit(data: Fig4Data, bounds: bool = False) -> Any:
+    """The rate-limit sweep (its points are means: ``bounds`` draws nothing more)."""
     sweep = data.sweep
     a = data.baseline.scenario.amplitude_deg
     dt = data.baseline.scenario.dt_s
@@ -266,24 +292,28 @@ def _suffixes(data: Fig4Data) -> list[str]:
     return [k for k in _FIGURES if k != "_rate_limit" or not data.sweep.empty]
 
 
-def figures(data: Fig4Data) -> dict[str, Any]:
+def figures(data: Fig4Data, bounds: bool = False) -> dict[str, Any]:
     """The figures, by the suffix of their file stem: ``""`` (the panels), ``"_compensated"``
-    and, with a rate-limit sweep, ``"_rate_limit"``.  Close them (or :func:`draw` them)."""
+    and, with a rate-limit sweep, ``"_rate_limit"``.  Close them (or :func:`draw` them).
+    ``bounds``: shade the estimates' 95 % confidence bounds (module docstring)."""
     with plt.rc_context(RC):
-        return {suffix: _FIGURES[suffix][0](data) for suffix in _suffixes(data)}
+        return {suffix: _FIGURES[suffix][0](data, bounds) for suffix in _suffixes(data)}
 
 
 def _draw_one(
-    task: tuple[str, tuple[str, ...]], data: Fig4Data, folder: Path, stem: str
+    task: tuple[str, tuple[str, ...]], data: Fig4Data, folder: Path, stem: str, bounds: bool
 ) -> list[Path]:
     suffix, formats = task
     with plt.rc_context(RC):
-        fig = _FIGURES[suffix][0](data)
+        fig = _FIGURES[suffix][0](data, bounds)
     return save_figure(fig, Path(folder) / f"{stem}{suffix}", formats)
 
 
-def draw(data: Fig4Data, folder: Path, stem: str, jobs: int | None = None) -> list[Path]:
-    """Save ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``.
+def draw(
+    data: Fig4Data, folder: Path, stem: str, jobs: int | None = None, bounds: bool = False
+) -> list[Path]:
+    """Save ``<stem>.png/.pdf``, ``<stem>_compensated.png`` and ``<stem>_rate_limit.png``;
+    with ``bounds`` the first two shade the estimates' 95 % confidence bounds.
 
     The figures are drawn side by side in ``jobs`` forked children (default: one per core;
     1 draws them here, one after the other); the bytes are the same either way.  A figure's
@@ -293,7 +323,7 @@ def draw(data: Fig4Data, folder: Path, stem: str, jobs: int | None = None) -> li
     tasks = [(s, _FIGURES[s][1]) for s in _suffixes(data)]
     jobs = jobs or os.cpu_count() or 1
     if jobs == 1 or not can_fork():
-        return [p for t in tasks for p in _draw_one(t, data, folder, stem)]
-    draw_one = functools.partial(_draw_one, data=data, folder=folder, stem=stem)
+        return [p for t in tasks for p in _draw_one(t, data, folder, stem, bounds)]
+    draw_one = functools.partial(_draw_one, data=data, folder=folder, stem=stem, bounds=bounds)
     done = {o.index: o.get() for o in forked_map(draw_one, tasks, jobs)}
     return [p for i in range(len(tasks)) for p in done[i]]

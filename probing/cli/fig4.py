@@ -17,6 +17,12 @@ from probing.cli.common import (
     command,
 )
 
+#: The help of ``--bounds`` (``probing fig4`` and ``probing plot fig4``).
+BOUNDS_HELP = (
+    "shade each estimate's 95%% confidence bounds over its settled periods (Student-t, "
+    "per tap) in the panel and compensated figures"
+)
+
 
 def _cmd_fig4(args: argparse.Namespace) -> int:
     from probing.experiment.fig4 import load_set, run_set
@@ -78,7 +84,7 @@ def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int
         data = fig4.collect(results)
     except (fig4.NotAFig4FolderError, StoredFileError) as exc:
         raise UsageError(str(exc)) from None
-    paths = fig4_plots.draw(data, args.figures, data.set_name)
+    paths = fig4_plots.draw(data, args.figures, data.set_name, bounds=args.bounds)
     text = fig4.write_summary(data, results)
     if args.copy_summary is not None:
         shutil.copyfile(results / "summary.md", args.copy_summary)
@@ -104,4 +110,5 @@ def register(sub: Subcommands) -> None:
     fig4.add_argument(
         "--copy-summary", type=_path, default=None, help="also copy summary.md to this file"
     )
+    fig4.add_argument("--bounds", action="store_true", help=BOUNDS_HELP)
     fig4.set_defaults(func=_cmd_fig4)

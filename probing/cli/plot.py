@@ -17,12 +17,14 @@ from probing.cli.common import (
     _path,
     command,
 )
-from probing.cli.fig4 import _check_fig4_outputs, _finish_fig4
+from probing.cli.fig4 import BOUNDS_HELP, _check_fig4_outputs, _finish_fig4
 from probing.cli.sweep import _plot_sweep_folder
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
     target = PLOT_TARGETS[args.target]
+    if args.bounds and args.target != "fig4":
+        raise UsageError(f"--bounds: fig4 only, not {args.target}")
     if args.figures is None:
         args.figures = _default(target.figures, args.results)
     if args.summary is None and target.summary is not None:
@@ -209,4 +211,5 @@ def register(sub: Subcommands) -> None:
     plot.add_argument(
         "--copy-summary", type=_path, default=None, help="fig4: also copy summary.md to this file"
     )
+    plot.add_argument("--bounds", action="store_true", help=f"fig4: {BOUNDS_HELP}")
     plot.set_defaults(func=_cmd_plot)

@@ -23,14 +23,22 @@ import pyarrow as pa
 from probing.core.prbs import steps_per_bit
 from probing.core.recorded import NotAnMSequence, align_probe, period_estimates, tap_bounds
 from probing.core.trend import detrend_periodic
-from probing.experiment.layouts import BOUNDS_SCHEMA, CHANNEL_UNIT, PER_DEG, field, probing_block
+from probing.experiment.bounds import bounds_confidence, write_bounds
+from probing.experiment.layouts import (
+    BOUNDS_LEVEL,
+    BOUNDS_SCHEMA,
+    CHANNEL_UNIT,
+    PER_DEG,
+    field,
+    probing_block,
+)
 from probing.experiment.record import RecordError, file_sha256, read_columns, sample_step_s
 from probing.experiment.storage import output_folder, provenance
 
 __all__ = ["LEVEL", "Analysis", "AnalysisRequest", "analyze", "write_analysis"]
 
-#: Confidence level of the per-tap bounds.
-LEVEL = 0.95
+#: Confidence level of the per-tap bounds (that of every ``bounds.parquet``).
+LEVEL = BOUNDS_LEVEL
 
 
 @dataclass(frozen=True)
@@ -164,7 +172,7 @@ def write_analysis(result: Analysis, out: Path) -> list[Path]:
         },
         drift=f"reference column {req.reference}" if req.reference else req.drift,
         estimator="cyclic",
-        confidence={"level": LEVEL, "interval": "Student-t", "dof": result.h.shape[0] - 1},
+        confidence=bounds_confidence(result.h.shape[0] - 1),
     )
     units = _units(req)
     channels = list(req.outputs)
@@ -173,18 +181,5 @@ def write_analysis(result: Analysis, out: Path) -> list[Path]:
     with output_folder(out, meta) as folder:
         w = folder.writer("probing.parquet", [], own_units=units)
         w.write(probing_block(channels, periods, lag_s, result.z, result.zeta, result.h))
-        wb = folder.writer("bounds.parquet", [], own_units=units)
-        mean, low, high, std = result.bounds
-        block = probing_block(channels, [0], lag_s, mean[None], low[None], high[None])
-        wb.write(
-            {
-                "channel": block["channel"],
-                "tap": block["tap"],
-                "lag_s": block["lag_s"],
-                "h_est": mean.reshape(-1),
-                "h_low": low.reshape(-1),
-                "h_high": high.reshape(-1),
-                "h_std": std.reshape(-1),
-            }
-        )
+        write_bounds(folder, channels, lag_s, result.bounds, result.h.shape[0] - 1, own_units=units)
     return [out / "probing.parquet", out / "bounds.parquet"]

@@ -18,6 +18,7 @@ from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
     "AUTOPILOT_COLUMNS",
+    "BOUNDS_LEVEL",
     "BOUNDS_SCHEMA",
     "CHANNEL_UNIT",
     "MANOEUVRE_SCHEMA",
@@ -29,6 +30,7 @@ __all__ = [
     "RUN_FILES",
     "TRUTH_SCHEMA",
     "OutputFile",
+    "bounds_block",
     "field",
     "probing_block",
     "sensors_schema",
@@ -57,7 +59,12 @@ PROBING_SCHEMA = pa.schema(
     ]
 )
 
-#: ``probing analyze``'s per-tap bounds: the mean over the periods used and its interval.
+#: Confidence level of the per-tap bounds of ``bounds.parquet`` (``probing analyze`` and
+#: ``probing run``): two-sided, Student-t over the periods used.
+BOUNDS_LEVEL = 0.95
+
+#: The per-tap bounds of ``probing analyze`` (every whole period) and ``probing run`` (the
+#: settled periods): the mean over the periods used and its interval.
 BOUNDS_SCHEMA = pa.schema(
     [
         field("channel", pa.string(), "", "output column"),
@@ -231,9 +238,10 @@ OUTPUT_FILES: dict[str, OutputFile] = {
         ),
         OutputFile(
             "bounds.parquet",
-            "probing analyze: the mean over the periods used of h_est per channel and tap, "
-            "with the 95 % Student-t confidence interval of that mean over the P periods "
-            "(P - 1 degrees of freedom) and the period-to-period standard deviation",
+            "the mean over the periods used (probing analyze: every whole period; probing "
+            "run: the settled periods) of h_est per channel and tap, with the 95 % Student-t "
+            "confidence interval of that mean over the P periods (P - 1 degrees of freedom) "
+            "and the period-to-period standard deviation",
             BOUNDS_SCHEMA,
         ),
         OutputFile(
@@ -342,4 +350,42 @@ def probing_block(
         "z": z.reshape(-1),
         "zeta": zeta.reshape(-1),
         "h_est": h.reshape(-1),
+    }
+
+
+def bounds_block(
+    channels: list[str],
+    lag_s: np.ndarray,
+    mean: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    std: np.ndarray,
+) -> dict[str, object]:
+    """Per-tap bounds of several channels in the layout of :data:`BOUNDS_SCHEMA`.
+
+    Parameters
+    ----------
+    channels : list of str
+        Channel names, C of them.
+    lag_s : numpy.ndarray
+        Lag of each tap (s), shape (M,).
+    mean, low, high, std : numpy.ndarray
+        Shape (C, M), in the unit of ``h_est`` (the channel's unit per unit of probe), as
+        :func:`probing.core.recorded.tap_bounds` returns them.
+
+    Returns
+    -------
+    dict
+        Columns with the rows ordered by channel, then tap.
+    """
+    n_c, m = mean.shape
+    names = pa.array(channels, pa.string())
+    return {
+        "channel": names.take(pa.array(np.repeat(np.arange(n_c), m))),
+        "tap": np.tile(np.arange(m, dtype=np.int32), n_c),
+        "lag_s": np.tile(lag_s, n_c),
+        "h_est": mean.reshape(-1),
+        "h_low": low.reshape(-1),
+        "h_high": high.reshape(-1),
+        "h_std": std.reshape(-1),
     }

@@ -13,7 +13,7 @@ The run is four pieces, each small: :class:`_Rig` (set-up: probe, nonlinearity, 
 plant, twin, metadata), :func:`_chunks` (stepping, period by period, handed on in chunks of
 whole periods), a drift correction per ``output.drift`` mode (:class:`_Streaming`,
 :class:`_Detrended`) that turns a chunk into per-period estimates, and :class:`SettledMean`
-(the average over the settled periods).
+(the average over the settled periods, and their per-tap bounds for ``bounds.parquet``).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import numpy as np
 from probing.core.faults import onset_step
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
+from probing.experiment.bounds import write_settled_bounds
 from probing.experiment.layouts import AUTOPILOT_COLUMNS, sensors_schema
 from probing.experiment.onboard import (
     Onboard,
@@ -431,7 +432,9 @@ def run_scenario(
     stop_on_divergence: bool = False,
     record: bool = False,
 ) -> RunResult:
-    """Simulate a scenario and write ``out/<name>/probing.parquet`` and ``timeseries.parquet``.
+    """Simulate a scenario and write ``out/<name>/probing.parquet``, ``bounds.parquet`` (95 %
+    bounds of the settled mean per tap, :func:`~.bounds.write_settled_bounds`: none without 2
+    settled periods) and ``timeseries.parquet``.
 
     Parameters
     ----------
@@ -491,7 +494,7 @@ def run_scenario(
         probe, channels = rig.probe, list(scn.channels)
         m = probe.length
         onboard = Onboard(scn, reference_source(scn, rig.twin), rig.y_trim, rig.chunk_periods * m)
-        settled = SettledMean(channels, m, scn.settle_periods, keep_first=keep_settled)
+        settled = SettledMean(channels, m, scn.settle_periods, keep_settled, keep_all=True)
         lag_s = np.arange(m) * probe.bit_duration_s
         folder = Path(folder) if folder is not None else Path(out) / scn.name
         x_period = probe.samples(scn.dt_s, 1)
@@ -520,6 +523,7 @@ def run_scenario(
                             _timeseries_rows(c, measured, reference, x_period, scn, channels)
                         )
                     bar.advance(c.count)
+            write_settled_bounds(outputs, settled, channels, lag_s, scn.surface_unit)
             if rig.ended:
                 for writer in outputs.writers:
                     writer.add_metadata(metadata(ended=rig.ended))

@@ -357,6 +357,7 @@ class OutputFolder:
         own_units: dict[str, Any] | None = None,
         schema: pa.Schema | None = None,
         description: str | None = None,
+        extra: dict[bytes, bytes] | None = None,
     ) -> AtomicParquetWriter:
         """A new atomic writer for ``<folder>/<name>``, a file of :data:`OUTPUT_FILES`.
 
@@ -366,6 +367,7 @@ class OutputFolder:
         the columns whose unit the schema cannot say alone.  The schema and description
         are the registry's; ``schema`` gives the columns of a file laid out per run
         (``timeseries.parquet``), and a file outside the registry (a test's) names both.
+        ``extra``: metadata of this file alone (:func:`metadata`), after the folder's.
         """
         spec = OUTPUT_FILES.get(name)
         schema = schema if schema is not None else spec.schema if spec else None
@@ -373,7 +375,7 @@ class OutputFolder:
         if schema is None or description is None:
             raise ValueError(f"{name}: not in OUTPUT_FILES, or laid out per run: give schema")
         found = {**units(schema, channels, per), **(own_units or {})}
-        meta = {**self.metadata, **metadata(description=description, units=found)}
+        meta = {**self.metadata, **metadata(description=description, units=found), **(extra or {})}
         w = AtomicParquetWriter(self.path / name, schema, meta)
         self.writers.append(w)
         return w

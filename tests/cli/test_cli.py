@@ -819,3 +819,36 @@ def test_every_design_option_reaches_the_request() -> None:
         dataclasses.replace(given, detect_gain_change=None, target_h_se=0.01),  # at a time
     ):
         assert design_command._request(build_parser().parse_args(argv(request))) == request
+
+
+def test_bounds_is_an_option_of_fig4_and_plot_fig4(tmp_path: Path) -> None:
+    """``--bounds`` parses for ``probing fig4`` and ``probing plot fig4``, off by default."""
+    parser = build_parser()
+    assert parser.parse_args(["fig4"]).bounds is False
+    assert parser.parse_args(["fig4", "--bounds"]).bounds is True
+    assert parser.parse_args(["plot", "fig4", str(tmp_path)]).bounds is False
+    assert parser.parse_args(["plot", "fig4", str(tmp_path), "--bounds"]).bounds is True
+
+
+@pytest.mark.parametrize("flag", [[], ["--bounds"]])
+def test_plot_fig4_hands_bounds_to_the_figures(
+    flag: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``probing plot fig4 RESULTS --bounds`` draws the figures with their bands; without it,
+    without them.  Another plot target refuses ``--bounds`` (exit 2)."""
+    from analysis import fig4, fig4_plots
+
+    class Data:
+        set_name = "fig4"
+
+    asked: list[bool] = []
+    monkeypatch.setattr(fig4, "collect", lambda results: Data())
+    monkeypatch.setattr(fig4, "write_summary", lambda data, results: "")
+    monkeypatch.setattr(
+        fig4_plots, "draw", lambda data, folder, stem, bounds=False: asked.append(bounds) or []
+    )
+    figures = str(tmp_path / "figures")
+    assert cli_main(["plot", "fig4", str(tmp_path), "--figures", figures, *flag]) == 0
+    assert asked == [flag == ["--bounds"]]
+    if flag:
+        assert cli_main(["plot", "sweep", str(tmp_path), *flag]) == 2

@@ -83,6 +83,7 @@ def test_files_added_to_a_run_keep_that_run_and_drop_another(tmp_path: Path) -> 
 def test_run_files_are_what_the_runners_write() -> None:
     assert set(RUN_FILES) >= {
         "probing.parquet",
+        "bounds.parquet",
         "timeseries.parquet",
         "truth.parquet",
         "prediction.parquet",
@@ -116,6 +117,10 @@ drift = "reference"
 """
 
 
+#: What ``probing run`` writes (without ``--truth``), sorted: two settled periods or more.
+RUN_ONLY = ["bounds.parquet", "probing.parquet", "timeseries.parquet"]
+
+
 def probing(*args: str, cache: Path) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "PROBING_TWIN_CACHE": str(cache)}
     return subprocess.run(
@@ -139,20 +144,20 @@ def test_a_second_run_of_the_same_name_leaves_one_runs_files(tmp_path: Path) -> 
     res = probing("run", str(first), "--out", str(out), "--truth", cache=cache)
     assert res.returncode == 0, res.stderr
     names = sorted(p.name for p in folder.iterdir())
-    assert names == ["prediction.parquet", "probing.parquet", "timeseries.parquet", "truth.parquet"]
+    assert names == [*RUN_ONLY[:1], "prediction.parquet", *RUN_ONLY[1:], "truth.parquet"]
     assert len({digest_of(folder / n) for n in names}) == 1  # run + truth: one run's files
     assert "earlier run" not in res.stdout + res.stderr
 
     res = probing("run", str(second), "--out", str(out), cache=cache)
     assert res.returncode == 0, res.stderr
-    assert sorted(p.name for p in folder.iterdir()) == ["probing.parquet", "timeseries.parquet"]
+    assert sorted(p.name for p in folder.iterdir()) == RUN_ONLY
     said = [line for line in (res.stdout + res.stderr).splitlines() if "earlier run" in line]
     assert len(said) == 1 and "truth.parquet" in said[0] and "prediction.parquet" in said[0]
 
     res = probing("truth", str(second), "--out", str(out), cache=cache)  # adds to the run
     assert res.returncode == 0, res.stderr
     names = sorted(p.name for p in folder.iterdir())
-    assert names == ["prediction.parquet", "probing.parquet", "timeseries.parquet", "truth.parquet"]
+    assert names == [*RUN_ONLY[:1], "prediction.parquet", *RUN_ONLY[1:], "truth.parquet"]
     assert len({digest_of(folder / n) for n in names}) == 1
     assert "earlier run" not in res.stdout + res.stderr
 
@@ -216,7 +221,4 @@ def test_a_rerun_removes_what_a_killed_run_left(tmp_path: Path) -> None:
     res = probing("run", str(short), "--out", str(out), cache=cache)
     assert res.returncode == 0, res.stderr
     assert temporaries(out, cache) == []
-    assert sorted(p.name for p in (out / "again").iterdir()) == [
-        "probing.parquet",
-        "timeseries.parquet",
-    ]
+    assert sorted(p.name for p in (out / "again").iterdir()) == RUN_ONLY

@@ -499,3 +499,80 @@ def test_cyclic_estimators_read_each_period_from_the_files_samples(
             np.testing.assert_allclose(got, expected.reshape(-1), rtol=1e-9, atol=1e-15)
         settled = h[1 - first :].mean(axis=0)
         np.testing.assert_allclose(result.h_est[channel], settled, rtol=1e-9, atol=1e-15)
+
+
+# ------------------------------------------------------------------ bounds.parquet
+@pytest.mark.parametrize("dead_period", [None, 3])
+def test_bounds_file_is_tap_bounds_of_the_settled_periods_of_probing_parquet(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, dead_period: int | None
+) -> None:
+    """``bounds.parquet`` beside ``probing.parquet``: per channel and tap, exactly
+    :func:`tap_bounds` at 0.95 of the settled h read back from ``probing.parquet`` (a channel
+    whose settled periods are not finite: NaN, its dof -1), with the level and the degrees
+    of freedom in its metadata, in ``probing analyze``'s layout."""
+    from probing.core.recorded import tap_bounds
+    from probing.experiment.layouts import BOUNDS_SCHEMA
+    from probing.experiment.storage import read_settled
+
+    _dead_sensor(monkeypatch, period=dead_period, channel=1)  # q_rad_s
+    scn = scenario(
+        **{
+            "probe.order": 6,
+            "probe.periods": 5,
+            "probe.settle_periods": 1,
+            "output.channels": ["theta_rad", "q_rad_s"],
+        }
+    )
+    result = run_scenario(scn, tmp_path, progress=False, twin_cache=False)
+    table = pq.read_table(result.out_dir / "bounds.parquet")
+    assert table.schema.names == BOUNDS_SCHEMA.names
+    conf = json.loads(table.schema.metadata[b"probing.confidence"])
+    dof = {"theta_rad": 3, "q_rad_s": 3 if dead_period is None else -1}
+    assert conf == {
+        "level": 0.95,
+        "interval": "Student-t",
+        "dof": 3 if dead_period is None else dof,
+    }
+    df = table.to_pandas()
+    assert list(df.channel.unique()) == ["theta_rad", "q_rad_s"]
+    for channel in scn.channels:
+        rows = df[df.channel == channel]
+        np.testing.assert_array_equal(rows.tap, np.arange(63))
+        settled = read_settled(result.out_dir / "probing.parquet", channel, 1, 63)
+        np.testing.assert_array_equal(rows.lag_s, settled.lag_s)
+        assert len(settled.h) == dof[channel] + 1
+        if len(settled.h) < 2:
+            assert rows[["h_est", "h_low", "h_high", "h_std"]].isna().all().all()
+            continue
+        for column, want in zip(
+            ("h_est", "h_low", "h_high", "h_std"), tap_bounds(settled.h, 0.95), strict=True
+        ):
+            np.testing.assert_array_equal(rows[column].to_numpy(), want)
+    units = json.loads(table.schema.metadata[b"probing.units"])
+    assert units["h_low"] == {"theta_rad": "rad/deg", "q_rad_s": "rad/s/deg"}
+
+
+def test_bounds_file_leaves_probing_parquet_as_it_was(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Writing ``bounds.parquet`` changes no byte of ``probing.parquet``."""
+    import probing.experiment.run as run_module
+
+    scn = scenario(**{"probe.order": 5, "probe.periods": 3, "probe.settle_periods": 1})
+    with_bounds = run_scenario(scn, tmp_path / "with", progress=False)
+    monkeypatch.setattr(run_module, "write_settled_bounds", lambda *args: None)
+    without = run_scenario(scn, tmp_path / "without", progress=False)
+    assert (with_bounds.out_dir / "bounds.parquet").is_file()
+    assert not (without.out_dir / "bounds.parquet").exists()
+    for name in ("probing.parquet", "timeseries.parquet"):
+        assert (with_bounds.out_dir / name).read_bytes() == (without.out_dir / name).read_bytes()
+
+
+def test_a_run_with_one_settled_period_writes_no_bounds(tmp_path: Path) -> None:
+    """One settled period has no scatter: the run succeeds without ``bounds.parquet``."""
+    scn = scenario(**{"probe.order": 5, "probe.periods": 3, "probe.settle_periods": 2})
+    result = run_scenario(scn, tmp_path, progress=False)
+    assert sorted(p.name for p in result.out_dir.iterdir()) == [
+        "probing.parquet",
+        "timeseries.parquet",
+    ]

@@ -20,7 +20,13 @@ from probing.experiment.storage import (
 from probing.experiment.truth import compute_truth
 
 ROOT = Path(__file__).resolve().parents[2]
-FILES = ("probing.parquet", "timeseries.parquet", "truth.parquet", "prediction.parquet")
+FILES = (
+    "probing.parquet",
+    "bounds.parquet",
+    "timeseries.parquet",
+    "truth.parquet",
+    "prediction.parquet",
+)
 
 
 @pytest.fixture(scope="module")
@@ -218,7 +224,13 @@ def test_each_file_of_a_run_is_laid_out_and_described_as_the_registry_says(
 
     names = sorted(p.name for p in run_folder.glob("*.parquet"))
     assert names == sorted(
-        ["probing.parquet", "timeseries.parquet", "truth.parquet", "prediction.parquet"]
+        [
+            "probing.parquet",
+            "bounds.parquet",
+            "timeseries.parquet",
+            "truth.parquet",
+            "prediction.parquet",
+        ]
     )
     for name in names:
         schema = pq.read_schema(run_folder / name)
