@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres bench clean
+.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
 
 setup: $(STAMP)
 
@@ -148,3 +148,15 @@ bench: setup
 # Generated outputs that are not committed; the committed figures and tables stay.
 clean:
 	rm -rf results .pytest_cache .hypothesis figures/sweep_*.pdf
+
+# The PRBS against a multisine and a chirp on one budget (docs/excitations.md): the monitor
+# sweeps in scenarios/excitations (written by its generate.py; GTM, light turbulence, NASA's
+# T2 sensors, the gust reference), then the Fig. 4 sets of the GTM and the 737 flown with
+# each signal, the tables (docs/excitations_summary.md) and figures (figures/excitations_*.png).
+EXCITATIONS_OUT ?= results/excitations
+excitations: setup
+	@for f in $(sort $(wildcard scenarios/excitations/*.toml)); do \
+	  $(PY) -m probing sweep $$f --out $(EXCITATIONS_OUT)/monitor $(if $(JOBS),-j $(JOBS)) \
+	    > /dev/null || exit $$?; done
+	$(PY) -m probing excitations --out $(EXCITATIONS_OUT) --monitor $(EXCITATIONS_OUT)/monitor \
+	  $(if $(JOBS),-j $(JOBS))

@@ -22,7 +22,19 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from probing import __version__
-from probing.cli import analyze, cache, design, examples, fig4, gtm, live, plot, run, sweep
+from probing.cli import (
+    analyze,
+    cache,
+    design,
+    examples,
+    excitations,
+    fig4,
+    gtm,
+    live,
+    plot,
+    run,
+    sweep,
+)
 from probing.cli.common import UsageError, _error, _Parser
 from probing.core.forked import INTERRUPTS
 
@@ -41,7 +53,7 @@ See README.md and docs/ for the formats and the method."""
 
 #: The command modules, in the order of the top-level help: each adds its commands to the
 #: parser (``register``) and runs them (``args.func``).  A new command is a module here.
-COMMANDS = (run, live, sweep, fig4, plot, design, gtm, analyze, examples, cache)
+COMMANDS = (run, live, sweep, fig4, excitations, plot, design, gtm, analyze, examples, cache)
 
 
 def build_parser() -> argparse.ArgumentParser:

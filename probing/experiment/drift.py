@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.convolution import causal_convolve
 from probing.core.correlator import StreamingCorrelator
 from probing.core.excitation import SPECTRAL, spectral_estimates
 from probing.core.noise import cyclic_estimates
@@ -17,7 +18,7 @@ from probing.core.prbs import Probe
 from probing.core.trend import detrend_periodic, window_periods
 from probing.experiment.scenario import Scenario
 
-__all__ = ["drift_correction", "each_period"]
+__all__ = ["drift_correction", "each_period", "predicted_probing"]
 
 
 @dataclass
@@ -137,3 +138,25 @@ def drift_correction(scn: Scenario, probe: Probe, push_bits: int) -> object:
     if scn.estimator != "streaming":
         return _Cyclic(probe, scn.estimator)
     return _Streaming(probe, len(scn.channels), push_bits)
+
+
+def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Probing output predicted by superposing the single-pulse response over the probe history.
+
+    Returns, per channel, an array (periods, 3, M): z, zeta, h_est per period: the paper's
+    streaming correlator for the PRBS, the scenario's estimator for a multisine or a chirp.
+    """
+    probe = scn.probe
+    bits = probe.bits(scn.periods)
+    out = {}
+    for channel, h in h_pulse.items():
+        y = causal_convolve(bits, h)
+        if probe.excitation.is_binary:
+            corr = StreamingCorrelator(probe.reference(), probe.amplitude_deg)
+            corr.push(y)
+            est = corr.pop_periods()
+            out[channel] = np.stack((est.z, est.zeta, est.h), axis=1)
+        else:  # a multisine or a chirp: its own estimator, each period alone
+            periods = y.reshape(scn.periods, probe.length)
+            out[channel] = np.stack(each_period(probe, scn.estimator, periods), axis=1)
+    return out

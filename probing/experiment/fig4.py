@@ -43,6 +43,7 @@ __all__ = [
     "load_set",
     "offset_twin",
     "planned_runs",
+    "run_missing",
     "run_set",
     "stored_digest",
     "sweep_scenarios",
@@ -201,7 +202,7 @@ def run_set(
     """
     scenarios, todo, runs = _plan(scen_dir, out, sweep_rate_limit)
     out.mkdir(parents=True, exist_ok=True)
-    walls = _run_missing(runs, force, jobs or os.cpu_count() or 1)
+    walls = run_missing(runs, force, jobs or os.cpu_count() or 1)
     for key, scn, _ in runs[: len(scenarios)]:
         wall = walls.get(scn.name)
         status = f"ran in {wall:.2f} s" if wall is not None else "stored"
@@ -221,7 +222,7 @@ def run_set(
     return manifest
 
 
-def _run_missing(
+def run_missing(
     runs: list[tuple[str | None, Scenario, Path]], force: bool, jobs: int
 ) -> dict[str, float]:
     """Run the scenarios not stored yet (all with ``force``), grouped by trimmed state;

@@ -14,9 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from probing.core.convolution import causal_convolve
-from probing.core.correlator import StreamingCorrelator
-from probing.experiment.drift import each_period
+from probing.experiment.drift import predicted_probing
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import (
     OutputFolder,
@@ -32,28 +30,6 @@ __all__ = [
     "predicted_probing",
     "write_truth",
 ]
-
-
-def predicted_probing(scn: Scenario, h_pulse: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Probing output predicted by superposing the single-pulse response over the probe history.
-
-    Returns, per channel, an array (periods, 3, M): z, zeta, h_est per period: the paper's
-    streaming correlator for the PRBS, the scenario's estimator for a multisine or a chirp.
-    """
-    probe = scn.probe
-    bits = probe.bits(scn.periods)
-    out = {}
-    for channel, h in h_pulse.items():
-        y = causal_convolve(bits, h)
-        if probe.excitation.is_binary:
-            corr = StreamingCorrelator(probe.reference(), probe.amplitude_deg)
-            corr.push(y)
-            est = corr.pop_periods()
-            out[channel] = np.stack((est.z, est.zeta, est.h), axis=1)
-        else:  # a multisine or a chirp: its own estimator, each period alone
-            periods = y.reshape(scn.periods, probe.length)
-            out[channel] = np.stack(each_period(probe, scn.estimator, periods), axis=1)
-    return out
 
 
 def compute_truth(scn: Scenario, out: str | Path) -> Path:

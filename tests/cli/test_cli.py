@@ -572,7 +572,8 @@ def test_top_level_help_lists_every_command_once() -> None:
     text = build_parser().format_help()
     names = list(_subcommands())
     assert "gtm-damage" in names and "analyze" in names and "live" in names
-    assert len(names) == 13
+    assert "excitations" in names
+    assert len(names) == 14
     listed = [line.split()[0] for line in text.splitlines() if line.startswith("    ")]
     listed = [word for word in listed if word in names]
     assert listed == names, text

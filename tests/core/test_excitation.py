@@ -20,7 +20,9 @@ from probing.core.excitation import (
     multisine,
     spectral_estimates,
 )
+from probing.core.metrics import harmonic_ratio, through_nonlinearity
 from probing.core.noise import cyclic_estimates
+from probing.core.nonlinearities import Backlash, Deadband
 from probing.core.prbs import Probe, mls
 
 ORDER, T0 = 8, 0.02  # M = 255, T = 5.1 s, 1/T = 0.196 Hz, Nyquist 25 Hz
@@ -214,3 +216,42 @@ class TestProbe:
     def test_an_excitation_without_its_fields_is_refused(self, kwargs: dict) -> None:
         with pytest.raises(ValueError):
             Excitation(**kwargs)
+
+
+class TestThroughANonlinearity:
+    """harmonic_ratio and through_nonlinearity against closed forms."""
+
+    def test_a_wire_passes_every_harmonic(self) -> None:
+        u, k = signals()["multisine"]
+        ratio = harmonic_ratio(None, 0.3 * u, 0.01)
+        np.testing.assert_allclose(ratio[k], 1.0, rtol=1e-12)
+        assert np.isnan(ratio[0])  # DC: the multisine has none
+        h0 = folded(FIR, M)
+        np.testing.assert_allclose(
+            through_nonlinearity(h0, ratio, k), band_limited(h0, k), atol=1e-14
+        )
+
+    def test_the_prbs_through_a_dead_band_sees_a_tilde_over_a_everywhere_but_dc(self) -> None:
+        """Eqs. 10-12: the two levels +-(a - d): every harmonic but DC scaled by a~/a."""
+        a, d = 0.3, 0.1
+        nl = Deadband(-d, d)
+        ratio = harmonic_ratio(nl, a * mls(ORDER), 0.01)
+        np.testing.assert_allclose(ratio[1:], (a - d) / a, rtol=1e-12)
+
+    def test_a_multisine_through_a_dead_band_is_distorted(self) -> None:
+        """Not one gain: the harmonics see different gains, each equal to the ratio of the
+        spectra of the dead band's output (computed here by its own formula) and input."""
+        a, d = 0.3, 0.1
+        u, k = signals()["multisine"]
+        p = a * u
+        q = np.where(np.abs(p) > d, p - d * np.sign(p), 0.0)  # the dead band, written out
+        ratio = harmonic_ratio(Deadband(-d, d), p, 0.01)
+        np.testing.assert_allclose(ratio[k], (np.fft.rfft(q) / np.fft.rfft(p))[k], rtol=1e-10)
+        assert np.ptp(np.abs(ratio[k])) > 0.05
+
+    def test_a_hysteretic_nonlinearity_is_read_in_its_periodic_state(self) -> None:
+        """Backlash of width b on the PRBS: after the first period the output has the two
+        levels +-(a - b/2), the paper's a~ = a - b/2 on every harmonic but DC."""
+        a, b = 0.3, 0.2
+        ratio = harmonic_ratio(Backlash(b), a * mls(ORDER), 0.01)
+        np.testing.assert_allclose(ratio[1:], (a - b / 2) / a, rtol=1e-12)

@@ -1,0 +1,127 @@
+"""The excitation comparison's figures (``docs/excitations.md``), from the stored runs.
+
+* ``excitations_<panel key>.png``: one figure per Fig. 4 nonlinearity: per aircraft (rows)
+  and signal (columns), the pitch-rate estimate through the nonlinearity, the same signal's
+  linear baseline scaled by the predicted gain, and the theory's estimate;
+* ``excitations_deadband_relay.png``: what the paper predicts for a non-binary input: each
+  signal through the dead band and the relay of Fig. 4 (a stretch of one period), and the
+  gain each harmonic sees, Q_k / P_k, against the PRBS's a~/a.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from analysis.excitations import Study, ac, predicted_estimate
+from analysis.figures import RC, save_figure
+from probing.core.metrics import gain_and_shape, harmonic_ratio
+from probing.experiment.fig4_set import PANELS
+
+__all__ = ["draw"]
+
+COLOURS = {"prbs": "tab:blue", "multisine": "tab:orange", "chirp": "tab:green"}
+CHANNEL = "q_rad_s"
+SHOWN_S = 3.0  # lags drawn, s
+
+
+def _panel_figure(study: Study, key: str) -> Any:
+    aircraft, signals = study.aircraft, study.signals
+    fig, axes = plt.subplots(
+        len(aircraft),
+        len(signals),
+        figsize=(7.2, 2.1 * len(aircraft)),
+        sharex=True,
+        layout="constrained",
+        squeeze=False,
+    )
+    for i, craft in enumerate(aircraft):
+        for j, signal in enumerate(signals):
+            ax = axes[i, j]
+            base = study.run(craft, signal, "baseline")
+            run = study.run(craft, signal, key)
+            scn = run.scenario
+            lag = np.arange(scn.bits_per_period) * scn.bit_duration_s
+            shown = lag <= SHOWN_S
+            h0, h = ac(base.mean(CHANNEL)), ac(run.mean(CHANNEL))
+            predicted = ac(predicted_estimate(run, base, CHANNEL))
+            g, shape = gain_and_shape(h, h0)
+            ax.plot(lag[shown], h0[shown], color="0.6", lw=0.8, label="linear (same signal)")
+            ax.plot(lag[shown], h[shown], color=COLOURS.get(signal, "k"), lw=1.0, label="measured")
+            ax.plot(lag[shown], predicted[shown], "k--", lw=0.7, label="theory")
+            ax.set_title(f"{craft}, {signal}\ngain {g:.2f}, shape error {shape:.3f}", loc="left")
+            if j == 0:
+                ax.set_ylabel("q pulse response, rad/s per deg")
+            if i == len(aircraft) - 1:
+                ax.set_xlabel("lag, s")
+    axes[0, 0].legend(loc="upper right", fontsize=6)
+    label = study.run(aircraft[0], signals[0], key).scenario
+    fig.suptitle(
+        f"Fig. 4 panel {PANELS[key]}: {label.nonlinearity_label} "
+        f"({label.describe_nonlinearity()}), each estimate without its mean"
+    )
+    return fig
+
+
+def _deadband_relay(study: Study) -> Any:
+    craft = study.aircraft[0]
+    fig, axes = plt.subplots(2, 2, figsize=(7.2, 4.6), layout="constrained")
+    for i, key in enumerate(("a_deadband", "c_relay")):
+        for signal in study.signals:
+            run = study.run(craft, signal, key)
+            scn = run.scenario
+            probe, nl = scn.probe, scn.build_nonlinearity()
+            bits = probe.bits(1)
+            q, _ = nl.process(np.tile(bits, 2), scn.dt_s, nl.initial_state())
+            q = q[bits.size :]
+            n = np.arange(120)
+            t = n * scn.bit_duration_s
+            colour = COLOURS.get(signal, "k")
+            axes[i, 0].step(
+                t, bits[n] / scn.amplitude_deg, where="post", color=colour, lw=0.5, alpha=0.5
+            )
+            axes[i, 0].step(
+                t, q[n] / scn.amplitude_deg, where="post", color=colour, lw=1.0, label=signal
+            )
+            ratio = harmonic_ratio(nl, bits, scn.dt_s)
+            k = np.arange(ratio.size) if probe.harmonics is None else probe.harmonics
+            k = k[k > 0]
+            axes[i, 1].plot(
+                k / probe.memory_s, np.abs(ratio[k]), ".", ms=2, color=colour, label=signal
+            )
+        a_t, _ = nl.apparent(scn.amplitude_deg)
+        axes[i, 1].axhline(
+            a_t / scn.amplitude_deg, color="k", lw=0.6, ls="--", label="a~/a (eqs. 10-12)"
+        )
+        axes[i, 0].set_title(
+            f"{scn.nonlinearity_label}: probe (faint) and what passes, / a", loc="left"
+        )
+        axes[i, 1].set_title(
+            f"{scn.nonlinearity_label}: gain each harmonic sees, |Q_k / P_k|", loc="left"
+        )
+        axes[i, 1].set_xscale("log")
+        axes[i, 1].set_ylabel("|Q_k / P_k|")
+        axes[i, 0].set_ylabel("deflection / a")
+    axes[1, 0].set_xlabel("time, s")
+    axes[1, 1].set_xlabel("frequency, Hz")
+    axes[0, 0].legend(loc="upper right", fontsize=6)
+    axes[0, 1].legend(loc="lower left", fontsize=6)
+    fig.suptitle(
+        "A binary probe keeps its shape through a dead band and a relay; "
+        "a multisine and a chirp do not"
+    )
+    return fig
+
+
+def draw(study: Study, folder: Path) -> list[Path]:
+    """Write every figure into ``folder``; the paths written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with plt.rc_context(RC):
+        for key in PANELS:
+            paths += save_figure(_panel_figure(study, key), folder / f"excitations_{key}")
+        paths += save_figure(_deadband_relay(study), folder / "excitations_deadband_relay")
+    return paths

@@ -1,0 +1,94 @@
+"""``probing excitations``: the PRBS, a multisine and a chirp on one budget through the Fig. 4
+nonlinearities (``docs/excitations.md``): runs, tables and figures."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    _out_file,
+    _out_folder,
+    _path,
+    _simulating,
+    command,
+)
+
+
+def _cmd_excitations(args: argparse.Namespace) -> int:
+    from probing.experiment.excitations import planned, run_study
+    from probing.experiment.scenario import ScenarioError
+
+    t_start = time.perf_counter()
+    try:
+        runs = planned(args.scenarios, args.out)  # every scenario valid before anything runs
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
+    _out_folder(args.out, "--out")
+    _out_file(args.out / "manifest.json", "--out")
+    for r in runs:
+        _out_folder(r["folder"] / r["scenario"].name, "--out")
+    _out_folder(args.figures, "--figures")
+    _out_file(args.summary, "--summary")
+    if args.monitor is not None and not args.monitor.is_dir():
+        raise UsageError(f"--monitor: {args.monitor}: not a folder of monitor sweeps")
+    print(f"probing excitations: {args.scenarios} -> {args.out}")
+
+    def job() -> int:
+        run_study(args.scenarios, args.out, jobs=args.jobs)
+        return _finish(args, t_start)
+
+    return _simulating(job, str(args.scenarios))
+
+
+def _finish(args: argparse.Namespace, t_start: float) -> int:
+    from analysis import excitations, excitations_plots
+
+    study = excitations.collect(args.out)
+    monitor = None
+    if args.monitor is not None:
+        from analysis.excitation_monitor import monitor_table
+
+        monitor = monitor_table(args.monitor)
+    text = excitations.summary_markdown(study, monitor)
+    args.summary.parent.mkdir(parents=True, exist_ok=True)
+    args.summary.write_text(text)
+    for p in excitations_plots.draw(study, args.figures):
+        print(f"figure -> {p}")
+    print(f"summary -> {args.summary}")
+    print(f"wall time {time.perf_counter() - t_start:.1f} s")
+    return 0
+
+
+def register(sub: Subcommands) -> None:
+    """Add ``excitations`` to ``sub``."""
+    exc = command(
+        sub,
+        "excitations",
+        "the PRBS, a multisine and a chirp on one budget through the Fig. 4 nonlinearities, "
+        "on the GTM and the 737: runs, tables and figures (docs/excitations.md)",
+    )
+    exc.add_argument(
+        "--scenarios", type=_path, default=Path("scenarios"), help="folder of the Fig. 4 sets"
+    )
+    exc.add_argument(
+        "--out", type=_path, default=Path("results/excitations"), help="results folder"
+    )
+    exc.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    exc.add_argument(
+        "--summary",
+        type=_path,
+        default=Path("docs/excitations_summary.md"),
+        help="the tables, as markdown",
+    )
+    exc.add_argument(
+        "--monitor",
+        type=_path,
+        default=None,
+        help="results of the sweeps in scenarios/excitations (their table joins the summary)",
+    )
+    exc.add_argument("-j", "--jobs", type=int, default=None, help="runs at once (default: cores)")
+    exc.set_defaults(func=_cmd_excitations)
