@@ -120,10 +120,11 @@ def _probe_and_fault(sweep: str) -> tuple[str, str]:
 def _fault_key(sweep: str, row: pd.Series) -> str:
     """The study fault of a sweep's flight: the sweep's name less ``monitor-`` and a probed
     surface, and less a part that only tells sweeps of one fault apart
-    (``monitor-none-gust``: ``none``); effectiveness by its scale."""
+    (``monitor-none-gust``: ``none``; ``monitor-effectiveness-chirp``: effectiveness);
+    effectiveness by its scale."""
     key = _probe_and_fault(sweep)[1]
     if key not in FAULTS and key != "effectiveness":
-        key = next((k for k in FAULTS if key.startswith(f"{k}-")), key)
+        key = next((k for k in (*FAULTS, "effectiveness") if key.startswith(f"{k}-")), key)
     if key == "effectiveness":
         key = f"effectiveness-{row['fault.scale']:g}"
     return key

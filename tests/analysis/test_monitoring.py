@@ -529,6 +529,13 @@ def test_a_sweep_names_its_fault_with_a_suffix_telling_sweeps_apart(sweep, fault
     assert _fault_key(sweep, pd.Series(dtype=object)) == fault
 
 
+@pytest.mark.parametrize("sweep", ["monitor-effectiveness", "monitor-effectiveness-chirp"])
+def test_effectiveness_is_told_by_its_scale_with_or_without_a_suffix(sweep):
+    from analysis.monitoring import _fault_key
+
+    assert _fault_key(sweep, pd.Series({"fault.scale": 0.8})) == "effectiveness-0.8"
+
+
 def test_the_threshold_law_stops_at_the_detectors_first_alarm(study):
     """h1 alarms first at period 20: its law counts the tested periods 12..20 (the baseline
     freezes there), all over the check's threshold (statistics 5 and 20 > 2.56)."""
