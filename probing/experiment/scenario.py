@@ -25,6 +25,7 @@ from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
+from probing.experiment.scenario_probe import _check_estimator
 from probing.experiment.scenario_schema import (
     DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
 )
@@ -49,7 +50,6 @@ from probing.experiment.scenario_sections import (
 from probing.experiment.scenario_sections import (
     _aircraft,
     _check_baseline,
-    _check_estimator,
     _condition,
     _disturbance,
     _later_sections,

@@ -12,15 +12,16 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from probing.core.excitation import SIGNALS, SPECTRAL, SWEEPS, Excitation
+from probing.core.excitation import SPECTRAL
 from probing.core.faults import FAULTS
 from probing.core.gust import GUST_REFERENCE_SENSORS
 from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
 from probing.core.noise import ESTIMATORS
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
-from probing.core.prbs import MAX_ORDER, MIN_ORDER, Probe, steps_per_bit
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
 from probing.core.sensors import SENSOR_SUITES, Sensor, SensorSpecError, SensorSuite
+from probing.experiment.scenario_probe import _excitation
 from probing.experiment.scenario_schema import (
     _MAX_DEG,
     _MAX_DEG_S,
@@ -402,35 +403,6 @@ def _probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
     }
 
 
-def _excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
-    """``probe.signal`` (the PRBS by default), with a multisine's or chirp's ``band_hz`` and
-    a chirp's ``sweep``; the band checked against the period and the bits."""
-    signal = _choice(probe, "probe", "signal", tuple(SIGNALS)) if "signal" in probe else "prbs"
-    if signal == "prbs":
-        for key in ("band_hz", "sweep"):
-            if key in probe:
-                raise ScenarioError(f"probe.{key}", "is for a multisine or a chirp, not the PRBS")
-        return Excitation()
-    if "band_hz" not in probe:
-        raise ScenarioError("probe.band_hz", f"missing: a {signal} needs [low, high] in Hz")
-    band = probe["band_hz"]
-    if (
-        not isinstance(band, list)
-        or len(band) != 2
-        or any(isinstance(f, bool) or not isinstance(f, (int, float)) for f in band)
-    ):
-        raise ScenarioError("probe.band_hz", f"must be [low, high] in Hz, got {band!r}")
-    if "sweep" in probe and signal != "chirp":
-        raise ScenarioError("probe.sweep", "is for a chirp")
-    sweep = _choice(probe, "probe", "sweep", SWEEPS) if "sweep" in probe else "linear"
-    excitation = Excitation(signal, (float(band[0]), float(band[1])), sweep)
-    try:
-        Probe(order, bit_s, 1.0, excitation)  # builds the signal: the band's rules
-    except ValueError as exc:
-        raise ScenarioError("probe.band_hz", str(exc)) from None
-    return excitation
-
-
 def _output(out: dict[str, Any]) -> dict[str, Any]:
     """The ``[output]`` section: channels, drift correction, detrending order, estimator."""
     channels = out["channels"]
@@ -459,21 +431,6 @@ def _output(out: dict[str, Any]) -> dict[str, Any]:
         "detrend_order": detrend_order,
         "estimator": estimator,
     }
-
-
-def _check_estimator(excitation: Excitation, estimator: str | None) -> str:
-    """The estimator of the probe's signal: the PRBS's ``output.estimator`` (streaming by
-    default, or cyclic, ac, spectral); a multisine's or chirp's is ``spectral`` (its spectrum
-    over the input's), and another is refused."""
-    if excitation.is_binary:
-        return estimator or "streaming"
-    if estimator not in (None, SPECTRAL):
-        raise ScenarioError(
-            "output.estimator",
-            f"{estimator} correlates with a binary sequence; a {excitation.signal} is "
-            f'estimated from its spectrum: estimator = "{SPECTRAL}" (or leave it out)',
-        )
-    return SPECTRAL
 
 
 def _disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, Any]:
