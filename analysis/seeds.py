@@ -28,7 +28,6 @@ import numpy as np
 
 from analysis.tables import fmt
 from probing.core.noise import noise_model, white
-from probing.core.prbs import Probe
 from probing.experiment.storage import read_settled
 
 __all__ = ["SEED", "GroupStats", "has_seeds", "seed_statistics", "seed_table"]
@@ -99,7 +98,7 @@ def _group(data: Any, indices: list[int], label: str) -> list[GroupStats]:
     folders = [data.folder / "points" / f"point_id={ids[i]}" for i in indices]
     infos = [json.loads((f / "point.json").read_text()) for f in folders]
     m = scn.bits_per_period
-    ref = Probe(scn.order, scn.bit_duration_s, scn.amplitude_deg).reference()
+    ref = scn.probe.reference()
     detrend_order = scn.detrend_order if scn.detrends else None
     out = []
     for channel in scn.channels:
@@ -120,6 +119,7 @@ def _group(data: Any, indices: list[int], label: str) -> list[GroupStats]:
             periods,
             white(scn.sensor_noise.get(channel, 0.0)),
             detrend_order,
+            scn.probe.harmonics,
         )
         measured = {
             "h_stderr": _rms(h.std(axis=0, ddof=1)),

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.excitation import SPECTRAL, spectral_estimates
 from probing.core.trend import detrend_matrix, window_periods
 
 __all__ = [
@@ -76,24 +77,32 @@ def _check(reference: np.ndarray, amplitude: float, estimator: str) -> tuple[np.
         raise ValueError("reference must be a 1-D array of length M >= 3")
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise ValueError(f"amplitude must be > 0, got {amplitude}")
-    if estimator not in ESTIMATORS:
-        raise ValueError(f"estimator must be one of {', '.join(ESTIMATORS)}, got {estimator!r}")
+    if estimator not in (*ESTIMATORS, SPECTRAL):
+        names = ", ".join((*ESTIMATORS, SPECTRAL))
+        raise ValueError(f"estimator must be one of {names}, got {estimator!r}")
     return ref, float(amplitude)
 
 
 def estimator_weights(
-    reference: np.ndarray, amplitude: float, estimator: str
+    reference: np.ndarray,
+    amplitude: float,
+    estimator: str,
+    harmonics: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Weights of one period's z and h (tap order) on the bit samples the period reads.
 
     Parameters
     ----------
     reference : numpy.ndarray
-        The +-1 m-sequence sigma, length M.
+        The +-1 m-sequence sigma, length M (for ``spectral``, the probe's unit signal).
     amplitude : float
         Probe amplitude a (probe units, deg).
     estimator : str
-        A key of :data:`ESTIMATORS`.
+        A key of :data:`ESTIMATORS`, or ``"spectral"``
+        (:func:`probing.core.excitation.spectral_estimates`, a linear map too: its weights
+        are its estimates of the unit samples).
+    harmonics : numpy.ndarray, optional
+        ``spectral``: the excited harmonics (None: all, the PRBS's).
 
     Returns
     -------
@@ -111,6 +120,9 @@ def estimator_weights(
     """
     ref, a = _check(reference, amplitude, estimator)
     m = ref.size
+    if estimator == SPECTRAL:
+        z, _, h = spectral_estimates(np.eye(m), ref, a, harmonics)  # row n: y = e_n
+        return z.T, h.T
     if estimator == "streaming":
         # z of tap i is read at sample r = (i - 1) mod M of the period: window r+1 .. r+M of u
         z = np.zeros((m, 2 * m))
@@ -297,6 +309,7 @@ def noise_model(
     periods: int,
     acov: np.ndarray,
     detrend_order: int | None = None,
+    harmonics: np.ndarray | None = None,
 ) -> NoiseModel:
     """The noise of one estimator's mean over ``periods`` settled periods.
 
@@ -318,6 +331,8 @@ def noise_model(
         :func:`probing.core.trend.window_periods` periods ending with its own, detrended by
         :func:`probing.core.trend.detrend_periodic` (a trend of this order fitted together
         with a periodic part, and the mean, removed); the weights become those on the window.
+    harmonics : numpy.ndarray, optional
+        ``spectral``: the excited harmonics (:func:`estimator_weights`).
 
     Returns
     -------
@@ -332,7 +347,7 @@ def noise_model(
     """
     if int(periods) < 1:
         raise ValueError(f"periods must be >= 1, got {periods}")
-    z, h = estimator_weights(reference, amplitude, estimator)
+    z, h = estimator_weights(reference, amplitude, estimator, harmonics)
     if detrend_order is not None:  # rows @ D: the estimate of the detrended window
         m = z.shape[0]
         width = window_periods(detrend_order) * m

@@ -253,9 +253,7 @@ def scatter_models(
     samples from the run's start, e.g. :func:`probing.experiment.design_runs.turbulence_residual`)
     through the scenario's estimator and drift mode."""
     detrend_order = scn.detrend_order if scn.detrends else None
-    estimator = _estimator_model(
-        scn.order, scn.amplitude_deg, scn.estimator, scn.settled_periods, detrend_order
-    )
+    estimator = _estimator_model(scn.probe, scn.estimator, scn.settled_periods, detrend_order)
     first = max(scn.settle_periods, scn.first_estimated_period)
     out: dict[str, NoiseModel] = {}
     for channel in scn.channels:
@@ -272,12 +270,19 @@ def scatter_models(
 
 @functools.lru_cache(maxsize=32)
 def _estimator_model(
-    order: int, amplitude_deg: float, estimator: str, periods: int, detrend_order: int | None
+    probe: Probe, estimator: str, periods: int, detrend_order: int | None
 ) -> NoiseModel:
     """The estimator's weights (noise-free model), remembered: the same for every point of a
     sweep over nonlinearities, seeds or noise levels."""
-    ref = Probe(order, 1.0, amplitude_deg).reference()  # sigma does not depend on t0
-    return noise_model(ref, amplitude_deg, estimator, periods, white(0.0), detrend_order)
+    return noise_model(
+        probe.reference(),
+        probe.amplitude_deg,
+        estimator,
+        periods,
+        white(0.0),
+        detrend_order,
+        probe.harmonics,
+    )
 
 
 def predict(

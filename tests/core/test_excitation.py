@@ -21,7 +21,7 @@ from probing.core.excitation import (
     spectral_estimates,
 )
 from probing.core.metrics import harmonic_ratio, through_nonlinearity
-from probing.core.noise import cyclic_estimates
+from probing.core.noise import cyclic_estimates, estimator_weights, noise_model, white
 from probing.core.nonlinearities import Backlash, Deadband
 from probing.core.prbs import Probe, mls
 
@@ -255,3 +255,21 @@ class TestThroughANonlinearity:
         a, b = 0.3, 0.2
         ratio = harmonic_ratio(Backlash(b), a * mls(ORDER), 0.01)
         np.testing.assert_allclose(ratio[1:], (a - b / 2) / a, rtol=1e-12)
+
+
+def test_the_noise_model_of_the_spectral_estimator_is_its_scatter() -> None:
+    """Its weights reproduce its estimates, and the model's per-tap scatter for white noise is
+    what 4000 noise realisations through the estimator give (to their sampling error)."""
+    u, k = signals()["multisine"]
+    rng = np.random.default_rng(11)
+    y = rng.normal(size=(3, M))
+    z_rows, h_rows = estimator_weights(u, 0.5, "spectral", k)
+    z, _, h = spectral_estimates(y, u, 0.5, k)
+    np.testing.assert_allclose(y @ h_rows.T, h, atol=1e-12)
+    np.testing.assert_allclose(y @ z_rows.T, z, atol=1e-10)
+    sigma, periods = 0.2, 2
+    model = noise_model(u, 0.5, "spectral", periods, white(sigma), harmonics=k)
+    noise = rng.normal(scale=sigma, size=(4000, periods, M))
+    measured = spectral_estimates(noise, u, 0.5, k)[2].mean(axis=1).std(axis=0)
+    ratio = np.sqrt(np.mean(measured**2)) / np.sqrt(np.mean(model.h_std() ** 2))
+    assert ratio == pytest.approx(1.0, abs=0.03)

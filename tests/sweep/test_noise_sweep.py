@@ -95,3 +95,39 @@ def test_seeds_figure_shows_the_statistics(seeds_sweep: Path) -> None:
     plt.close(fig)
     info = json.loads(next((seeds_sweep / "points").glob("*/point.json")).read_text())
     assert set(info["predicted"]) == {"theta_rad", "q_rad_s"}
+
+
+@pytest.fixture(scope="module")
+def multisine_seeds(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The same seeds with a multisine of the same RMS over 3-12 Hz (harmonics 2 to 7)."""
+    out = tmp_path_factory.mktemp("multisine-seeds")
+    path = out / "ms.toml"
+    seeds = ", ".join(str(s) for s in range(SEEDS))
+    path.write_text(
+        f'name = "ms"\nbase = "{DATA / "base-737-small.toml"}"\n'
+        '[fixed]\n"disturbance.sensor_noise" = { theta_rad = 1e-5, q_rad_s = 1e-4 }\n'
+        '"probe.signal" = "multisine"\n"probe.band_hz" = [3.0, 12.0]\n'
+        '"output.estimator" = "spectral"\n'
+        f'[grid]\n"disturbance.seed" = [{seeds}]\n'
+    )
+    result = run_sweep(load_sweep(path), out, jobs=2, progress=False)
+    assert result.done == SEEDS
+    return out / "ms"
+
+
+def test_a_multisines_noise_is_predicted_by_its_own_weights(multisine_seeds: Path) -> None:
+    """The spectral estimator's noise model (its weights: its estimates of unit samples) is
+    what the points carry, and what 20 seeds measure."""
+    from probing.core.excitation import Excitation
+    from probing.core.prbs import Probe
+
+    probe = Probe(5, 0.02, 0.01, Excitation("multisine", (3.0, 12.0)))
+    model = noise_model(
+        probe.reference(), 0.01, "spectral", 2, white(1e-5), harmonics=probe.harmonics
+    )
+    row = read_summary(multisine_seeds).iloc[0]
+    rms = float(np.sqrt(np.mean(model.h_std() ** 2)))
+    assert row["predicted_h_stderr"] == pytest.approx(rms, rel=1e-9)
+    for s in seed_statistics(load_sweep_data(multisine_seeds)):
+        for q in ("h_stderr", "gain_stderr"):
+            assert 0.6 < s.ratio(q) < 1.4, (s.channel, q, s.ratio(q))
