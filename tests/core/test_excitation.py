@@ -22,7 +22,7 @@ from probing.core.excitation import (
 )
 from probing.core.metrics import harmonic_ratio, through_nonlinearity
 from probing.core.noise import cyclic_estimates, estimator_weights, noise_model, white
-from probing.core.nonlinearities import Backlash, Deadband
+from probing.core.nonlinearities import Backlash, Deadband, RateLimit
 from probing.core.prbs import Probe, mls
 
 ORDER, T0 = 8, 0.02  # M = 255, T = 5.1 s, 1/T = 0.196 Hz, Nyquist 25 Hz
@@ -167,12 +167,12 @@ class TestTheBand:
     def test_the_first_harmonic_is_the_lowest_low(self) -> None:
         assert band_harmonics((self.first, 1.0), ORDER, T0)[0] == 1
         with pytest.raises(BandError, match="below the period's first harmonic"):
-            band_harmonics((self.first * 0.99, 1.0), ORDER, T0)
+            band_harmonics((self.first * (1 - 1e-6), 1.0), ORDER, T0)
 
     def test_nyquist_is_the_highest_high(self) -> None:
         assert band_harmonics((1.0, self.nyquist), ORDER, T0)[-1] == (M - 1) // 2
         with pytest.raises(BandError, match="above the bits' Nyquist"):
-            band_harmonics((1.0, self.nyquist * 1.01), ORDER, T0)
+            band_harmonics((1.0, self.nyquist * (1 + 1e-6)), ORDER, T0)
 
     def test_fewest_harmonics(self) -> None:
         k = band_harmonics((self.first, MIN_HARMONICS * self.first), ORDER, T0)
@@ -273,3 +273,16 @@ def test_the_noise_model_of_the_spectral_estimator_is_its_scatter() -> None:
     measured = spectral_estimates(noise, u, 0.5, k)[2].mean(axis=1).std(axis=0)
     ratio = np.sqrt(np.mean(measured**2)) / np.sqrt(np.mean(model.h_std() ** 2))
     assert ratio == pytest.approx(1.0, abs=0.03)
+
+
+def test_the_ratio_is_the_periodic_state_not_the_start() -> None:
+    """A slow rate limit started at rest: the first period differs from the later ones, and
+    the ratio is the later ones' (the third of three periods, computed here)."""
+    a, dt = 0.3, 0.01
+    nl = RateLimit(0.3 * 2 * a / dt)
+    p = a * mls(ORDER)
+    y, _ = nl.process(np.tile(p, 3), dt, nl.initial_state())
+    first, last = y[:M], y[2 * M :]
+    assert np.abs(first - last).max() > 0.1 * a
+    expected = np.fft.rfft(last) / np.fft.rfft(p)
+    np.testing.assert_allclose(harmonic_ratio(nl, p, dt), expected, rtol=1e-10, atol=1e-12)
