@@ -19,7 +19,9 @@ import numpy as np
 from analysis.excitations import Study, ac, predicted_estimate
 from analysis.figures import RC, save_figure
 from probing.core.metrics import gain_and_shape, harmonic_ratio
+from probing.core.recorded import tap_bounds
 from probing.experiment.fig4_set import PANELS
+from probing.experiment.layouts import BOUNDS_LEVEL
 
 __all__ = ["draw"]
 
@@ -28,7 +30,13 @@ CHANNEL = "q_rad_s"
 SHOWN_S = 3.0  # lags drawn, s
 
 
-def _panel_figure(study: Study, key: str) -> Any:
+def _band(ax: Any, periods: np.ndarray, shown: np.ndarray, lag: np.ndarray, colour: str) -> None:
+    """Shade the 95 % bounds per tap of the mean of ``periods`` (each without its mean)."""
+    _, low, high, _ = tap_bounds(ac(periods), BOUNDS_LEVEL)
+    ax.fill_between(lag[shown], low[shown], high[shown], color=colour, alpha=0.25, lw=0)
+
+
+def _panel_figure(study: Study, key: str, bounds: bool = False) -> Any:
     aircraft, signals = study.aircraft, study.signals
     fig, axes = plt.subplots(
         len(aircraft),
@@ -52,6 +60,9 @@ def _panel_figure(study: Study, key: str) -> Any:
             ax.plot(lag[shown], h0[shown], color="0.6", lw=0.8, label="linear (same signal)")
             ax.plot(lag[shown], h[shown], color=COLOURS.get(signal, "k"), lw=1.0, label="measured")
             ax.plot(lag[shown], predicted[shown], "k--", lw=0.7, label="theory")
+            if bounds:
+                _band(ax, base.h[CHANNEL], shown, lag, "0.6")
+                _band(ax, run.h[CHANNEL], shown, lag, COLOURS.get(signal, "k"))
             ax.set_title(f"{craft}, {signal}\ngain {g:.2f}, shape error {shape:.3f}", loc="left")
             if j == 0:
                 ax.set_ylabel("q pulse response, rad/s per deg")
@@ -116,12 +127,13 @@ def _deadband_relay(study: Study) -> Any:
     return fig
 
 
-def draw(study: Study, folder: Path) -> list[Path]:
-    """Write every figure into ``folder``; the paths written."""
+def draw(study: Study, folder: Path, bounds: bool = False) -> list[Path]:
+    """Write every figure into ``folder``; the paths written.  ``bounds``: shade each
+    estimate's 95 % bounds per tap over its settled periods in the nonlinearity figures."""
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     with plt.rc_context(RC):
         for key in PANELS:
-            paths += save_figure(_panel_figure(study, key), folder / f"excitations_{key}")
+            paths += save_figure(_panel_figure(study, key, bounds), folder / f"excitations_{key}")
         paths += save_figure(_deadband_relay(study), folder / "excitations_deadband_relay")
     return paths

@@ -16,6 +16,7 @@ from probing.cli.common import (
     _simulating,
     command,
 )
+from probing.cli.fig4 import BOUNDS_HELP
 
 
 def _cmd_excitations(args: argparse.Namespace) -> int:
@@ -56,7 +57,7 @@ def _finish(args: argparse.Namespace, t_start: float) -> int:
     text = excitations.summary_markdown(study, monitor)
     args.summary.parent.mkdir(parents=True, exist_ok=True)
     args.summary.write_text(text)
-    for p in excitations_plots.draw(study, args.figures):
+    for p in excitations_plots.draw(study, args.figures, bounds=args.bounds):
         print(f"figure -> {p}")
     print(f"summary -> {args.summary}")
     print(f"wall time {time.perf_counter() - t_start:.1f} s")
@@ -90,5 +91,6 @@ def register(sub: Subcommands) -> None:
         default=None,
         help="results of the sweeps in scenarios/excitations (their table joins the summary)",
     )
+    exc.add_argument("--bounds", action="store_true", help=BOUNDS_HELP)
     exc.add_argument("-j", "--jobs", type=int, default=None, help="runs at once (default: cores)")
     exc.set_defaults(func=_cmd_excitations)

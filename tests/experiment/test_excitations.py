@@ -146,3 +146,28 @@ def test_an_output_folder_that_is_a_file_is_refused(tmp_path: Path, capsys) -> N
     assert main(["excitations", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--out" in err[0]
+
+
+@pytest.mark.slow
+def test_bounds_shade_each_estimate_in_the_nonlinearity_figures(study: Path) -> None:
+    """--bounds: two bands a panel (the linear estimate and the nonlinear one), each the
+    95 % bounds of its settled periods; none without it."""
+    from matplotlib.collections import PolyCollection
+
+    from analysis.excitations import ac, collect
+    from analysis.excitations_plots import CHANNEL, SHOWN_S, _panel_figure
+    from probing.core.recorded import tap_bounds
+
+    data = collect(study / "results")
+    bands = lambda fig: [  # noqa: E731
+        c for ax in fig.axes for c in ax.collections if isinstance(c, PolyCollection)
+    ]
+    assert bands(_panel_figure(data, "c_relay")) == []
+    fig = _panel_figure(data, "c_relay", bounds=True)
+    assert len(bands(fig)) == 2 * len(data.aircraft) * len(data.signals)
+    run = data.run("737", "multisine", "c_relay")
+    _, low, high, _ = tap_bounds(ac(run.h[CHANNEL]), 0.95)
+    shown = np.arange(low.size) * run.scenario.bit_duration_s <= SHOWN_S
+    band = bands(fig)[2 * (len(data.signals) + 1) + 1].get_paths()[0].vertices[:, 1]
+    assert np.isclose(band.min(), min(low[shown].min(), high[shown].min()))
+    assert np.isclose(band.max(), max(low[shown].max(), high[shown].max()))
