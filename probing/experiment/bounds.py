@@ -13,9 +13,9 @@ import numpy as np
 
 from probing.experiment.layouts import BOUNDS_LEVEL, bounds_block
 from probing.experiment.settled import SettledMean
-from probing.experiment.storage import OutputFolder, metadata
+from probing.experiment.storage import OutputFolder, metadata, probing_block
 
-__all__ = ["bounds_confidence", "write_bounds", "write_settled_bounds"]
+__all__ = ["EstimatesFile", "bounds_confidence", "write_bounds", "write_settled_bounds"]
 
 
 def bounds_confidence(dof: int | dict[str, int]) -> dict[str, object]:
@@ -122,3 +122,47 @@ def write_settled_bounds(
     bounds, dof = found
     same = set(dof.values())
     return write_bounds(folder, channels, lag_s, bounds, same.pop() if len(same) == 1 else dof, per)
+
+
+class EstimatesFile:
+    """A monitored flight's ``probing.parquet`` rows, chunk by chunk, and at the end its
+    ``bounds.parquet`` over the settled periods: what ``probing monitor --replay`` and
+    ``probing live`` write, as ``probing run`` does.
+
+    Parameters
+    ----------
+    outputs : OutputFolder
+        The flight's open output folder.
+    channels : list of str
+        The scenario's channels.
+    settle_periods : int
+        Periods left out of the bounds at the start.
+    lag_s : numpy.ndarray
+        Lag of each tap (s), shape (M,).
+    per : str
+        The probed surface's unit, which ``h_est`` is per.
+    """
+
+    def __init__(
+        self,
+        outputs: OutputFolder,
+        channels: list[str],
+        settle_periods: int,
+        lag_s: np.ndarray,
+        per: str = "deg",
+    ) -> None:
+        self.outputs, self.channels, self.lag_s, self.per = outputs, channels, lag_s, per
+        self.writer = outputs.writer("probing.parquet", channels, per)
+        self.settled = SettledMean(channels, lag_s.size, settle_periods, keep_all=True)
+
+    def write(self, est: Any) -> None:
+        """Add a chunk's estimates (``periods`` (P,), ``z``, ``zeta``, ``h`` (P, C, M))."""
+        if est.periods.size:
+            self.writer.write(
+                probing_block(self.channels, est.periods, self.lag_s, est.z, est.zeta, est.h)
+            )
+            self.settled.add(est.periods, est.h, est.z)
+
+    def finish(self) -> Path | None:
+        """Write ``bounds.parquet`` (:func:`write_settled_bounds`)."""
+        return write_settled_bounds(self.outputs, self.settled, self.channels, self.lag_s, self.per)

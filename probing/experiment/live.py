@@ -31,6 +31,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from probing.experiment.bounds import EstimatesFile
 from probing.experiment.layouts import sensors_schema
 from probing.experiment.monitor import MonitorResult, _Monitor
 from probing.experiment.onboard import Onboard
@@ -38,7 +39,7 @@ from probing.experiment.progress import Progress, progress_bar
 from probing.experiment.run import _log, _measured, scenario_provenance
 from probing.experiment.scenario import Scenario
 from probing.experiment.sim_socket import SimSocket
-from probing.experiment.storage import metadata, output_folder, probing_block
+from probing.experiment.storage import metadata, output_folder
 from probing.sim.channels import CHANNELS
 from probing.sim.errors import DivergenceError
 from probing.sim.plant import Plant, make_plant
@@ -274,18 +275,18 @@ def _fly(
         w_log = outputs.writer("sensors.parquet", read.channels, scn.surface_unit, schema=schema)
         trim = dict(zip(channels, read.y_trim.tolist(), strict=True))
         w_log.add_metadata(metadata(trim_measured=trim, chunk_periods=flown.chunk))
-        w_probe = outputs.writer("probing.parquet", channels, scn.surface_unit)
+        estimates = EstimatesFile(outputs, channels, scn.settle_periods, lag_s, scn.surface_unit)
         monitor.open(outputs)
         for first, log in flown.logs():
             begun = time.perf_counter()
             w_log.write(log)
             done = onboard.estimates(log, first)
             est = done.estimates
-            if est.periods.size:
-                w_probe.write(probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h))
+            estimates.write(est)
             monitor.update(est.periods, est.h, est.z, done.trajectory)
             _report(bar, monitor, est, first, len(log["time_s"]) // flown.n_steps)
             chunk_s = max(chunk_s, time.perf_counter() - begun)
+        estimates.finish()
         monitor.finish()
     wall = time.perf_counter() - start
     result = monitor.result(None, folder, None)

@@ -27,6 +27,7 @@ import pyarrow.parquet as pq
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.trajectory import TrajectoryDetector
+from probing.experiment.bounds import EstimatesFile
 from probing.experiment.onboard import Onboard, open_reference_twin, reference_source
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import CHUNK_STEPS, RunResult, run_scenario
@@ -37,7 +38,6 @@ from probing.experiment.storage import (
     OutputFolder,
     metadata,
     output_folder,
-    probing_block,
     read_footer,
     read_schema,
 )
@@ -394,7 +394,9 @@ def replay_monitor(
     with twin or nullcontext():
         onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)
         with output_folder(folder, kept) as outputs:
-            w_probe = outputs.writer("probing.parquet", list(scn.channels), scn.surface_unit)
+            estimates = EstimatesFile(
+                outputs, list(scn.channels), scn.settle_periods, lag_s, scn.surface_unit
+            )
             monitor.open(outputs)
             rows = _batches(log, table, chunk_periods * period_steps)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
@@ -404,15 +406,11 @@ def replay_monitor(
                     count = batch.num_rows // period_steps
                     done = onboard.estimates(chunk, first)
                     est = done.estimates
-                    if est.periods.size:
-                        w_probe.write(
-                            probing_block(
-                                list(scn.channels), est.periods, lag_s, est.z, est.zeta, est.h
-                            )
-                        )
+                    estimates.write(est)
                     monitor.update(est.periods, est.h, est.z, done.trajectory)
                     first += count
                     bar.advance(count)
+            estimates.finish()
             if ended is not None:
                 for writer in outputs.writers:
                     writer.add_metadata({b"probing.ended": ended})

@@ -115,7 +115,7 @@ def _table(folder: Path, name: str):
 
 def test_the_live_flight_writes_the_monitors_files(live):
     base, scn = live
-    for name in ("sensors.parquet", "probing.parquet", "monitor.parquet"):
+    for name in ("sensors.parquet", "probing.parquet", "monitor.parquet", "bounds.parquet"):
         assert (base / scn.name / name).is_file(), name
     log = _table(base / scn.name, "sensors.parquet")
     assert len(log) == scn.total_steps and np.isfinite(log.to_numpy(dtype=float)).all()
@@ -124,7 +124,7 @@ def test_the_live_flight_writes_the_monitors_files(live):
 def test_a_replay_of_the_live_log_is_the_live_monitor_bit_for_bit(live, tmp_path):
     base, scn = live
     again = replay_monitor(base / scn.name / "sensors.parquet", tmp_path, progress=False)
-    for name in ("monitor.parquet", "probing.parquet"):
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
         a, b = _table(base / scn.name, name), _table(again.out_dir, name)
         assert len(a) > 0 and a.equals(b), name
 

@@ -54,7 +54,7 @@ def _tables(folder: Path, name: str):
 def test_the_replay_of_a_log_is_the_live_monitor_bit_for_bit(flights, tmp_path, drift):
     live = flights[drift]
     again = replay_monitor(live.out_dir / "sensors.parquet", tmp_path, progress=False)
-    for name in ("monitor.parquet", "probing.parquet"):
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
         (a, ma), (b, mb) = _tables(live.out_dir, name), _tables(again.out_dir, name)
         assert len(a) > 0 and a.equals(b), name
         for key in FOOTER:
