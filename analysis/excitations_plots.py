@@ -68,7 +68,8 @@ def _panel_figure(study: Study, key: str, bounds: bool = False) -> Any:
                 ax.set_ylabel("q pulse response, rad/s per deg")
             if i == len(aircraft) - 1:
                 ax.set_xlabel("lag, s")
-    axes[0, 0].legend(loc="upper right", fontsize=6)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize=7)
     label = study.run(aircraft[0], signals[0], key).scenario
     fig.suptitle(
         f"Fig. 4 panel {PANELS[key]}: {label.nonlinearity_label} "
@@ -118,8 +119,8 @@ def _deadband_relay(study: Study) -> Any:
         axes[i, 0].set_ylabel("deflection / a")
     axes[1, 0].set_xlabel("time, s")
     axes[1, 1].set_xlabel("frequency, Hz")
-    axes[0, 0].legend(loc="upper right", fontsize=6)
-    axes[0, 1].legend(loc="lower left", fontsize=6)
+    handles, labels = axes[0, 1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=4, fontsize=7)
     fig.suptitle(
         "A binary probe keeps its shape through a dead band and a relay; "
         "a multisine and a chirp do not"
