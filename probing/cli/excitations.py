@@ -34,8 +34,11 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
         _out_folder(r["folder"] / r["scenario"].name, "--out")
     _out_folder(args.figures, "--figures")
     _out_file(args.summary, "--summary")
-    if args.monitor is not None and not args.monitor.is_dir():
-        raise UsageError(f"--monitor: {args.monitor}: not a folder of monitor sweeps")
+    if args.monitor is not None and not any(args.monitor.glob("monitor-*/summary.parquet")):
+        raise UsageError(
+            f"--monitor: {args.monitor}: no monitor sweep in it (monitor-*/summary.parquet); "
+            "fly scenarios/excitations/*.toml with probing sweep first"
+        )
     print(f"probing excitations: {args.scenarios} -> {args.out}")
 
     def job() -> int:
@@ -47,13 +50,17 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
 
 def _finish(args: argparse.Namespace, t_start: float) -> int:
     from analysis import excitations, excitations_plots
+    from probing.experiment.storage import StoredFileError
 
     study = excitations.collect(args.out)
     monitor = None
     if args.monitor is not None:
         from analysis.excitation_monitor import monitor_table
 
-        monitor = monitor_table(args.monitor)
+        try:
+            monitor = monitor_table(args.monitor)
+        except (FileNotFoundError, StoredFileError) as exc:
+            raise UsageError(f"--monitor: {exc}") from None
     text = excitations.summary_markdown(study, monitor)
     args.summary.parent.mkdir(parents=True, exist_ok=True)
     args.summary.write_text(text)

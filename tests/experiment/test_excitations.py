@@ -171,3 +171,16 @@ def test_bounds_shade_each_estimate_in_the_nonlinearity_figures(study: Path) -> 
     band = bands(fig)[2 * (len(data.signals) + 1) + 1].get_paths()[0].vertices[:, 1]
     assert np.isclose(band.min(), min(low[shown].min(), high[shown].min()))
     assert np.isclose(band.max(), max(low[shown].max(), high[shown].max()))
+
+
+def test_a_monitor_folder_without_sweeps_is_refused_before_anything_runs(
+    tmp_path: Path, capsys
+) -> None:
+    from probing.cli import main
+
+    (tmp_path / "empty").mkdir()
+    out = tmp_path / "results"
+    assert main(["excitations", "--out", str(out), "--monitor", str(tmp_path / "empty")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--monitor" in err[0] and "no monitor sweep" in err[0]
+    assert not out.exists()
