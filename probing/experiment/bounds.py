@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 
 from probing.experiment.layouts import BOUNDS_LEVEL, bounds_block
+from probing.experiment.scatter import settled_model_sd
+from probing.experiment.scenario import Scenario
 from probing.experiment.settled import SettledMean
 from probing.experiment.storage import OutputFolder, metadata, probing_block
 
@@ -43,6 +45,7 @@ def write_bounds(
     dof: int | dict[str, int],
     per: str = "deg",
     own_units: dict[str, Any] | None = None,
+    model_sd: np.ndarray | None = None,
 ) -> Path:
     """Write ``bounds.parquet`` (:data:`~probing.experiment.layouts.BOUNDS_SCHEMA`) into
     ``folder``: it appears with the folder's other files.
@@ -68,6 +71,9 @@ def write_bounds(
         The ``probing.units`` entries of the columns in the channels' units, for channels
         that are not the simulation's (a record's columns, ``probing analyze``); without it
         they are the channels' own.
+    model_sd : numpy.ndarray, optional
+        Shape (C, M): the noise model's standard deviation of the mean per tap; None where
+        no model covers the estimate (the column is NaN).
 
     Returns
     -------
@@ -82,18 +88,16 @@ def write_bounds(
         own_units=own_units,
         extra=metadata(confidence=bounds_confidence(dof)),
     )
-    writer.write(bounds_block(names, lag_s, *bounds))
+    writer.write(bounds_block(names, lag_s, *bounds, model_sd=model_sd))
     return writer.path
 
 
 def write_settled_bounds(
-    folder: OutputFolder,
-    settled: SettledMean,
-    channels: list[str],
-    lag_s: np.ndarray,
-    per: str = "deg",
+    folder: OutputFolder, settled: SettledMean, scn: Scenario, lag_s: np.ndarray
 ) -> Path | None:
-    """A run's ``bounds.parquet``: :meth:`SettledMean.bounds` of its settled periods.
+    """A run's ``bounds.parquet``: :meth:`SettledMean.bounds` of its settled periods, and the
+    noise model's standard deviation of the mean where it covers the run
+    (:func:`probing.experiment.scatter.settled_model_sd`).
 
     The degrees of freedom are stored as one int when every channel has the same, else per
     channel.  Nothing is written when no channel has 2 settled periods.
@@ -104,12 +108,10 @@ def write_settled_bounds(
         The run's open output folder.
     settled : SettledMean
         The run's settled periods, kept with ``keep_all``.
-    channels : list of str
-        The run's channels, C of them.
+    scn : Scenario
+        The run's scenario: its channels, the probed surface's unit and the noise model.
     lag_s : numpy.ndarray
         Lag of each tap (s), shape (M,).
-    per : str
-        The probed surface's unit, which ``h_est`` is per.
 
     Returns
     -------
@@ -121,7 +123,10 @@ def write_settled_bounds(
         return None
     bounds, dof = found
     same = set(dof.values())
-    return write_bounds(folder, channels, lag_s, bounds, same.pop() if len(same) == 1 else dof, per)
+    dof_all = same.pop() if len(same) == 1 else dof
+    model_sd = settled_model_sd(scn)
+    per = scn.surface_unit
+    return write_bounds(folder, list(scn.channels), lag_s, bounds, dof_all, per, model_sd=model_sd)
 
 
 class EstimatesFile:
@@ -133,27 +138,17 @@ class EstimatesFile:
     ----------
     outputs : OutputFolder
         The flight's open output folder.
-    channels : list of str
-        The scenario's channels.
-    settle_periods : int
-        Periods left out of the bounds at the start.
+    scn : Scenario
+        The flight's scenario.
     lag_s : numpy.ndarray
         Lag of each tap (s), shape (M,).
-    per : str
-        The probed surface's unit, which ``h_est`` is per.
     """
 
-    def __init__(
-        self,
-        outputs: OutputFolder,
-        channels: list[str],
-        settle_periods: int,
-        lag_s: np.ndarray,
-        per: str = "deg",
-    ) -> None:
-        self.outputs, self.channels, self.lag_s, self.per = outputs, channels, lag_s, per
-        self.writer = outputs.writer("probing.parquet", channels, per)
-        self.settled = SettledMean(channels, lag_s.size, settle_periods, keep_all=True)
+    def __init__(self, outputs: OutputFolder, scn: Scenario, lag_s: np.ndarray) -> None:
+        self.outputs, self.scn, self.lag_s = outputs, scn, lag_s
+        self.channels = list(scn.channels)
+        self.writer = outputs.writer("probing.parquet", self.channels, scn.surface_unit)
+        self.settled = SettledMean(self.channels, lag_s.size, scn.settle_periods, keep_all=True)
 
     def write(self, est: Any) -> None:
         """Add a chunk's estimates (``periods`` (P,), ``z``, ``zeta``, ``h`` (P, C, M))."""
@@ -165,4 +160,4 @@ class EstimatesFile:
 
     def finish(self) -> Path | None:
         """Write ``bounds.parquet`` (:func:`write_settled_bounds`)."""
-        return write_settled_bounds(self.outputs, self.settled, self.channels, self.lag_s, self.per)
+        return write_settled_bounds(self.outputs, self.settled, self.scn, self.lag_s)

@@ -57,7 +57,8 @@ from probing.experiment.design_window import (
     window_dict,
     window_reasons,
 )
-from probing.experiment.noise import ChannelPrediction, predict, scatter_models
+from probing.experiment.noise import ChannelPrediction, predict
+from probing.experiment.scatter import scatter_models
 from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import make_plant

@@ -50,7 +50,7 @@ def turbulence_residual(scn: Scenario, seeds: int) -> dict[str, np.ndarray]:
     (``detrend``) the run's measurement itself is taken.
 
     ``disturbance.sensor_noise`` (white, added analytically by
-    :func:`probing.experiment.noise.scatter_models`) is left out of the runs; a sensor
+    :func:`probing.experiment.scatter.scatter_models`) is left out of the runs; a sensor
     suite's noise is kept: it reaches the estimate through the autopilot and the reference,
     so the realisations hold it, and nothing is to be added for it again.
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from probing.core.monitor import window_variance_factor
 from probing.experiment.design_request import DesignError, DesignRequest
-from probing.experiment.noise import scatter_models
+from probing.experiment.scatter import scatter_models
 from probing.experiment.scenario import Scenario
 
 __all__ = [

@@ -74,6 +74,13 @@ BOUNDS_SCHEMA = pa.schema(
         field("h_low", pa.float64(), PER_DEG, "lower bound of the mean's 95 % Student-t interval"),
         field("h_high", pa.float64(), PER_DEG, "upper bound of the mean's 95 % Student-t interval"),
         field("h_std", pa.float64(), PER_DEG, "period-to-period standard deviation (ddof 1)"),
+        field(
+            "h_model_sd",
+            pa.float64(),
+            PER_DEG,
+            "standard deviation of the mean predicted by the noise model from the white sensor "
+            "noise (docs/noise.md); NaN where the model does not cover the run",
+        ),
     ]
 )
 
@@ -360,6 +367,7 @@ def bounds_block(
     low: np.ndarray,
     high: np.ndarray,
     std: np.ndarray,
+    model_sd: np.ndarray | None = None,
 ) -> dict[str, object]:
     """Per-tap bounds of several channels in the layout of :data:`BOUNDS_SCHEMA`.
 
@@ -372,6 +380,9 @@ def bounds_block(
     mean, low, high, std : numpy.ndarray
         Shape (C, M), in the unit of ``h_est`` (the channel's unit per unit of probe), as
         :func:`probing.core.recorded.tap_bounds` returns them.
+    model_sd : numpy.ndarray, optional
+        Shape (C, M): the noise model's standard deviation of the mean, same unit; None: NaN
+        (no model covers the estimate).
 
     Returns
     -------
@@ -388,4 +399,5 @@ def bounds_block(
         "h_low": low.reshape(-1),
         "h_high": high.reshape(-1),
         "h_std": std.reshape(-1),
+        "h_model_sd": np.full(n_c * m, np.nan) if model_sd is None else model_sd.reshape(-1),
     }

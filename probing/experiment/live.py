@@ -275,7 +275,7 @@ def _fly(
         w_log = outputs.writer("sensors.parquet", read.channels, scn.surface_unit, schema=schema)
         trim = dict(zip(channels, read.y_trim.tolist(), strict=True))
         w_log.add_metadata(metadata(trim_measured=trim, chunk_periods=flown.chunk))
-        estimates = EstimatesFile(outputs, channels, scn.settle_periods, lag_s, scn.surface_unit)
+        estimates = EstimatesFile(outputs, scn, lag_s)
         monitor.open(outputs)
         for first, log in flown.logs():
             begun = time.perf_counter()

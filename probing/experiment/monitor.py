@@ -394,9 +394,7 @@ def replay_monitor(
     with twin or nullcontext():
         onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)
         with output_folder(folder, kept) as outputs:
-            estimates = EstimatesFile(
-                outputs, list(scn.channels), scn.settle_periods, lag_s, scn.surface_unit
-            )
+            estimates = EstimatesFile(outputs, scn, lag_s)
             monitor.open(outputs)
             rows = _batches(log, table, chunk_periods * period_steps)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:

@@ -30,15 +30,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.forked import can_fork, forked_map
-from probing.core.noise import NoiseModel, noise_model, white
-from probing.core.prbs import Probe
+from probing.experiment.scatter import scatter_models
 from probing.experiment.scenario import Scenario
 from probing.sim.flight import Flight
 from probing.sim.fork import TrimmedAircraft
 from probing.sim.linear import LinearResponse, linear_response
 from probing.sim.plant import make_plant
 
-__all__ = ["ChannelPrediction", "linear_model", "measured_bias", "predict", "scatter_models"]
+__all__ = ["ChannelPrediction", "linear_model", "measured_bias", "predict"]
 
 
 @dataclass(frozen=True)
@@ -240,49 +239,6 @@ def _deterministic_of(scn: Scenario) -> tuple[dict, dict, dict]:
         pulse = functools.partial(_step_response, scn.flight, scn.channels)
         _DETERMINISTIC[key] = _deterministic(scn, lin, rows, pulse, bare)
     return _DETERMINISTIC[key]
-
-
-def scatter_models(
-    scn: Scenario,
-    extra_acov: Mapping[str, np.ndarray] | None = None,
-    extra_samples: Mapping[str, np.ndarray] | None = None,
-) -> dict[str, NoiseModel]:
-    """The seed-to-seed noise of every channel's settled estimates (no simulation): sensor
-    noise plus ``extra_acov`` (channel -> autocovariance of stationary noise on the bit
-    samples) plus ``extra_samples`` (channel -> realisations (K, n) of further noise on the bit
-    samples from the run's start, e.g. :func:`probing.experiment.design_runs.turbulence_residual`)
-    through the scenario's estimator and drift mode."""
-    detrend_order = scn.detrend_order if scn.detrends else None
-    estimator = _estimator_model(scn.probe, scn.estimator, scn.settled_periods, detrend_order)
-    first = max(scn.settle_periods, scn.first_estimated_period)
-    out: dict[str, NoiseModel] = {}
-    for channel in scn.channels:
-        acov = white(scn.sensor_noise.get(channel, 0.0))
-        if extra_acov and channel in extra_acov:
-            extra = np.asarray(extra_acov[channel], dtype=float)
-            acov = np.pad(acov, (0, max(0, extra.size - acov.size)))
-            acov[: extra.size] += extra
-        samples = extra_samples.get(channel) if extra_samples else None
-        # the weights are the same for every channel
-        out[channel] = estimator.with_noise(acov, samples, first)
-    return out
-
-
-@functools.lru_cache(maxsize=32)
-def _estimator_model(
-    probe: Probe, estimator: str, periods: int, detrend_order: int | None
-) -> NoiseModel:
-    """The estimator's weights (noise-free model), remembered: the same for every point of a
-    sweep over nonlinearities, seeds or noise levels."""
-    return noise_model(
-        probe.reference(),
-        probe.amplitude_deg,
-        estimator,
-        periods,
-        white(0.0),
-        detrend_order,
-        probe.harmonics,
-    )
 
 
 def predict(

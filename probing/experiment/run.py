@@ -523,7 +523,7 @@ def run_scenario(
                             _timeseries_rows(c, measured, reference, x_period, scn, channels)
                         )
                     bar.advance(c.count)
-            write_settled_bounds(outputs, settled, channels, lag_s, scn.surface_unit)
+            write_settled_bounds(outputs, settled, scn, lag_s)
             if rig.ended:
                 for writer in outputs.writers:
                     writer.add_metadata(metadata(ended=rig.ended))

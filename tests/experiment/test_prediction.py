@@ -13,8 +13,9 @@ import pytest
 from probing.core.correlator import StreamingCorrelator
 from probing.core.noise import cyclic_estimates
 from probing.core.prbs import Probe, mls
-from probing.experiment.noise import measured_bias, predict, scatter_models
+from probing.experiment.noise import measured_bias, predict
 from probing.experiment.run import run_scenario
+from probing.experiment.scatter import scatter_models
 from probing.experiment.scenario import Scenario, load_scenario
 from probing.sim.linear import LinearResponse
 

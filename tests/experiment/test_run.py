@@ -576,3 +576,33 @@ def test_a_run_with_one_settled_period_writes_no_bounds(tmp_path: Path) -> None:
         "probing.parquet",
         "timeseries.parquet",
     ]
+
+
+def test_bounds_carry_the_noise_models_prediction_where_it_covers_the_run(tmp_path: Path) -> None:
+    """Open loop in calm air with white sensor noise: ``h_model_sd`` is the noise model's
+    standard deviation of the settled mean (scatter_models), for the scenario's own
+    estimator; in turbulence the model does not cover the run and the column is NaN."""
+    from probing.experiment.scatter import model_covers, scatter_models
+
+    noisy = scenario(
+        **{
+            "probe.order": 6,
+            "probe.periods": 5,
+            "probe.settle_periods": 1,
+            "output.channels": ["theta_rad", "q_rad_s"],
+            "output.estimator": "cyclic",
+            "disturbance.sensor_noise": {"theta_rad": 1e-5, "q_rad_s": 1e-4},
+        }
+    )
+    assert model_covers(noisy)
+    out = run_scenario(noisy, tmp_path / "calm", progress=False).out_dir
+    bounds = pd.read_parquet(out / "bounds.parquet")
+    models = scatter_models(noisy)
+    for channel in noisy.channels:
+        got = bounds[bounds.channel == channel].sort_values("tap").h_model_sd.to_numpy()
+        np.testing.assert_allclose(got, models[channel].h_std(), rtol=1e-12)
+        assert got.min() > 0
+    gusty = noisy.replace({"disturbance.turbulence": "light", "output.drift": "oracle"})
+    assert not model_covers(gusty)
+    out = run_scenario(gusty, tmp_path / "gusty", progress=False).out_dir
+    assert pd.read_parquet(out / "bounds.parquet").h_model_sd.isna().all()
