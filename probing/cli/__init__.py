@@ -77,7 +77,7 @@ class Terminated(KeyboardInterrupt):
 
 
 def _terminate(signum: int, frame: Any) -> None:
-    raise Terminated
+    INTERRUPTS.interrupt(Terminated, frame)  # held while forking or importing, as Ctrl-C
 
 
 def _end_interrupted(code: int) -> NoReturn:

@@ -107,12 +107,14 @@ class Interrupts:
     def __init__(self) -> None:
         self.depth = 0
         self.forking = 0
-        self.noted = False
+        #: The interrupt noted (its exception class: KeyboardInterrupt, or the caller's
+        #: subclass for SIGTERM), None without one.
+        self.noted: type[KeyboardInterrupt] | None = None
         self.previous: Any = None
 
     def __enter__(self) -> Interrupts:
         if self.depth == 0:
-            self.noted = False
+            self.noted = None
             in_main = threading.current_thread() is threading.main_thread()
             if in_main and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
                 self.previous = signal.signal(signal.SIGINT, self._handler)
@@ -127,14 +129,24 @@ class Interrupts:
             self.previous = None
 
     def _handler(self, signum: int, frame: Any) -> None:
-        self.noted = True
+        self.interrupt(KeyboardInterrupt, frame)
+
+    def interrupt(self, kind: type[KeyboardInterrupt], frame: Any) -> None:
+        """A signal handler's body: note the interrupt ``kind`` (a KeyboardInterrupt class)
+        and raise it at once, unless it landed while forking or inside an import (where
+        Python would drop it or turn it into another error) and this is active: then the
+        next :meth:`check` raises it.  The command line's SIGTERM handler comes here too."""
+        if self.depth == 0:
+            raise kind
+        self.noted = self.noted or kind
         if not self.forking and not _importing(frame):
-            raise KeyboardInterrupt
+            raise kind
 
     def check(self) -> None:
-        """Raise KeyboardInterrupt if a Ctrl-C was noted (and perhaps lost where it landed)."""
+        """Raise the noted interrupt (KeyboardInterrupt, or the SIGTERM's subclass), perhaps
+        lost where it landed."""
         if self.noted:
-            raise KeyboardInterrupt
+            raise self.noted
 
     @contextlib.contextmanager
     def forked(self) -> Iterator[None]:
@@ -151,7 +163,7 @@ class Interrupts:
             signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending one is noted here
             self.forking -= 1
             if self.noted and not self.forking:
-                raise KeyboardInterrupt
+                raise self.noted
 
 
 def _importing(frame: Any) -> bool:

@@ -4,10 +4,9 @@ Timing conventions (documented in ``docs/method.md``):
 
 * Step k applies probe sample k (the probed surface's command is written, then
   ``run()``); output sample k is read right after that step.
-* A bit spanning several steps becomes one correlator sample: the output read
-  after the *last* step of the bit (end-of-bit sampling).  This is exactly the
-  zero-order-hold discretisation at the bit duration, so the taps are the
-  pulse response of the plant sampled at t0.
+* A bit spanning several steps becomes one correlator sample: the output read after the
+  *last* step of the bit (end-of-bit sampling).  This is exactly the zero-order-hold
+  discretisation at the bit duration, so the taps are the pulse response sampled at t0.
 
 The run is four pieces, each small: :class:`_Rig` (set-up: probe, nonlinearity, trimmed
 plant, twin, metadata), :func:`_chunks` (stepping, period by period, handed on in chunks of
@@ -28,6 +27,7 @@ from typing import Any, Protocol, TextIO
 import numpy as np
 
 from probing.core.faults import onset_step
+from probing.core.forked import INTERRUPTS
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
 from probing.experiment.bounds import write_settled_bounds
@@ -432,9 +432,8 @@ def run_scenario(
     stop_on_divergence: bool = False,
     record: bool = False,
 ) -> RunResult:
-    """Simulate a scenario and write ``out/<name>/probing.parquet``, ``bounds.parquet`` (95 %
-    bounds of the settled mean per tap, :func:`~.bounds.write_settled_bounds`: none without 2
-    settled periods) and ``timeseries.parquet``.
+    """Simulate a scenario and write ``out/<name>/probing.parquet``, ``bounds.parquet``
+    (:func:`~.bounds.write_settled_bounds`) and ``timeseries.parquet``.
 
     Parameters
     ----------
@@ -523,6 +522,7 @@ def run_scenario(
                             _timeseries_rows(c, measured, reference, x_period, scn, channels)
                         )
                     bar.advance(c.count)
+                    INTERRUPTS.check()  # a SIGTERM or Ctrl-C held in an import: stop here
             write_settled_bounds(outputs, settled, scn, lag_s)
             if rig.ended:
                 for writer in outputs.writers:

@@ -853,3 +853,24 @@ def test_plot_fig4_hands_bounds_to_the_figures(
     assert asked == [flag == ["--bounds"]]
     if flag:
         assert cli_main(["plot", "sweep", str(tmp_path), *flag]) == 2
+
+
+def test_a_sigterm_held_in_an_import_still_ends_the_command_with_143(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A SIGTERM that lands in an import (pyarrow imports pandas at its first table) is held
+    there and raised at the next check: one line, exit 143, not the import's RuntimeError."""
+    import probing.cli as cli
+    import probing.cli.plot as plot_command
+
+    def command(args):
+        try:
+            cli._terminate(signal.SIGTERM, _importing_frame())  # as the signal would
+        except KeyboardInterrupt as exc:  # what a class body's __set_name__ makes of it
+            raise RuntimeError("Error calling __set_name__") from exc
+        return 0
+
+    monkeypatch.setattr(plot_command, "_cmd_plot", command)
+    assert cli.main(["plot", "fig4", "results"]) == 143
+    out, err = capsys.readouterr()
+    assert err == "probing: error: terminated\n" and out == ""

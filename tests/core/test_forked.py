@@ -175,3 +175,24 @@ def test_a_ctrl_c_noted_while_forking_replaces_the_error_it_caused() -> None:
         interrupts._handler(signal.SIGINT, _Frame("<frozen importlib._bootstrap>"))
         with pytest.raises(KeyboardInterrupt), interrupts.forked():  # noted before: no fork
             raise AssertionError("forked although a Ctrl-C was noted")
+
+
+def test_a_sigterm_inside_an_import_is_held_as_its_own_kind() -> None:
+    """The command line's SIGTERM (a KeyboardInterrupt subclass) lands in an import: noted,
+    not raised there (Python would turn it into another error), and check() raises that same
+    kind; outside any block it raises at once, as before."""
+    from probing.core.forked import Interrupts
+
+    class Stop(KeyboardInterrupt):
+        pass
+
+    interrupts = Interrupts()
+    with pytest.raises(Stop):
+        interrupts.interrupt(Stop, _Frame("<frozen importlib._bootstrap>"))  # not active
+    with interrupts:
+        interrupts.interrupt(Stop, _Frame("/x/pandas.py", _Frame("<frozen importlib._bootstrap>")))
+        assert interrupts.noted is Stop
+        interrupts.interrupt(KeyboardInterrupt, _Frame("<frozen importlib._bootstrap>"))
+        assert interrupts.noted is Stop  # the first one is kept
+        with pytest.raises(Stop):
+            interrupts.check()
