@@ -130,9 +130,9 @@ def write_settled_bounds(
 
 
 class EstimatesFile:
-    """A monitored flight's ``probing.parquet`` rows, chunk by chunk, and at the end its
-    ``bounds.parquet`` over the settled periods: what ``probing monitor --replay`` and
-    ``probing live`` write, as ``probing run`` does.
+    """A flight's ``probing.parquet`` rows, chunk by chunk, its settled mean, and at the end
+    its ``bounds.parquet`` over the settled periods: what ``probing run``, ``probing monitor
+    --replay`` and ``probing live`` write.
 
     Parameters
     ----------
@@ -142,13 +142,18 @@ class EstimatesFile:
         The flight's scenario.
     lag_s : numpy.ndarray
         Lag of each tap (s), shape (M,).
+    keep_first : bool
+        Keep the first channel's settled periods too (:meth:`SettledMean.first_channel`).
     """
 
-    def __init__(self, outputs: OutputFolder, scn: Scenario, lag_s: np.ndarray) -> None:
+    def __init__(
+        self, outputs: OutputFolder, scn: Scenario, lag_s: np.ndarray, keep_first: bool = False
+    ) -> None:
         self.outputs, self.scn, self.lag_s = outputs, scn, lag_s
         self.channels = list(scn.channels)
         self.writer = outputs.writer("probing.parquet", self.channels, scn.surface_unit)
-        self.settled = SettledMean(self.channels, lag_s.size, scn.settle_periods, keep_all=True)
+        m, settle = lag_s.size, scn.settle_periods
+        self.settled = SettledMean(self.channels, m, settle, keep_first, keep_all=True)
 
     def write(self, est: Any) -> None:
         """Add a chunk's estimates (``periods`` (P,), ``z``, ``zeta``, ``h`` (P, C, M))."""

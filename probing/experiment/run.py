@@ -30,7 +30,7 @@ from probing.core.faults import onset_step
 from probing.core.forked import INTERRUPTS
 from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
-from probing.experiment.bounds import write_settled_bounds
+from probing.experiment.bounds import EstimatesFile
 from probing.experiment.layouts import AUTOPILOT_COLUMNS, sensors_schema
 from probing.experiment.onboard import (
     Onboard,
@@ -47,7 +47,6 @@ from probing.experiment.storage import (
     Settled,
     metadata,
     output_folder,
-    probing_block,
     provenance,
     timeseries_schema,
 )
@@ -493,14 +492,14 @@ def run_scenario(
         probe, channels = rig.probe, list(scn.channels)
         m = probe.length
         onboard = Onboard(scn, reference_source(scn, rig.twin), rig.y_trim, rig.chunk_periods * m)
-        settled = SettledMean(channels, m, scn.settle_periods, keep_settled, keep_all=True)
         lag_s = np.arange(m) * probe.bit_duration_s
         folder = Path(folder) if folder is not None else Path(out) / scn.name
         x_period = probe.samples(scn.dt_s, 1)
         with_reference = rig.twin is not None or rig.follower is not None or scn.drift == "gust"
         ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
         with output_folder(folder, rig.metadata()) as outputs:
-            w_probe, w_ts = _writers(outputs, scn, channels, ts_schema, timeseries)
+            estimates = EstimatesFile(outputs, scn, lag_s, keep_settled)
+            w_ts = _timeseries_writer(outputs, scn, channels, ts_schema, timeseries)
             w_log = _log_writer(outputs, rig) if record else None
             if observer is not None:
                 observer.open(outputs)
@@ -510,11 +509,7 @@ def run_scenario(
                         w_log.write(c.log)
                     done = onboard.estimates(c.log, c.first, c.flown_reference)
                     est, measured, reference = done.estimates, done.measured, done.reference
-                    if est.periods.size:
-                        w_probe.write(
-                            probing_block(channels, est.periods, lag_s, est.z, est.zeta, est.h)
-                        )
-                    settled.add(est.periods, est.h, est.z)
+                    estimates.write(est)
                     if observer is not None:
                         observer.update(est.periods, est.h, est.z, done.trajectory)
                     if w_ts is not None:
@@ -523,27 +518,22 @@ def run_scenario(
                         )
                     bar.advance(c.count)
                     INTERRUPTS.check()  # a SIGTERM or Ctrl-C held in an import: stop here
-            write_settled_bounds(outputs, settled, scn, lag_s)
+            estimates.finish()
             if rig.ended:
                 for writer in outputs.writers:
                     writer.add_metadata(metadata(ended=rig.ended))
             if observer is not None:
                 observer.finish()
-    return _run_result(rig, folder, settled, lag_s, t_start)
+    return _run_result(rig, folder, estimates.settled, lag_s, t_start)
 
 
-def _writers(
+def _timeseries_writer(
     outputs: OutputFolder, scn: Scenario, channels: list[str], ts_schema: Any, timeseries: bool
-) -> tuple[Any, Any]:
-    """The writers of ``probing.parquet`` and (when ``timeseries``) ``timeseries.parquet``."""
-    per = scn.surface_unit
-    w_probe = outputs.writer("probing.parquet", channels, per)
-    w_ts = (
-        outputs.writer("timeseries.parquet", channels, per, schema=ts_schema)
-        if timeseries
-        else None
-    )
-    return w_probe, w_ts
+) -> Any:
+    """The writer of ``timeseries.parquet`` (None without ``timeseries``)."""
+    if not timeseries:
+        return None
+    return outputs.writer("timeseries.parquet", channels, scn.surface_unit, schema=ts_schema)
 
 
 def _log_writer(outputs: OutputFolder, rig: _Rig) -> Any:

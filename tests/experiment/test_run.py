@@ -556,11 +556,11 @@ def test_bounds_file_leaves_probing_parquet_as_it_was(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Writing ``bounds.parquet`` changes no byte of ``probing.parquet``."""
-    import probing.experiment.run as run_module
+    import probing.experiment.bounds as bounds_module
 
     scn = scenario(**{"probe.order": 5, "probe.periods": 3, "probe.settle_periods": 1})
     with_bounds = run_scenario(scn, tmp_path / "with", progress=False)
-    monkeypatch.setattr(run_module, "write_settled_bounds", lambda *args: None)
+    monkeypatch.setattr(bounds_module, "write_settled_bounds", lambda *args: None)
     without = run_scenario(scn, tmp_path / "without", progress=False)
     assert (with_bounds.out_dir / "bounds.parquet").is_file()
     assert not (without.out_dir / "bounds.parquet").exists()
