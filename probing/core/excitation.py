@@ -49,6 +49,7 @@ __all__ = [
     "band_limited",
     "chirp",
     "crest_factor",
+    "harmonic_mask",
     "multisine",
     "spectral_estimates",
 ]
@@ -234,6 +235,16 @@ def chirp(
     return x
 
 
+def harmonic_mask(m: int, harmonics: np.ndarray | None) -> np.ndarray:
+    """Which bins of a period's real DFT (``rfft``, M // 2 + 1 of them) an estimator over
+    ``harmonics`` keeps: those harmonics, or every bin, DC included, for None (the PRBS)."""
+    if harmonics is None:
+        return np.ones(m // 2 + 1, dtype=bool)
+    keep = np.zeros(m // 2 + 1, dtype=bool)
+    keep[np.asarray(harmonics)] = True
+    return keep
+
+
 def band_limited(h: np.ndarray, harmonics: np.ndarray | None) -> np.ndarray:
     """The projection of a pulse response (M taps, last axis, folded over the period) on
     the harmonics ``harmonics`` of 1/T: what a signal exciting only them can recover.
@@ -242,10 +253,8 @@ def band_limited(h: np.ndarray, harmonics: np.ndarray | None) -> np.ndarray:
     if harmonics is None:
         return h.copy()
     m = h.shape[-1]
-    spectrum = np.fft.rfft(h, axis=-1)
-    keep = np.zeros(m // 2 + 1, dtype=bool)
-    keep[np.asarray(harmonics)] = True
-    return np.fft.irfft(np.where(keep, spectrum, 0.0), m, axis=-1)
+    keep = harmonic_mask(m, harmonics)
+    return np.fft.irfft(np.where(keep, np.fft.rfft(h, axis=-1), 0.0), m, axis=-1)
 
 
 def spectral_estimates(
@@ -281,10 +290,7 @@ def spectral_estimates(
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise ValueError(f"amplitude must be > 0, got {amplitude}")
     spectrum_u = np.fft.rfft(u)
-    keep = np.ones(m // 2 + 1, dtype=bool)
-    if harmonics is not None:
-        keep[:] = False
-        keep[np.asarray(harmonics)] = True
+    keep = harmonic_mask(m, harmonics)
     ratio = np.zeros(m // 2 + 1, dtype=complex)
     ratio[keep] = 1.0 / (amplitude * spectrum_u[keep])
     h = np.fft.irfft(np.fft.rfft(y, axis=-1) * ratio, m, axis=-1)

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from probing.core.excitation import harmonic_mask
 from probing.core.nonlinearities import NoApparentFormError, Nonlinearity, RateLimit
 
 __all__ = ["gain_and_shape", "harmonic_ratio", "predicted_apparent", "through_nonlinearity"]
@@ -103,9 +104,6 @@ def through_nonlinearity(
     estimate ``h0`` (M taps) in the noise-free periodic steady state: ``IDFT(H0_k Q_k / P_k)``
     over the estimator's harmonics (``None``: all, DC included, the PRBS's)."""
     m = h0.shape[-1]
-    keep = np.ones(m // 2 + 1, dtype=bool)
-    if harmonics is not None:
-        keep[:] = False
-        keep[np.asarray(harmonics)] = True
+    keep = harmonic_mask(m, harmonics)
     spectrum = np.fft.rfft(h0) * np.where(keep, np.nan_to_num(ratio), 0.0)
     return np.fft.irfft(spectrum, m)

@@ -55,6 +55,7 @@ from probing.core.trend import detrend_matrix, window_periods
 
 __all__ = [
     "ESTIMATORS",
+    "ESTIMATOR_NAMES",
     "NoiseModel",
     "cyclic_estimates",
     "estimator_weights",
@@ -71,14 +72,19 @@ ESTIMATORS: dict[str, str] = {
 }
 
 
+#: Every estimator a scenario may name: the PRBS's correlators and the spectral one of
+#: every signal (:func:`probing.core.excitation.spectral_estimates`).
+ESTIMATOR_NAMES = (*ESTIMATORS, SPECTRAL)
+
+
 def _check(reference: np.ndarray, amplitude: float, estimator: str) -> tuple[np.ndarray, float]:
     ref = np.asarray(reference, dtype=float)
     if ref.ndim != 1 or ref.size < 3:
         raise ValueError("reference must be a 1-D array of length M >= 3")
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise ValueError(f"amplitude must be > 0, got {amplitude}")
-    if estimator not in (*ESTIMATORS, SPECTRAL):
-        names = ", ".join((*ESTIMATORS, SPECTRAL))
+    if estimator not in ESTIMATOR_NAMES:
+        names = ", ".join(ESTIMATOR_NAMES)
         raise ValueError(f"estimator must be one of {names}, got {estimator!r}")
     return ref, float(amplitude)
 

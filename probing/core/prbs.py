@@ -171,10 +171,14 @@ class Probe:
         unit.setflags(write=False)
         return unit
 
-    @property
+    @cached_property
     def harmonics(self) -> np.ndarray | None:
-        """The harmonics of 1/T the signal excites; None for the PRBS (all, DC included)."""
-        return self.excitation.harmonics(self.order, self.bit_duration_s)
+        """The harmonics of 1/T the signal excites (read-only), computed once; None for the
+        PRBS (all, DC included)."""
+        found = self.excitation.harmonics(self.order, self.bit_duration_s)
+        if found is not None:
+            found.setflags(write=False)
+        return found
 
     @property
     def peak_deg(self) -> float:

@@ -12,12 +12,11 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from probing.core.excitation import SPECTRAL
 from probing.core.faults import FAULTS
 from probing.core.gust import GUST_REFERENCE_SENSORS
 from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
-from probing.core.noise import ESTIMATORS
+from probing.core.noise import ESTIMATOR_NAMES
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
 from probing.core.sensors import SENSOR_SUITES, Sensor, SensorSpecError, SensorSuite
@@ -421,7 +420,7 @@ def _output(out: dict[str, Any]) -> dict[str, Any]:
         _integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
     )
     estimator = (
-        _choice(out, "output", "estimator", (*ESTIMATORS, SPECTRAL))
+        _choice(out, "output", "estimator", ESTIMATOR_NAMES)
         if "estimator" in out
         else None  # the signal's own (_check_estimator)
     )
