@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -338,13 +339,23 @@ class Excitation:
         return band_harmonics(self.band_hz, order, bit_duration_s)
 
     def unit(self, order: int, bit_duration_s: float) -> np.ndarray:
-        """One period (M values, unit RMS) of a multisine or a chirp; the PRBS's is
-        :func:`probing.core.prbs.mls`."""
+        """One period (M values, unit RMS, read-only) of a multisine or a chirp, computed
+        once per signal, order and bit duration in a process (a scenario is read again at
+        every change of a sweep's point); the PRBS's is :func:`probing.core.prbs.mls`."""
         if self.signal == "prbs":
             raise ValueError("the PRBS's period is probing.core.prbs.mls(order)")
-        if self.signal == "multisine":
-            return multisine(order, band_harmonics(self.band_hz, order, bit_duration_s))
-        return chirp(order, bit_duration_s, self.band_hz, self.sweep)
+        return _unit(self, order, bit_duration_s)
+
+
+@lru_cache(maxsize=32)
+def _unit(excitation: Excitation, order: int, bit_duration_s: float) -> np.ndarray:
+    """:meth:`Excitation.unit`, remembered."""
+    if excitation.signal == "multisine":
+        x = multisine(order, band_harmonics(excitation.band_hz, order, bit_duration_s))
+    else:
+        x = chirp(order, bit_duration_s, excitation.band_hz, excitation.sweep)
+    x.setflags(write=False)
+    return x
 
 
 #: The paper's probe: the default signal.

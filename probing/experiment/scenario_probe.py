@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from probing.core.excitation import SIGNALS, SPECTRAL, SWEEPS, Excitation
+from probing.core.excitation import PRBS, SIGNALS, SPECTRAL, SWEEPS, Excitation
 from probing.core.prbs import Probe
 from probing.experiment.scenario_schema import ScenarioError, _choice
 
@@ -18,7 +18,7 @@ def _excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
         for key in ("band_hz", "sweep"):
             if key in probe:
                 raise ScenarioError(f"probe.{key}", "is for a multisine or a chirp, not the PRBS")
-        return Excitation()
+        return PRBS
     if "band_hz" not in probe:
         raise ScenarioError("probe.band_hz", f"missing: a {signal} needs [low, high] in Hz")
     band = probe["band_hz"]
