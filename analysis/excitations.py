@@ -32,13 +32,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from analysis import fig4
 from probing.core.excitation import band_limited, crest_factor
 from probing.core.metrics import gain_and_shape, harmonic_ratio, through_nonlinearity
 from probing.core.nonlinearities import NoApparentFormError, compensate
 from probing.experiment.drift import predicted_probing
 from probing.experiment.fig4_set import PANELS
-from probing.experiment.scenario import Scenario, parse_scenario
-from probing.experiment.storage import read_schema, read_settled
+from probing.experiment.scenario import Scenario
+from probing.experiment.storage import read_settled
 
 __all__ = ["CHANNELS", "Study", "collect", "summary_markdown"]
 
@@ -64,14 +65,12 @@ class Run:
 
 
 def read_run(folder: Path) -> Run:
-    """A run folder's scenario and settled estimates of :data:`CHANNELS`."""
-    path = folder / "probing.parquet"
-    scn = parse_scenario(json.loads(read_schema(path).metadata[b"probing.scenario"]))
-    h, z = {}, {}
-    for channel in CHANNELS:
-        settled = read_settled(path, channel, scn.settle_periods, scn.bits_per_period)
-        h[channel], z[channel] = settled.h, settled.z
-    return Run(scn, folder, h, z)
+    """A run folder's scenario and settled estimates of :data:`CHANNELS`
+    (:func:`analysis.fig4.read_run`, channel by channel)."""
+    runs = {channel: fig4.read_run(folder, channel) for channel in CHANNELS}
+    h = {channel: run.h for channel, run in runs.items()}
+    z = {channel: run.z for channel, run in runs.items()}
+    return Run(runs[CHANNELS[0]].scenario, folder, h, z)
 
 
 @dataclass
