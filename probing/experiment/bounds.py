@@ -1,7 +1,9 @@
 """``bounds.parquet``: per channel and tap, the mean of h_est over the periods used and its
 two-sided Student-t interval (:data:`~probing.experiment.layouts.BOUNDS_SCHEMA`), written
-by ``probing analyze`` over a record's whole periods and by ``probing run`` over a run's
-settled periods, both through :func:`write_bounds`."""
+by ``probing analyze`` over a record's whole periods and by a flight (``probing run``,
+``probing monitor --replay``, ``probing live``) over its settled periods, both through
+:func:`write_bounds`; a flight writes its ``probing.parquet`` rows beside them through one
+:class:`EstimatesFile`."""
 
 from __future__ import annotations
 
