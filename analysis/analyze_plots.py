@@ -1,5 +1,7 @@
-"""The figure of ``probing analyze``: each output's pulse-response estimate with its
-confidence bounds, drawn from ``bounds.parquet`` (no simulation)."""
+"""The pulse-response figure of a ``bounds.parquet``: each channel's estimate with its
+confidence bounds, drawn from the file alone (no simulation).  ``probing analyze`` draws it
+for a record; a flight's ``bounds.parquet`` (``probing run``, ``monitor --replay``, ``live``)
+draws the same way."""
 
 from __future__ import annotations
 
@@ -12,18 +14,80 @@ import numpy as np
 from analysis.figures import RC, save_figure
 from probing.experiment.storage import read_footer, read_table
 
-__all__ = ["draw_bounds"]
+__all__ = ["auto_max_lag_s", "draw_bounds", "per_label"]
+
+#: What each convention of h_est means, for the panel's title.
+CONVENTION_TEXT = {
+    "reference": "the response (a reference carries the baseline)",
+    "baseline": "the response (the trim's output is the baseline)",
+    "settled tail": "the response (constant pinned by the settled tail)",
+    "zero mean": "response less sum(h)/M: tail not settled",
+    "ac": "response less sum(h)/(M+1) (ac estimator)",
+}
+#: The automatic zoom shows the lag up to this multiple of the last tap that stands out.
+ZOOM_MARGIN = 1.5
+#: A tap stands out where |h| exceeds its bound's half-width and this share of the peak.
+ZOOM_SHARE = 0.02
+#: The automatic zoom applies when it would show at most this share of the period.
+ZOOM_WHEN = 0.5
 
 
-def draw_bounds(bounds: Path, stem: Path) -> Path:
+def per_label(unit: str) -> str:
+    """``rad/s/deg`` -> ``rad/s per deg``: the last ``/`` is "per unit of probe".
+
+    Examples
+    --------
+    >>> per_label("rad/s/deg"), per_label("rad/deg"), per_label("m")
+    ('rad/s per deg', 'rad per deg', 'm')
+    """
+    if "/" not in unit:
+        return unit
+    num, den = unit.rsplit("/", 1)
+    return f"{num} per {den}"
+
+
+def auto_max_lag_s(lag_s: np.ndarray, h: np.ndarray, half_width: np.ndarray) -> float | None:
+    """The lag to zoom to when the response is short against the period, else None.
+
+    The last tap where |h| stands out (above its bound's half-width and :data:`ZOOM_SHARE` of
+    the peak), times :data:`ZOOM_MARGIN`; None when that is more than :data:`ZOOM_WHEN` of
+    the period (the whole period is shown).
+
+    Parameters
+    ----------
+    lag_s : numpy.ndarray
+        Lag of each tap (s), shape (M,).
+    h, half_width : numpy.ndarray
+        Shape (C, M): the estimates and their bounds' half-widths (unit of h).
+    """
+    peak = np.nanmax(np.abs(h), axis=1, keepdims=True)
+    out = (np.abs(h) > np.maximum(np.nan_to_num(half_width), ZOOM_SHARE * peak)).any(axis=0)
+    if not out.any():
+        return None
+    last = lag_s[np.flatnonzero(out)[-1]]
+    span = float(lag_s[-1] + (lag_s[1] - lag_s[0] if lag_s.size > 1 else 0.0))
+    want = max(ZOOM_MARGIN * float(last), 10 * float(lag_s[1] - lag_s[0]))
+    return want if want <= ZOOM_WHEN * span else None
+
+
+def _meta(meta: dict[bytes, bytes], key: str) -> dict:
+    raw = meta.get(f"probing.{key}".encode())
+    return json.loads(raw) if raw else {}
+
+
+def draw_bounds(bounds: Path, stem: Path, max_lag_s: float | None = None) -> Path:
     """Draw ``bounds.parquet``'s h_est and its interval per channel into ``<stem>.png``.
 
     Parameters
     ----------
     bounds : pathlib.Path
-        A ``bounds.parquet`` written by ``probing analyze``.
+        A ``bounds.parquet`` written by ``probing analyze`` or by a flight.
     stem : pathlib.Path
         The figure's path without ``.png``.
+    max_lag_s : float, optional
+        The last lag shown (s); None: the whole period, or the lag the response stands out
+        to (:func:`auto_max_lag_s`) when that is short against the period; the figure says
+        which.
 
     Returns
     -------
@@ -32,35 +96,59 @@ def draw_bounds(bounds: Path, stem: Path) -> Path:
     """
     table = read_table(bounds).to_pandas()
     meta = read_footer(bounds)
-    conf = json.loads(meta[b"probing.confidence"])
-    source = json.loads(meta[b"probing.input"])["file"]
+    conf = _meta(meta, "confidence")
+    source = _meta(meta, "input").get("file") or _meta(meta, "scenario").get("name") or bounds
+    units = _meta(meta, "units").get("h_est", {})
+    conventions = _meta(meta, "convention").get("h_est", {})
     channels = list(dict.fromkeys(table["channel"]))
+    rows = {c: table[table["channel"] == c] for c in channels}
+    lag = rows[channels[0]]["lag_s"].to_numpy()
+    h = np.array([rows[c]["h_est"].to_numpy() for c in channels])
+    half = np.array([(rows[c]["h_high"] - rows[c]["h_low"]).to_numpy() / 2 for c in channels])
+    period_s = float(lag[-1] + (lag[1] - lag[0]))
+    zoom = auto_max_lag_s(lag, h, half) if max_lag_s is None else None
+    right = max_lag_s if max_lag_s is not None else zoom if zoom is not None else period_s
+    dof = conf.get("dof")
+    periods = {c: (dof[c] if isinstance(dof, dict) else dof) for c in channels}
     with plt.rc_context(RC):
         fig, axes = plt.subplots(
             len(channels),
             1,
-            figsize=(6.0, 2.2 * len(channels)),
+            figsize=(6.0, 2.3 * len(channels) + 0.5),
             squeeze=False,
             layout="constrained",
         )
         for ax, channel in zip(axes[:, 0], channels, strict=True):
-            rows = table[table["channel"] == channel]
-            lag = rows["lag_s"].to_numpy()
+            r = rows[channel]
             ax.fill_between(
                 lag,
-                rows["h_low"].to_numpy(),
-                rows["h_high"].to_numpy(),
-                step=None,
+                r["h_low"].to_numpy(),
+                r["h_high"].to_numpy(),
                 color="C0",
                 alpha=0.3,
                 linewidth=0,
-                label=f"{conf['level']:.0%} Student-t bounds ({conf['dof'] + 1} periods)",
+                label=f"{conf.get('level', 0.95):.0%} Student-t bounds of the mean",
             )
-            ax.plot(lag, rows["h_est"].to_numpy(), color="C0", label="h_est (mean)")
+            ax.plot(lag, r["h_est"].to_numpy(), color="C0", label="h_est, mean over periods")
             ax.axhline(0.0, color="0.5", linewidth=0.5)
-            ax.set_ylabel(f"{channel} per probe unit")
-            ax.set_xlim(0.0, float(np.max(lag)))
-            ax.legend(loc="upper right")
-        axes[-1, 0].set_xlabel("lag (s)")
-        axes[0, 0].set_title(f"pulse response from {source}")
+            unit = units.get(channel) if isinstance(units, dict) else None
+            ax.set_ylabel(per_label(unit) if unit else f"{channel} per probe unit")
+            ax.set_xlim(0.0, right)
+            n = periods.get(channel)
+            what = CONVENTION_TEXT.get(conventions.get(channel, ""), "")
+            ax.set_title(
+                f"{channel}" + (f" ({n + 1} periods)" if isinstance(n, int) else "")
+                + (f": {what}" if what else ""),
+                loc="left",
+            )  # fmt: skip
+        if max_lag_s is not None:
+            lag_note = f"lag 0-{max_lag_s:g} s of the period's {period_s:g} s (--max-lag-s)"
+        elif zoom is not None:
+            lag_note = f"lag (s): zoomed to 0-{zoom:.3g} s of the period's {period_s:g} s"
+        else:
+            lag_note = "lag (s)"
+        axes[-1, 0].set_xlabel(lag_note)
+        fig.suptitle(f"pulse response from {source}", fontsize=RC["axes.titlesize"])
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncols=2, frameon=False)
     return save_figure(fig, stem)[0]

@@ -15,7 +15,12 @@ def _positive(text: str) -> float:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    from probing.experiment.analyze import AnalysisRequest, analyze, write_analysis
+    from probing.experiment.analyze import (
+        AnalysisRequest,
+        analyze,
+        convention_lines,
+        write_analysis,
+    )
     from probing.experiment.record import RecordError
 
     _out_folder(args.out, "--out")
@@ -32,6 +37,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         amplitude=args.amplitude,
         drift=args.drift,
         reference=args.reference,
+        settled_after_s=args.settled_after_s,
     )
     try:
         result = analyze(req)
@@ -40,7 +46,9 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     from analysis.analyze_plots import draw_bounds
 
     written = write_analysis(result, args.out)
-    figure = draw_bounds(args.out / "bounds.parquet", args.out / "pulse_response")
+    figure = draw_bounds(
+        args.out / "bounds.parquet", args.out / "pulse_response", max_lag_s=args.max_lag_s
+    )
     f = result.found
     print(
         f"{args.file.name}: sequence shift {f['sequence_shift_bits']} bits, bit boundary at "
@@ -48,6 +56,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         f"{f['first_sample']} ({f['samples_unused']} of {f['samples']} samples unused), "
         f"amplitude {result.amplitude:g}"
     )
+    for line in convention_lines(result):
+        print(line)
     for path in (*written, figure):
         print(f"-> {path}")
     return 0
@@ -87,6 +97,20 @@ def register(sub: Subcommands) -> None:
     )
     drift.add_argument(
         "--reference", metavar="COL", help="a reference subtracted from each output instead"
+    )
+    p.add_argument(
+        "--settled-after-s",
+        type=_positive,
+        metavar="S",
+        help="without --reference: the lag (s) from which the response has settled; the taps "
+        "from there pin the estimate's constant (default: the last quarter of the period)",
+    )
+    p.add_argument(
+        "--max-lag-s",
+        type=_positive,
+        metavar="S",
+        help="the figure's last lag (s) (default: the whole period, or zoomed to the response "
+        "when it is short against the period)",
     )
     p.add_argument("--out", type=_path, required=True, help="output folder")
     p.set_defaults(func=_cmd_analyze)

@@ -7,9 +7,12 @@ used.  Drift: ``detrend`` fits each output's periodic part and a linear trend to
 (:func:`probing.core.trend.detrend_periodic`) and removes the trend and the output's
 mean; ``none`` removes the mean only; a ``reference`` column is subtracted instead (it
 carries the baseline, nothing else is removed).  Without a reference the record's offset
-cannot be told from the response's mean: every tap of h_est is then h - sum(h) / M.
-Estimates per period are those of the ``cyclic`` estimator; bounds per tap are the
-two-sided Student-t interval of the mean over the P periods.
+cannot be told from the response's mean: every tap of the estimate is h - sum(h) / M, and
+the constant is pinned with the response's settled tail where the tail is flat within its
+noise (:mod:`probing.core.pinning`), which gives the pulse response itself; where it is not,
+the estimate keeps the zero-mean convention and the files say so.  Estimates per period are
+those of the ``cyclic`` estimator; bounds per tap are the two-sided Student-t interval of
+the mean over the P periods.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from probing.core.pinning import SETTLED_TAIL, TailPin, pin_settled_tail, tail_taps
 from probing.core.prbs import steps_per_bit
 from probing.core.recorded import NotAnMSequence, align_probe, period_estimates, tap_bounds
 from probing.core.trend import detrend_periodic
@@ -32,13 +36,30 @@ from probing.experiment.layouts import (
     field,
     probing_block,
 )
-from probing.experiment.record import RecordError, file_sha256, read_columns, sample_step_s
+from probing.experiment.record import (
+    RecordError,
+    column_unit,
+    file_sha256,
+    read_columns,
+    sample_step_s,
+)
 from probing.experiment.storage import output_folder, provenance
 
-__all__ = ["LEVEL", "Analysis", "AnalysisRequest", "analyze", "write_analysis"]
+__all__ = [
+    "LEVEL",
+    "REFERENCE",
+    "Analysis",
+    "AnalysisRequest",
+    "analyze",
+    "convention_lines",
+    "convention_record",
+    "write_analysis",
+]
 
 #: Confidence level of the per-tap bounds (that of every ``bounds.parquet``).
 LEVEL = BOUNDS_LEVEL
+#: The convention of an estimate whose baseline a reference column carries: the response.
+REFERENCE = "reference"
 
 
 @dataclass(frozen=True)
@@ -47,7 +68,9 @@ class AnalysisRequest:
 
     ``time`` or ``dt_s`` (s) gives the time base; ``amplitude`` (probe unit) None: read
     from the probe column; ``drift`` ``detrend`` or ``none``, unless ``reference`` names a
-    column subtracted from each output.
+    column subtracted from each output.  ``settled_after_s`` (s): the lag from which the
+    response is taken to have settled, whose taps pin the estimate's constant (None: the
+    last quarter of the period, :func:`probing.core.pinning.tail_taps`).
     """
 
     path: Path
@@ -60,11 +83,13 @@ class AnalysisRequest:
     amplitude: float | None = None
     drift: str = "detrend"
     reference: str | None = None
+    settled_after_s: float | None = None
 
 
 @dataclass(frozen=True)
 class Analysis:
-    """The estimates of a record: z, zeta, h (P, C, M), the bounds, and what was found."""
+    """The estimates of a record: z, zeta, h (P, C, M), the bounds, what was found, and each
+    output's convention (:data:`REFERENCE`, or the tail's: ``pin``)."""
 
     request: AnalysisRequest
     dt_s: float
@@ -75,6 +100,31 @@ class Analysis:
     h: np.ndarray
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     sha256: str
+    pin: TailPin | None = None
+
+    @property
+    def conventions(self) -> dict[str, str]:
+        """Output -> what h_est is: the response itself (``reference``, ``settled tail``)
+        or the response less sum(h) / M (``zero mean``)."""
+        outputs = list(self.request.outputs)
+        if self.pin is None:
+            return dict.fromkeys(outputs, REFERENCE)
+        return self.pin.conventions(outputs)
+
+
+def _tail(req: AnalysisRequest, m: int) -> int:
+    """Taps of the settled tail (:func:`probing.core.pinning.tail_taps`)."""
+    if req.settled_after_s is None:
+        after = None
+    else:
+        after = int(np.ceil(req.settled_after_s / req.bit_duration_s - 1e-9))
+    try:
+        return tail_taps(m, after)
+    except ValueError as exc:
+        raise RecordError(
+            f"--settled-after-s {req.settled_after_s:g} s with {m} taps of "
+            f"{req.bit_duration_s:g} s: {exc}"
+        ) from None
 
 
 def _columns(req: AnalysisRequest) -> dict[str, np.ndarray]:
@@ -118,10 +168,14 @@ def analyze(req: AnalysisRequest) -> Analysis:
     if al.periods < 2:
         raise RecordError(f"{where}: {al.periods} whole period from the sequence's start; need 2")
     m = 2**req.order - 1
+    n_tail = _tail(req, m)
     ends = al.first_sample + spb - 1 + spb * np.arange(al.periods * m)
     used = {k: v[ends] for k, v in cols.items()}
     amplitude = al.amplitude if req.amplitude is None else float(req.amplitude)
     z, zeta, h = period_estimates(_deviations(req, used, m), req.order, al.sign, amplitude)
+    pin = None if req.reference is not None else pin_settled_tail(h, n_tail)
+    if pin is not None:
+        h = pin.h
     found = {
         "samples": int(cols[req.input].size),
         "samples_per_bit": spb,
@@ -135,8 +189,57 @@ def analyze(req: AnalysisRequest) -> Analysis:
         "levels": [al.mid - al.amplitude, al.mid + al.amplitude],
     }
     return Analysis(
-        req, dt, amplitude, found, z, zeta, h, tap_bounds(h, LEVEL), file_sha256(req.path)
+        req, dt, amplitude, found, z, zeta, h, tap_bounds(h, LEVEL), file_sha256(req.path), pin
     )
+
+
+def convention_lines(result: Analysis) -> list[str]:
+    """One line per output: whether h_est is the response itself, and why not."""
+    lines = []
+    req, m = result.request, result.h.shape[2]
+    for j, (out, conv) in enumerate(result.conventions.items()):
+        if conv == REFERENCE:
+            lines.append(f"{out}: h_est is the response (the reference column {req.reference})")
+            continue
+        pin = result.pin
+        assert pin is not None
+        start = (m - pin.tail_taps) * req.bit_duration_s
+        test = f"F {pin.statistic[j]:.3g} against {pin.threshold:.3g}"
+        if conv == SETTLED_TAIL:
+            lines.append(
+                f"{out}: h_est is the response: the tail from lag {start:g} s is settled "
+                f"({test}); its constant {pin.constant[j]:.4g} removed"
+            )
+        else:
+            lines.append(
+                f"{out}: the tail from lag {start:g} s has not settled ({test}): h_est is the "
+                f"response less sum(h)/M (a longer period, --settled-after-s or --reference "
+                f"gives the response itself)"
+            )
+    return lines
+
+
+def convention_record(result: Analysis) -> dict[str, object]:
+    """The ``probing.convention`` metadata: per output what h_est is, and the tail's test."""
+    out: dict[str, object] = {"h_est": result.conventions}
+    if result.pin is not None:
+        pin, m = result.pin, result.h.shape[2]
+        out["tail"] = {
+            "from_tap": m - pin.tail_taps,
+            "from_lag_s": (m - pin.tail_taps) * result.request.bit_duration_s,
+            "taps": pin.tail_taps,
+            "f_statistic": dict(zip(result.request.outputs, pin.statistic.tolist(), strict=True)),
+            "f_threshold": pin.threshold,
+            "constant_removed": dict(
+                zip(result.request.outputs, pin.constant.tolist(), strict=True)
+            ),
+        }
+    return out
+
+
+def _unit(column: str) -> str:
+    """A column's unit from its name (:func:`column_unit`), else ``(unit of COLUMN)``."""
+    return column_unit(column) or f"(unit of {column})"
 
 
 def _units(req: AnalysisRequest) -> dict[str, object]:
@@ -144,8 +247,8 @@ def _units(req: AnalysisRequest) -> dict[str, object]:
     for f in (*BOUNDS_SCHEMA, field("z", pa.float64(), CHANNEL_UNIT, "")):
         unit = (f.metadata or {}).get(b"unit", b"").decode()
         if unit in (CHANNEL_UNIT, PER_DEG):
-            per = "" if unit == CHANNEL_UNIT else f"/(unit of {req.input})"
-            out[f.name] = {c: f"(unit of {c}){per}" for c in req.outputs}
+            per = "" if unit == CHANNEL_UNIT else f"/{_unit(req.input)}"
+            out[f.name] = {c: f"{_unit(c)}{per}" for c in req.outputs}
     out["zeta"] = out["z"]
     return out
 
@@ -168,9 +271,11 @@ def write_analysis(result: Analysis, out: Path) -> list[Path]:
             "dt_s": result.dt_s,
             "amplitude": result.amplitude,
             "amplitude_from": "given" if req.amplitude is not None else "probe levels",
+            "settled_after_s": req.settled_after_s,
             **result.found,
         },
         drift=f"reference column {req.reference}" if req.reference else req.drift,
+        convention=convention_record(result),
         estimator="cyclic",
         confidence=bounds_confidence(result.h.shape[0] - 1),
     )

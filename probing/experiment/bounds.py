@@ -13,13 +13,22 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.pinning import pin_settled_tail, tail_taps
+from probing.core.recorded import tap_bounds
 from probing.experiment.layouts import BOUNDS_LEVEL, bounds_block
 from probing.experiment.scatter import settled_model_sd
 from probing.experiment.scenario import Scenario
 from probing.experiment.settled import SettledMean
 from probing.experiment.storage import OutputFolder, metadata, probing_block
 
-__all__ = ["EstimatesFile", "bounds_confidence", "write_bounds", "write_settled_bounds"]
+__all__ = [
+    "EstimatesFile",
+    "bounds_confidence",
+    "pins_tail",
+    "run_convention",
+    "write_bounds",
+    "write_settled_bounds",
+]
 
 
 def bounds_confidence(dof: int | dict[str, int]) -> dict[str, object]:
@@ -48,6 +57,7 @@ def write_bounds(
     per: str = "deg",
     own_units: dict[str, Any] | None = None,
     model_sd: np.ndarray | None = None,
+    convention: dict[str, Any] | None = None,
 ) -> Path:
     """Write ``bounds.parquet`` (:data:`~probing.experiment.layouts.BOUNDS_SCHEMA`) into
     ``folder``: it appears with the folder's other files.
@@ -76,6 +86,9 @@ def write_bounds(
     model_sd : numpy.ndarray, optional
         Shape (C, M): the noise model's standard deviation of the mean per tap; None where
         no model covers the estimate (the column is NaN).
+    convention : dict, optional
+        The ``probing.convention`` metadata (what h_est is per channel), when the folder's
+        own metadata does not hold it.
 
     Returns
     -------
@@ -83,15 +96,66 @@ def write_bounds(
         The file's final path.
     """
     names = list(channels)
+    extra = {"confidence": bounds_confidence(dof)}
+    if convention is not None:
+        extra["convention"] = convention
     writer = folder.writer(
         "bounds.parquet",
         [] if own_units is not None else names,
         per,
         own_units=own_units,
-        extra=metadata(confidence=bounds_confidence(dof)),
+        extra=metadata(**extra),
     )
     writer.write(bounds_block(names, lag_s, *bounds, model_sd=model_sd))
     return writer.path
+
+
+def pins_tail(scn: Scenario) -> bool:
+    """True where a flight's bounds pin h_est's constant with the settled tail
+    (:mod:`probing.core.pinning`): no model carries the baseline (``drift = "detrend"``) and
+    the estimator is DC-corrected (not ``ac``, which estimates the response less its mean by
+    design)."""
+    return scn.detrends and scn.estimator != "ac"
+
+
+def run_convention(scn: Scenario) -> str:
+    """What a flight's h_est is when the tail is not asked: ``reference`` (a twin carries
+    the baseline), ``baseline`` (the trim's output is the baseline: ``drift = "none"``),
+    ``ac`` (the response less sum(h) / (M + 1)) or ``zero mean`` (detrended)."""
+    if scn.estimator == "ac":
+        return "ac"
+    if scn.detrends:
+        return "zero mean"
+    return "baseline" if scn.drift == "none" else "reference"
+
+
+def _pinned(
+    settled: SettledMean, m: int
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], dict[str, Any]]:
+    """Each channel's bounds over its settled periods pinned by their tail, and the
+    ``probing.convention`` metadata (channels with fewer than 2 periods: NaN, zero mean)."""
+    assert settled.all is not None
+    out = np.full((4, len(settled.channels), m), np.nan)
+    conventions, stats, constants = {}, {}, {}
+    n_tail = tail_taps(m)
+    threshold = None
+    for j, (c, rows) in enumerate(zip(settled.channels, settled.all, strict=True)):
+        conventions[c] = "zero mean"
+        if len(rows) < 2:
+            continue
+        pin = pin_settled_tail(np.array(rows)[:, None, :], n_tail)
+        out[:, j] = tap_bounds(pin.h[:, 0], BOUNDS_LEVEL)
+        conventions[c] = pin.conventions([c])[c]
+        stats[c], constants[c] = float(pin.statistic[0]), float(pin.constant[0])
+        threshold = pin.threshold
+    tail = {
+        "from_tap": m - n_tail,
+        "taps": n_tail,
+        "f_statistic": stats,
+        "f_threshold": threshold,
+        "constant_removed": constants,
+    }
+    return (out[0], out[1], out[2], out[3]), {"h_est": conventions, "tail": tail}
 
 
 def write_settled_bounds(
@@ -102,7 +166,11 @@ def write_settled_bounds(
     (:func:`probing.experiment.scatter.settled_model_sd`).
 
     The degrees of freedom are stored as one int when every channel has the same, else per
-    channel.  Nothing is written when no channel has 2 settled periods.
+    channel.  Nothing is written when no channel has 2 settled periods.  Where no model
+    carries the baseline (:func:`pins_tail`) each channel's settled periods are pinned by
+    their settled tail, as ``probing analyze`` pins a record's (the per-period rows of
+    ``probing.parquet`` stay in the zero-mean convention); ``probing.convention`` says per
+    channel what h_est is.
 
     Parameters
     ----------
@@ -128,7 +196,20 @@ def write_settled_bounds(
     dof_all = same.pop() if len(same) == 1 else dof
     model_sd = settled_model_sd(scn)
     per = scn.surface_unit
-    return write_bounds(folder, list(scn.channels), lag_s, bounds, dof_all, per, model_sd=model_sd)
+    if pins_tail(scn):
+        bounds, convention = _pinned(settled, lag_s.size)
+    else:
+        convention = {"h_est": dict.fromkeys(scn.channels, run_convention(scn))}
+    return write_bounds(
+        folder,
+        list(scn.channels),
+        lag_s,
+        bounds,
+        dof_all,
+        per,
+        model_sd=model_sd,
+        convention=convention,
+    )
 
 
 class EstimatesFile:

@@ -12,13 +12,57 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMATS", "RecordError", "file_sha256", "read_columns", "sample_step_s"]
+__all__ = [
+    "FORMATS",
+    "RecordError",
+    "column_unit",
+    "file_sha256",
+    "read_columns",
+    "sample_step_s",
+]
 
 #: File suffix -> format name.
 FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
 
 #: Relative tolerance of a uniform time step.
 STEP_TOLERANCE = 1e-6
+
+
+#: A column name's unit suffix -> the unit, longest first (``q_rad_s`` is rad/s, not s).
+UNIT_SUFFIXES = (
+    ("_rad_s", "rad/s"),
+    ("_deg_s", "deg/s"),
+    ("_m_s2", "m/s^2"),
+    ("_ft_s2", "ft/s^2"),
+    ("_m_s", "m/s"),
+    ("_ft_s", "ft/s"),
+    ("_fps", "ft/s"),
+    ("_rad", "rad"),
+    ("_deg", "deg"),
+    ("_kt", "kt"),
+    ("_ft", "ft"),
+    ("_m", "m"),
+    ("_g", "g"),
+    ("_n", "N"),
+    ("_pa", "Pa"),
+    ("_s", "s"),
+)
+
+
+def column_unit(name: str) -> str | None:
+    """The unit a column's name ends with (``theta_rad`` -> ``rad``, ``q_rad_s`` ->
+    ``rad/s``; :data:`UNIT_SUFFIXES`), or None when the name states none.
+
+    Examples
+    --------
+    >>> column_unit("q_rad_s"), column_unit("elevator_deg"), column_unit("y")
+    ('rad/s', 'deg', None)
+    """
+    low = name.lower()
+    for suffix, unit in UNIT_SUFFIXES:
+        if low.endswith(suffix) and len(low) > len(suffix):
+            return unit
+    return None
 
 
 class RecordError(ValueError):

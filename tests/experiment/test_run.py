@@ -606,3 +606,37 @@ def test_bounds_carry_the_noise_models_prediction_where_it_covers_the_run(tmp_pa
     assert not model_covers(gusty)
     out = run_scenario(gusty, tmp_path / "gusty", progress=False).out_dir
     assert pd.read_parquet(out / "bounds.parquet").h_model_sd.isna().all()
+
+
+def test_a_detrended_runs_bounds_are_its_settled_periods_pinned_by_their_tail(
+    tmp_path: Path,
+) -> None:
+    """``drift = "detrend"``: no model carries the baseline, so the bounds are those of each
+    channel's settled periods (read back from ``probing.parquet``) pinned by their tail,
+    as ``probing analyze`` pins a record's; ``probing.convention`` says which convention
+    each channel got, and a reference run says ``reference``."""
+    from probing.core.pinning import pin_settled_tail, tail_taps
+    from probing.core.recorded import tap_bounds
+    from probing.experiment.storage import read_settled
+
+    base = {"probe.order": 6, "probe.periods": 6, "probe.settle_periods": 2}
+    scn = scenario(**base, **{"output.drift": "detrend", "output.estimator": "cyclic"})
+    # noise on q that hides its tail, none on theta whose tail has not settled: one of each
+    scn = scn.replace(**{"disturbance.sensor_noise": {"q_rad_s": 1e-3}})
+    result = run_scenario(scn, tmp_path / "detrend", progress=False, twin_cache=False)
+    table = pq.read_table(result.out_dir / "bounds.parquet")
+    conv = json.loads(table.schema.metadata[b"probing.convention"])
+    df = table.to_pandas()
+    assert conv["tail"]["taps"] == tail_taps(63) == 16
+    assert conv["h_est"]["q_rad_s"] == "settled tail" and conv["h_est"]["theta_rad"] == "zero mean"
+    for channel in scn.channels:
+        settled = read_settled(result.out_dir / "probing.parquet", channel, 2, 63)
+        pin = pin_settled_tail(np.array(settled.h)[:, None, :], 16)
+        want = tap_bounds(pin.h[:, 0])
+        assert conv["h_est"][channel] == pin.conventions([channel])[channel]
+        np.testing.assert_allclose(df[df.channel == channel].h_est, want[0], rtol=0, atol=1e-15)
+    reference = run_scenario(scenario(**base), tmp_path / "ref", progress=False)
+    meta = pq.read_metadata(reference.out_dir / "bounds.parquet").metadata
+    assert json.loads(meta[b"probing.convention"])["h_est"] == dict.fromkeys(
+        scn.channels, "reference"
+    )

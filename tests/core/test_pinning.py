@@ -1,0 +1,124 @@
+"""The settled tail pins the constant a model-free drift removal leaves in h_est.
+
+Truth: a made-up response whose tail is exactly zero, put in the zero-mean convention
+(h - sum(h) / M, what the DC-corrected estimators give without a baseline), with white noise
+of known level; the F test's false-unsettled rate checked against its level by Monte Carlo."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from probing.core.pinning import (
+    SETTLED_TAIL,
+    TAIL_FLOOR,
+    TAIL_LEVEL,
+    ZERO_MEAN,
+    pin_settled_tail,
+    tail_taps,
+)
+
+M = 63
+
+
+def response(decay: float = 0.7) -> np.ndarray:
+    """A response that has settled to zero (to rounding) well within the period."""
+    return np.sin(0.9 * np.arange(M)) * decay ** np.arange(M) + 0.3 * decay ** np.arange(M)
+
+
+def zero_mean(h: np.ndarray) -> np.ndarray:
+    return h - h.sum() / M
+
+
+def test_noise_free_settled_tail_gives_the_response() -> None:
+    h = response()
+    est = np.tile(zero_mean(h), (3, 1, 1))
+    pin = pin_settled_tail(est, tail_taps(M))
+    assert pin.settled.tolist() == [True]
+    np.testing.assert_allclose(pin.h[:, 0], np.tile(h, (3, 1)), rtol=0, atol=1e-8)  # 0.7^47
+    np.testing.assert_allclose(pin.constant, [-h.sum() / M], rtol=1e-6)
+    assert pin.conventions(["y"]) == {"y": SETTLED_TAIL}
+
+
+def test_noisy_settled_tail_within_noise_of_the_response() -> None:
+    rng = np.random.default_rng(1)
+    h, sigma, periods = response(), 1e-3, 8
+    est = zero_mean(h) + sigma * rng.standard_normal((periods, 2, M))
+    pin = pin_settled_tail(est, tail_taps(M))
+    assert pin.settled.all()
+    n = tail_taps(M)
+    # each tap's mean: sigma / sqrt(P), plus the tail mean's own noise sigma / sqrt(P N)
+    sd = sigma / np.sqrt(periods) * np.sqrt(1 + 1 / n)
+    assert np.max(np.abs(pin.h.mean(axis=0) - h)) < 5 * sd
+    # without pinning the constant sum(h)/M is 40 sigma of the mean away
+    assert abs(h.sum() / M) > 40 * sd
+
+
+def test_a_tail_still_decaying_is_not_settled_and_left_as_it_is() -> None:
+    rng = np.random.default_rng(2)
+    h = response(decay=0.97)  # still 0.97^47 = 0.24 of its start at the tail
+    est = zero_mean(h) + 1e-4 * rng.standard_normal((6, 1, M))
+    pin = pin_settled_tail(est, tail_taps(M))
+    assert pin.settled.tolist() == [False]
+    assert pin.conventions(["y"]) == {"y": ZERO_MEAN}
+    np.testing.assert_array_equal(pin.h, est)
+    assert pin.constant.tolist() == [0.0]
+    assert pin.statistic[0] > pin.threshold
+
+
+def test_false_unsettled_rate_is_the_level() -> None:
+    """White noise on a settled tail: F exceeds its 0.99 quantile in 1 % of records
+    (2000 records: binomial sd 0.22 %, so 0.2-2.0 % holds with 3.6 sd to spare).  The noise
+    is well above TAIL_FLOOR of the peak, so the floor does not decide."""
+    rng = np.random.default_rng(3)
+    est = zero_mean(response()) + 0.1 * rng.standard_normal((2000, 4, 1, M))
+    unsettled = np.mean([not pin_settled_tail(e, 16).settled[0] for e in est])
+    assert 0.002 < unsettled < 0.020, unsettled
+
+
+def test_threshold_is_inclusive_and_the_level_quantile() -> None:
+    """A tail whose F equals the threshold is settled; a hair above it is not."""
+    n, periods = 16, 4
+    rng = np.random.default_rng(4)
+    noise = rng.standard_normal((periods, 1, M))
+    noise -= noise.mean(axis=0)  # a zero mean over periods: F = 0, before the offset
+    base = zero_mean(response())
+    dev = np.zeros(M)
+    dev[M - n :: 2], dev[M - n + 1 :: 2] = 1.0, -1.0  # a tail that is not flat: F grows as c^2
+
+    def f_of(c: float) -> float:
+        return float(pin_settled_tail(base + noise + c * dev, n).statistic[0])
+
+    threshold = stats.f.ppf(TAIL_LEVEL, n - 1, (n - 1) * (periods - 1))
+    c_at = np.sqrt(threshold / f_of(1.0))
+    pin_at = pin_settled_tail(base + noise + c_at * dev * (1 - 1e-12), n)
+    pin_over = pin_settled_tail(base + noise + c_at * dev * (1 + 1e-9), n)
+    assert pin_at.threshold == pytest.approx(threshold)
+    assert pin_at.settled[0] and not pin_over.settled[0]
+
+
+def test_noise_free_floor_both_sides() -> None:
+    """Without noise a tail counts as flat only within TAIL_FLOOR of the peak."""
+    h = response()
+    n = tail_taps(M)
+    dev = np.zeros(M)
+    dev[M - n :: 2], dev[M - n + 1 :: 2] = 1.0, -1.0  # RMS 1 over the tail (n even)
+    assert n % 2 == 0
+    est0 = np.tile(zero_mean(h), (2, 1, 1))
+    peak = np.abs(est0.mean(axis=0)).max()
+    inside = est0 + 0.999 * TAIL_FLOOR * peak * dev
+    outside = est0 + 1.001 * TAIL_FLOOR * peak * dev
+    assert pin_settled_tail(inside, n).settled[0]
+    assert not pin_settled_tail(outside, n).settled[0]
+
+
+@pytest.mark.parametrize(("after", "taps"), [(None, 16), (60, 3), (1, M - 1)])
+def test_tail_taps(after: int | None, taps: int) -> None:
+    assert tail_taps(M, after) == taps
+
+
+@pytest.mark.parametrize("after", [0, 61])
+def test_tail_taps_refused(after: int) -> None:
+    with pytest.raises(ValueError):
+        tail_taps(M, after)
