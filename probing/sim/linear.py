@@ -156,7 +156,10 @@ def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarr
 
 
 def linear_response(
-    plant: Plant, channels: Sequence[str], surface: str = DEFAULT_SURFACE
+    plant: Plant,
+    channels: Sequence[str],
+    surface: str = DEFAULT_SURFACE,
+    both_axes: bool = False,
 ) -> LinearResponse:
     """:class:`LinearResponse` of a trimmed plant to ``surface``: the longitudinal states (Vt,
     alpha, theta, q) for the elevator and throttle, with the lateral-directional ones (beta,
@@ -170,10 +173,12 @@ def linear_response(
     through the density gradient.  In straight and level flight of a symmetric aircraft the
     two axes decouple, which is why a longitudinal surface keeps the longitudinal states
     alone (as it always did).  The surface's input (``DeCmd``, ...) is converted to per unit
-    of position with the model's own command-to-position slope at the trim.
+    of position with the model's own command-to-position slope at the trim.  ``both_axes``
+    keeps the lateral-directional states for a longitudinal surface too (every channel with
+    a linearised output is covered; what the other axis shows is the model's coupling).
     """
     spec = SURFACES[surface]
-    states = LONG_STATES + LAT_STATES if spec.lateral else LONG_STATES
+    states = LONG_STATES + LAT_STATES if spec.lateral or both_axes else LONG_STATES
     lin = plant.linearise()
     gain = plant.drive(surface).gain_per_norm()
     iu = lin["u_names"].index(spec.linear_input)

@@ -4,10 +4,15 @@
     surface (``flight.surface``, the elevator by default); its output minus an unprobed
     twin's, divided by the amplitude, sampled at the end of every bit, is the pulse response
     ``h_pulse`` (output units per deg of surface, or per unit of a normalised throttle).
-(b) Linearisation: JSBSim's FGLinearization at the trim gives (A, B, C, D); discretised
-    with zero-order hold at the bit duration, ``h_lin(0) = C B_d + D`` and
-    ``h_lin(k) = C A_d^k B_d``: the response read at the end of each bit to a one-bit
-    pulse, matching (a).
+(b) Linearisation: JSBSim's FGLinearization at the trim gives (A, B, C, D), stepped as JSBSim
+    steps the aircraft (:func:`probing.sim.linear.linear_response`): zero-order hold at the
+    simulation step, the airframe answering one step after the surface moves (JSBSim
+    integrates before its flight-control system runs in a frame), and the surface moved by
+    the model's own actuator (the GTM's 5 Hz servos, which the linearisation holds at their
+    command).  A one-bit pulse of the asked surface, read at the end of each bit, matches (a).
+    What is left between the two is the simulator's own integration at its step (JSBSim
+    integrates the body rates and attitude with forward Euler): first order in dt, a few
+    per cent on the GTM's 6.7 rad/s short period at 100 Hz (docs/gtm.md, "The two truths").
 
 Writing them beside a run, with the probing output they predict, is
 :func:`probing.experiment.truth.compute_truth`.
@@ -19,12 +24,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from probing.core.prbs import steps_per_bit
 from probing.sim.channels import CHANNELS
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
-from probing.sim.linear import zoh
+from probing.sim.linear import linear_response
 from probing.sim.plant import make_plant
-from probing.sim.surfaces import SURFACES
 
 __all__ = ["linear_pulse_response", "single_pulse_response"]
 
@@ -94,9 +99,8 @@ def single_pulse_response(
 def linear_pulse_response(
     flight: Flight, channels: Sequence[str], bit_duration_s: float, n_bits: int
 ) -> dict[str, np.ndarray]:
-    """Pulse response of JSBSim's linearisation, ZOH at the bit duration, per unit of the
-    probed surface's position (``flight.surface``: its input converted from normalised
-    command with the model's own command-to-position slope at the trim).
+    """Pulse response of JSBSim's linearisation stepped as JSBSim steps the aircraft (module
+    docstring, (b)), per unit of the probed surface's asked position (``flight.surface``).
 
     Parameters
     ----------
@@ -105,35 +109,23 @@ def linear_pulse_response(
     channels : sequence of str
         Output channels; those without a linearised output (:data:`CHANNELS`) are left out.
     bit_duration_s : float
-        Bit duration t0, s.
+        Bit duration t0, s (a whole number of simulation steps).
     n_bits : int
         Length of the response, in bits.
 
     Returns
     -------
     dict
-        Channel -> h, shape (n_bits,), in the channel's unit per deg; empty for a
-        closed-loop flight (the linearisation is the open-loop aircraft's).
+        Channel -> h, shape (n_bits,), in the channel's unit per deg, read at the end of each
+        bit as (a) is; empty for a closed-loop flight (the linearisation is the open-loop
+        aircraft's).
     """
     if flight.closed_loop:
         return {}
-    plant = make_plant(flight)
-    lin = plant.linearise()
-    gain = plant.drive(flight.surface).gain_per_norm()
-    iu = lin["u_names"].index(SURFACES[flight.surface].linear_input)
-    a_mat, b_mat = lin["A"], lin["B"][:, [iu]] / gain  # per deg of surface
-    out: dict[str, np.ndarray] = {}
-    ad, bd = zoh(np.asarray(a_mat), np.asarray(b_mat), bit_duration_s)
-    x = np.empty((n_bits, a_mat.shape[0]))
-    x[0] = bd[:, 0]
-    for k in range(1, n_bits):
-        x[k] = ad @ x[k - 1]
-    for channel in channels:
-        name = CHANNELS[channel].linear_output
-        if name is None:
-            continue
-        iy = lin["y_names"].index(name)
-        h = x @ lin["C"][iy]
-        h[0] += lin["D"][iy, iu] / gain
-        out[channel] = h
-    return out
+    spb = steps_per_bit(bit_duration_s, flight.dt_s)
+    covered = [c for c in channels if CHANNELS[c].linear_output is not None]
+    lin = linear_response(make_plant(flight), covered, flight.surface, both_axes=True)
+    asked = np.zeros(n_bits * spb)
+    asked[:spb] = 1.0
+    h = lin.respond(asked)[spb - 1 :: spb]
+    return {c: h[:, j] for j, c in enumerate(lin.channels)}
