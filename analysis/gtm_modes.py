@@ -382,10 +382,12 @@ def damage_level_table(points: list[DamagePoint]) -> str:
             "departs" if math.isnan(g) else f"{g:.3f} ({e:.3f})"
             for g, e in (p.lateral.get(s, (math.nan, math.nan)) for s in ("aileron", "rudder"))
         ]
+        departs = math.isnan(p.gain)
+        pulse = "departs | departs" if departs else f"{p.gain:.3f} | {p.shape_error:.3f}"
         lines.append(
             f"| {label} | {p.trim} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} "
             f"| {p.aileron_deg:.2f} | {p.rudder_deg:.2f} | {m.sp_wn:.2f} | {m.sp_zeta:.3f} "
-            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {p.gain:.3f} | {p.shape_error:.3f} "
+            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {pulse} "
             f"| {lateral[0]} | {lateral[1]} |"
         )
     return "\n".join(lines)
