@@ -59,6 +59,11 @@ AERO_REF_FRAC = 0.25
 CG_FRAC = 0.2199
 WEIGHT_LBS = 57.75
 INERTIA_SLUGFT2 = {"ixx": 1.221, "iyy": 4.655, "izz": 5.587, "ixz": 0.274, "ixy": 0.006}
+#: NASA's undamaged CG (``cg_pos0``) off the fuselage's centre line and its height, inches in
+#: NASA's aircraft reference system (y right, z down from a datum 0.9761 ft below the CG);
+#: the model puts its CG on the x axis, but NASA's damaged CG depends on them (see
+#: :func:`nasa_damaged_cg_shift_in`).
+NASA_CG0_Y_IN, NASA_CG0_Z_IN = -0.1416, -0.9761 * 12.0
 THRUST_PER_ENGINE_LBF = 17.0
 
 # Servo (NASA: first-order 5 Hz loop, rate limit inside the loop)
@@ -1249,6 +1254,17 @@ DIPOLE_DIRECTIONS = (
 DIPOLE_ARM_FT = 1.0
 
 
+def nasa_damaged_cg_shift_in(dw: float, dcg: tuple[float, float, float]) -> np.ndarray:
+    """The CG's shift (inches, NASA's axes: x forward, y right, z down) by a damage case, as
+    NASA's simulation computes it: its block diagram (``A/C parameters/Inertia/Mass/CG
+    Shift``) divides the *undamaged* weight moment W0 cg0 by the damaged weight W0 + dW and
+    adds dCG, so the CG moves by dCG plus cg0 (W0 / (W0 + dW) - 1), cg0 measured from NASA's
+    reference datum (ahead of the nose, above the CG).  For case 4 that is 0.66 in aft where
+    dCG alone says 0.15 in forward; NASA's Example 6 plots come from it."""
+    cg0 = np.array([-x_station_in(CG_FRAC), NASA_CG0_Y_IN, NASA_CG0_Z_IN])
+    return np.array(dcg) + cg0 * (WEIGHT_LBS / (WEIGHT_LBS + dw) - 1.0)
+
+
 def inertia_tensor(ixx: float, iyy: float, izz: float, ixz: float, iyz: float, ixy: float):
     """The inertia tensor (body axes, slug ft^2) of moments and product integrals."""
     return np.array([[ixx, -ixy, -ixz], [-ixy, iyy, -iyz], [-ixz, -iyz, izz]])
@@ -1294,7 +1310,8 @@ def damage_point_masses() -> tuple[np.ndarray, np.ndarray]:
 
     Returns ``weights`` (case 0..6, mass) lb and ``locations`` (case 0..6, mass, xyz) inches
     in the structural frame.  Mass 0 is the lost part: weight dW at the location that moves
-    the CG by dCG.  JSBSim adds each mass's parallel-axis inertia about the new CG (and the
+    the CG where NASA's simulation moves it (:func:`nasa_damaged_cg_shift_in`).
+    JSBSim adds each mass's parallel-axis inertia about the new CG (and the
     base's, about it too); NASA adds only its inertia deltas.  Masses 1-12 are six pairs at
     +-1 ft along fixed directions around the base CG and mass 13 sits at the base CG with
     minus their weight: together they weigh nothing and move no CG, and their weights are
@@ -1312,7 +1329,8 @@ def damage_point_masses() -> tuple[np.ndarray, np.ndarray]:
     a = np.array([[b[i, j] for b in basis] for i, j in sym])  # second moment per unit mass
     for case, (dw, dcg, di) in DAMAGE_MASS.items():
         w = WEIGHT_LBS + dw
-        shift = np.array([-dcg[0], dcg[1], -dcg[2]])  # structural: x aft, z up
+        nasa = nasa_damaged_cg_shift_in(dw, dcg)
+        shift = np.array([-nasa[0], nasa[1], -nasa[2]])  # structural: x aft, z up
         cg = cg0 + shift
         lost = cg0 + shift * w / dw  # W cg = W0 cg0 + dW lost
         target = inertia_tensor(*di)  # NASA: base + deltas, no parallel-axis terms

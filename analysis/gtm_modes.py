@@ -265,34 +265,35 @@ roll; NASA's bank wraps at +-180 deg and is unwrapped here for the comparison):
 
 {damage_table}
 
-* **Rudder off (1)** agrees closely now. With JSBSim's turn trim the rudder lost was -0.81 deg
-  against a sideslip of -0.325 deg, and the aircraft rolled out to 13 deg bank and climbed to
-  11 deg; at zero sideslip the rudder lost is -0.37 deg and bank, sideslip, rates and
-  flight-path angle follow NASA's curves. EAS is the exception: NASA's falls to 93.6 kt by
-  15 s, here it rises to 95.3 kt and is back to 94.6 kt.
-* **Vertical tail off (2)** departs as NASA's does, from about 11 s: the same peaks (alpha to
-  45-47 deg, beta to -35..-43 deg, roll rate to 500-650 deg/s, EAS down to 65-70 kt). A
-  departure is sensitive to everything before it, so the timing of the later swings is not
-  expected to match.
+* **Rudder off (1)** agrees closely: bank, sideslip, rates and flight-path angle follow
+  NASA's curves, and EAS falls to 93.4 kt by 15 s (NASA 93.6; 94.6 kt with dCG alone).
+* **Vertical tail off (2)** departs as NASA's does, from about 11 s: alpha to 43 deg by
+  13 s (NASA 45), roll rate to -500 deg/s (NASA +-500). The CG NASA's way is 1.3 in further
+  aft than dCG alone puts it, and the departure then tumbles past the tables' 85 deg of alpha
+  (the model clamps them) down to 43 kt. A departure is sensitive to everything before it,
+  so the later swings are not expected to match.
 * **Left outboard flap off (3)** matches NASA's plot nearly value for value: roll rate
   -118 deg/s at 15 s, bank through -180 deg at 12.4 s (NASA about 12.3 s) and -466 deg
   (NASA about -470) at 15 s, gamma +7.7 then -33 deg, EAS 115 kt at 15 s.
-* **Left wing tip off (4)** goes the same way but more slowly: bank through -180 deg at
-  12.7 s (NASA 12.1 s) and -408 deg at 15 s (NASA about -510), alpha peaks at 5.7 deg
-  (NASA 7.2), beta at -1.9 deg (NASA -3), EAS 121 kt (NASA 115). Not traced yet. This case
-  has the largest mass change (-0.81 lb, Ixx -21 %, CG 0.63 in to the right), and its CG is
-  where the model knowingly differs from NASA's simulation: NASA's block diagram divides the
-  undamaged weight moment by the damaged weight, the model applies dCG as NASA states it
-  (`aircraft/gtm_t2/README.md`, "Damage cases").
-* **Left elevator off (5)**: the lateral response agrees (roll rate -16 deg/s at first and
-  -10 deg/s at 15 s, bank -7.6 deg at 15 s against NASA's about -8, beta peaks at 0.74 deg);
-  the longitudinal one is weaker: alpha drops 0.8 deg (NASA 0.3), so gamma reaches 8 deg
-  (NASA 12) and EAS stays at 95 kt (NASA falls to 91). Not traced yet; the trim elevator the
-  lost panels take with them (NASA's is not published) and the stand-in thrust (no thrust
-  pitching moment here) are candidates.
+* **Left wing tip off (4)** agrees since the damaged CG is NASA's: bank -498 deg at 15 s
+  (NASA about -510), roll rate to -130 deg/s (-125), alpha to 7.3 deg (7.2), beta to
+  -2.8 deg (-3), EAS 115 kt (115). NASA's block diagram divides the undamaged weight moment
+  about its datum by the damaged weight, which puts this case's CG 0.66 in aft where dCG
+  alone puts it 0.15 in forward (`aircraft/gtm_t2/README.md`, "Damage cases"); with dCG
+  alone the model rolled to -408 deg, alpha peaked at 5.7 deg and EAS reached 121 kt.
+* **Left elevator off (5)**: the lateral response agrees (roll rate -16 deg/s at first,
+  bank -7.5 deg at 15 s against NASA's about -8, beta peaks at 0.74 deg); the longitudinal
+  one is weaker: gamma reaches 8.7 deg (NASA 12) and EAS 94 kt (NASA 91). The stand-in
+  thrust explains it: NASA's engines sit 4.0 in below the CG (`engl_pos`, `cg_pos0`) and
+  NASA's simulation adds their pitching moment, so its trim elevator is further trailing
+  edge down and losing half of it pitches the nose up more. With the model's thrusters
+  moved 4 in below the CG (a trial, not the model) case 5 gives gamma 12.2 deg, EAS 90.6 kt,
+  bank -10.5 deg at 15 s; case 4 changes little (-484 deg). The model keeps its thrust
+  through the CG (`aircraft/gtm_t2/README.md`, "Not modelled"): adding the thrust line
+  changes every GTM trim.
 * **Left stabilizer off (6)** pitches down and steepens its bank to the right, as NASA's plot
-  does: theta -40 deg (NASA -38), gamma -40 deg (NASA -38), EAS 131 kt (NASA 127), bank
-  101 deg (NASA about 120), roll rate 17 deg/s at 15 s (NASA 25). NASA's description says
+  does: theta -39 deg (NASA -38), gamma -39 deg (NASA -38), EAS 130 kt (NASA 127), bank
+  98 deg (NASA about 120), roll rate 16 deg/s at 15 s (NASA 25). NASA's description says
   "roll left"; its own plot rolls right, with the turn, as here: the airframe's
   left-wing-down bias is small against the rolling moment of the spiral that the nose-down
   pitch starts in a 45 deg bank.
@@ -315,14 +316,15 @@ EXAMPLE6_ROWS = (
         "less directional stability; no rudder",
         "bank 45 -> about 33 deg, beta up to 0.3 deg, p to -5 deg/s, gamma 2.6 then 5.8 deg, "
         "EAS 93.6 kt at 15 s",
-        "bank 45 -> 31 deg, beta up to 0.34 deg, p to -5.8 deg/s, gamma 2.4 then 5.3 deg, "
-        "EAS 94.6 kt at 15 s",
+        "bank 45 -> 32 deg, beta up to 0.34 deg, p to -5.8 deg/s, gamma 2.7 then 6.2 deg, "
+        "EAS 93.4 kt at 15 s",
     ),
     (
         "2 vertical tail off",
         "directional stability lost, unstable",
         "departs from 11 s: alpha to 45 deg, beta to -35 deg, p to +-500 deg/s, EAS to 65 kt",
-        "departs from 11 s: alpha to 47 deg, beta -43..+32 deg, p -590..+650 deg/s, EAS to 69 kt",
+        "departs from 11 s: alpha to 43 deg by 13 s, then tumbles past the tables' 85 deg; "
+        "p to -500 deg/s, EAS to 43 kt",
     ),
     (
         "3 left outboard flap off",
@@ -335,21 +337,21 @@ EXAMPLE6_ROWS = (
         "roll bias left wing down, left aileron lost",
         "rolls left: p to -125 deg/s, bank about -510 deg at 15 s; alpha to 7.2 deg, "
         "beta to -3 deg; EAS 115 kt",
-        "rolls left: p to -113 deg/s, bank -408 deg at 15 s; alpha to 5.7 deg, beta to "
-        "-1.9 deg; EAS 121 kt",
+        "rolls left: p to -130 deg/s, bank -498 deg at 15 s; alpha to 7.3 deg, beta to "
+        "-2.8 deg; EAS 115 kt",
     ),
     (
         "5 left elevator off",
         "less pitch stability and control, roll left",
         "bank 45 -> about -8 deg, p to -15 deg/s; alpha dips 0.3 deg; gamma 12 deg, EAS 91 kt "
         "at 15 s",
-        "bank 45 -> -7.6 deg, p to -16 deg/s; alpha dips 0.8 deg; gamma 8 deg, EAS 95 kt at 15 s",
+        "bank 45 -> -7.5 deg, p to -16 deg/s; alpha dips 1.0 deg; gamma 8.7 deg, EAS 94 kt at 15 s",
     ),
     (
         "6 left stabilizer off",
         "less pitch stability and control, roll left",
         "pitches down (theta -38 deg, gamma -38 deg, EAS 127 kt); bank steepens to about 120 deg",
-        "pitches down (theta -40 deg, gamma -40 deg, EAS 131 kt); bank steepens to 101 deg",
+        "pitches down (theta -39 deg, gamma -39 deg, EAS 130 kt); bank steepens to 98 deg",
     ),
 )
 
@@ -382,10 +384,12 @@ def damage_level_table(points: list[DamagePoint]) -> str:
             "departs" if math.isnan(g) else f"{g:.3f} ({e:.3f})"
             for g, e in (p.lateral.get(s, (math.nan, math.nan)) for s in ("aileron", "rudder"))
         ]
+        departs = math.isnan(p.gain)
+        pulse = "departs | departs" if departs else f"{p.gain:.3f} | {p.shape_error:.3f}"
         lines.append(
             f"| {label} | {p.trim} | {p.alpha_deg:.2f} | {p.elevator_deg:.2f} "
             f"| {p.aileron_deg:.2f} | {p.rudder_deg:.2f} | {m.sp_wn:.2f} | {m.sp_zeta:.3f} "
-            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {p.gain:.3f} | {p.shape_error:.3f} "
+            f"| {m.ph_wn:.3f} | {m.ph_zeta:.3f} | {pulse} "
             f"| {lateral[0]} | {lateral[1]} |"
         )
     return "\n".join(lines)

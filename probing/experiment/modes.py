@@ -97,12 +97,17 @@ def damage_table(
         trim = plant.trim_result
         modes = longitudinal_modes(plant)
         steps_per_bit = round(PULSE_BIT_S / dt_s)
-        h = single_pulse_response(
-            flight, ["theta_rad"], PULSE_AMPLITUDE_DEG, steps_per_bit, PULSE_BITS
-        )["theta_rad"]
+        try:
+            h = single_pulse_response(
+                flight, ["theta_rad"], PULSE_AMPLITUDE_DEG, steps_per_bit, PULSE_BITS
+            )["theta_rad"]
+        except DivergenceError:  # departs within the pulse response (vertical tail off)
+            h = None
         if case == 0:
             reference = h
-        gain, shape = gain_and_shape(h, reference) if reference is not None else (math.nan,) * 2
+        gain, shape = (math.nan,) * 2
+        if h is not None and reference is not None:
+            gain, shape = gain_and_shape(h, reference)
         lateral = {}
         for surface, channel in LATERAL_PULSES.items():
             lateral_flight = dataclasses.replace(flight, surface=surface)

@@ -121,6 +121,7 @@ class Plant:
         self.trim_result: TrimResult | None = None
         self.turn_trim: TurnTrim | None = None  # how the last trim found its turn, if a turn
         self._drives: dict[str, SurfaceDrive] = {}
+        self._is_calibration_copy = False  # a copy made to calibrate on: calibrates in place
 
     # ----------------------------------------------------------------- trim
     def trim(
@@ -207,8 +208,8 @@ class Plant:
             raise TrimError(f"gear still down after trim for {where}")
         self.trim_result = self._trimmed_state(bank_deg=bank_deg, longitudinal=longitudinal)
         self._drives = {}
-        self.drive(DEFAULT_SURFACE)  # calibrated right after the trim, as it always was
-        self.drive(surface)  # before the gusts: its calibration steps the FCS
+        self.drive(DEFAULT_SURFACE)  # on copies (the trimmed state untouched), before the
+        self.drive(surface)  # gusts and forks, so every copy of this plant has the maps
         self.disturb(self.turbulence, self.seed)
         return self.trim_result
 
@@ -337,10 +338,10 @@ class Plant:
         position: calibrated on first use after the trim (the elevator's, and the one
         :meth:`trim` is given, right after it, before turbulence is switched on).
 
-        The calibration evaluates the flight-control system with integration suspended and
-        puts the command back, so the surface ends where the trim left it (checked).  Call
-        it for a new surface before the plant is disturbed or forked, so that every copy
-        steps from the same state.
+        The calibration evaluates the flight-control system with integration suspended on a
+        copy of the plant (:meth:`_calibrated_on_a_copy`), so this one steps exactly as the
+        trim left it.  Call it for a new surface before the plant is disturbed or forked, so
+        that every copy gets the same map without calibrating again.
 
         Raises
         ------
@@ -351,7 +352,7 @@ class Plant:
         if surface not in self._drives:
             if surface not in SURFACES:
                 raise ValueError(f"surface must be one of {', '.join(SURFACES)}, got {surface!r}")
-            if surface == DEFAULT_SURFACE:
+            if self._is_calibration_copy:
                 self._drives[surface] = self._calibrate(SURFACES[surface])
             else:
                 self._drives[surface] = self._calibrated_on_a_copy(SURFACES[surface])
@@ -359,17 +360,20 @@ class Plant:
 
     def _calibrated_on_a_copy(self, surface: Surface) -> SurfaceDrive:
         """:meth:`_calibrate` run on an identical copy of this plant, the map handed back:
-        evaluating the FCS at other commands moves component states (filters, dampers) by
-        rounding, and this plant must step exactly as if no other surface had been
-        calibrated (the elevator's calibration, done in place right after every trim since
-        the first run, is part of the trimmed state).  The copy is a forked child, or, where
-        the system cannot fork, the same aircraft loaded and trimmed afresh."""
+        evaluating the model at other commands leaves JSBSim's derived values behind (its
+        load factor is computed from the previous frame's forces, its integrators keep the
+        previous frames' derivatives, FCS components move by rounding), and this plant must
+        step exactly as the trim left it (the elevator's calibration, done in place until
+        2026-11, gave the 737 a first step with q = 5.6e-5 rad/s at the trim command).  The
+        copy is a forked child, or, where the system cannot fork, the same aircraft loaded
+        and trimmed afresh."""
         if can_fork():
             calibrate = functools.partial(_calibration, plant=self)
             (outcome,) = forked_map(calibrate, [surface.name])
             found = outcome.get()
         else:
             copy = Plant(self.model, self.dt_s)
+            copy._is_calibration_copy = True
             if self.model == DAMAGE_MODEL:
                 copy.fdm[DAMAGE_PROPERTY] = self.fdm[DAMAGE_PROPERTY]
             copy.trim(**self._trim_args)

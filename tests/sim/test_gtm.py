@@ -233,6 +233,20 @@ NASA_DAMAGE = {
 }
 
 
+#: NASA's undamaged CG (AC_baseparams_T2.m ``cg_pos0``), in NASA's aircraft reference system
+#: (ARS: ft from a datum ahead of the nose, x forward, y right, z down): 21.99 % MAC with the
+#: MAC's leading edge at 4.5462 ft and cbar 0.9153 ft.
+NASA_CG0_ARS_FT = (-(4.5462 + 0.9153 * 0.2199), -0.1416 / 12, -0.9761)
+
+
+def nasa_cg_shift_in(dw: float, dcg_in: tuple[float, float, float]) -> np.ndarray:
+    """The damaged CG's shift (in, ARS axes) as NASA's block diagram computes it
+    (``/GTM_T2/A/C parameters/Inertia/Mass/CG Shift``): the undamaged weight moment
+    W0 cg0 divided by the *damaged* weight W0 + dW, plus dCG."""
+    w0, cg0 = NASA_BASE["weight"], 12.0 * np.array(NASA_CG0_ARS_FT)
+    return w0 * cg0 / (w0 + dw) + np.array(dcg_in) - cg0
+
+
 def nasa_tensor(ixx, iyy, izz, ixz, iyz, ixy) -> np.ndarray:
     """NASA's inertia matrix ("Form Inertia Matrix"): products of inertia off the diagonal
     with a minus sign."""
@@ -243,8 +257,9 @@ def nasa_tensor(ixx, iyy, izz, ixz, iyz, ixy) -> np.ndarray:
 @pytest.mark.parametrize("case", range(7))
 def test_damage_mass_properties_are_nasas(new_plant, case: int) -> None:
     """Weight, CG and inertia tensor of each damage case: NASA's base plus NASA's deltas
-    (the CG moved by dCG, the inertia changed by the deltas with no parallel-axis term, as
-    NASA adds them), set by ``damage/case`` alone."""
+    (the CG where NASA's block diagram puts it, :func:`nasa_cg_shift_in`; the inertia
+    changed by the deltas with no parallel-axis term, as NASA adds them), set by
+    ``damage/case`` alone."""
     fdm = new_plant("gtm_t2").fdm
     set_state(fdm)
     cg0 = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
@@ -252,8 +267,9 @@ def test_damage_mass_properties_are_nasas(new_plant, case: int) -> None:
     dw, dcg, di = NASA_DAMAGE.get(case, (0.0, (0.0, 0.0, 0.0), (0.0,) * 6))
     assert fdm["inertia/weight-lbs"] == pytest.approx(NASA_BASE["weight"] + dw, abs=1e-9)
     cg = np.array([fdm["inertia/cg-x-in"], fdm["inertia/cg-y-in"], fdm["inertia/cg-z-in"]])
+    shift = nasa_cg_shift_in(dw, dcg)
     # structural frame: x aft, z up
-    np.testing.assert_allclose(cg - cg0, [-dcg[0], dcg[1], -dcg[2]], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cg - cg0, [-shift[0], shift[1], -shift[2]], rtol=0, atol=1e-9)
     want = nasa_tensor(*NASA_BASE["I"]) + nasa_tensor(*di)
     with warnings.catch_warnings():  # JSBSim hands back a numpy.matrix
         warnings.simplefilter("ignore", PendingDeprecationWarning)

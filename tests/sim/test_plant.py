@@ -119,6 +119,52 @@ def test_a_straight_trim_is_jsbsims_own_full_trim_to_the_bit(
         assert plant.fdm[prop] == bare[prop], prop
 
 
+#: What the first step of a trimmed aircraft shows: the pitch rate and the load factor (which
+#: JSBSim computes from the previous frame's forces), and the accelerations.
+FIRST_STEP = (
+    "velocities/q-rad_sec",
+    "accelerations/Nz",
+    "accelerations/wdot-ft_sec2",
+    "accelerations/qdot-rad_sec2",
+)
+
+
+@pytest.mark.parametrize(
+    ("model", "dt_s", "altitude_ft", "speed_kcas"),
+    [("737", 0.01, 15000.0, 280.0), ("gtm_t2", 1.0 / 200.0, 800.0, 75.0)],
+)
+def test_the_first_step_is_the_trims_own(
+    new_plant, model: str, dt_s: float, altitude_ft: float, speed_kcas: float
+) -> None:
+    """Calibrating the elevator (and another surface) leaves the trimmed aircraft as JSBSim's
+    trim left it: before the first step and after it, stepped with the trim command, q, Nz
+    and the accelerations are those of the same aircraft trimmed by FGTrim alone, to the bit
+    (the calibration in place gave the 737 Nz = 1.165 before the first step and
+    q = 5.6e-5 rad/s after it)."""
+    plant = new_plant(model, dt_s)
+    plant.trim(altitude_ft, speed_kcas=speed_kcas, surface="aileron")
+    bare = new_plant(model, dt_s).fdm
+    for prop, value in (
+        ("ic/h-sl-ft", altitude_ft),
+        ("ic/vc-kts", speed_kcas),
+        ("ic/gamma-deg", 0.0),
+        ("ic/beta-deg", 0.0),
+        ("ic/phi-deg", 0.0),
+        ("gear/gear-cmd-norm", 0.0),
+        ("propulsion/set-running", -1),
+    ):
+        bare[prop] = value
+    assert bare.run_ic()
+    bare.do_trim(1)  # FGTrim's tFull
+    assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
+    drive = plant.drive()
+    out = np.empty((1, 0))
+    plant.step(np.array([drive.trim_command]), [], out)
+    bare.run()
+    assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
+    assert abs(plant.fdm["velocities/q-rad_sec"]) < 1e-8
+
+
 def _inet_sockets_of(code: str) -> list[tuple[str, str]]:
     """Run ``code`` in a child process and list the TCP/UDP sockets it holds open."""
     code += "\nimport os, sys\nprint(os.getpid()); sys.stdout.flush(); sys.stdin.read()\n"
