@@ -187,20 +187,20 @@ and on the rudder read on the sideslip.
 
 {damage_level_table}
 
-* Every case trims level. The asymmetric ones (3, 4) need 11 and 19 deg of aileron against
-  their left-wing-down roll; the lost left elevator (5) and stabilizer (6) need 3 and 5 deg
+* Every case trims level. The asymmetric ones (3, 4) need 11 and 18 deg of aileron against
+  their left-wing-down roll; the lost left elevator (5) and stabilizer (6) need 2.4 and 3.4 deg
   more nose-up elevator.
-* The pulse response sees every case: gain 0.54 when half the elevator is gone (5), 0.72 to
-  1.39 and shape errors of 0.04 to 0.30 for the others. Case 2 (vertical tail off) is
-  directionally unstable: during the 5 s of the pulse response the sideslip grows, so its
-  gain and shape error (1.6) describe a divergence more than a pulse response.
+* The pulse response sees every case: gain 0.55 when half the elevator is gone (5), 0.98 to
+  1.78 and shape errors of 0.02 to 0.45 for the others. Case 2 (vertical tail off) is
+  directionally unstable: with NASA's damaged CG it trims fully level and departs within
+  the 5 s of the pulse response, so it has no pulse response to compare.
 * The lateral probes see what the elevator's cannot. The rudder's response is gone when the
   rudder is (1: gain 0; its shape error, against a fitted gain of 0, means nothing) or the
-  vertical tail is (2); the wing tip's loss (4) takes the left aileron with it and a fifth of
-  the aileron's response (0.80), and changes the rudder's shape by 35 %; the lost rudder also
+  vertical tail is (2); the wing tip's loss (4) takes the left aileron with it and 29 % of
+  the aileron's response (0.71), and changes the rudder's shape by 22 %; the lost rudder also
   raises the aileron's response by 18 % (less yaw damping for the roll to fight). The flap's
-  loss (3) is the hardest: 7 % on the aileron, 14 % shape on the rudder. Case 2 diverges
-  within the pulse (an aileron "gain" of -313 is a departure).
+  loss (3) is the hardest: 7 % on the aileron, 12 % shape on the rudder. Case 2 departs
+  within every pulse.
 * The modes come from the longitudinal block of the linearisation; for the asymmetric cases
   (3, 4) the lateral coupling it leaves out is large, and their phugoid damping (0.7, and a
   real pair for case 4) is not to be read as the aircraft's.
