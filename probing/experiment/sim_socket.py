@@ -17,7 +17,7 @@ import ipaddress
 import socket
 import time
 
-__all__ = ["SimConnectionError", "SimSocket", "is_loopback", "parse_address"]
+__all__ = ["PORTS", "SimConnectionError", "SimSocket", "is_loopback", "is_port", "parse_address"]
 
 PROMPT = "JSBSim> "
 
@@ -25,6 +25,18 @@ PROMPT = "JSBSim> "
 #: small segments, and with Nagle's algorithm on its side each one after the first waits for
 #: the acknowledgement of the one before, which a delayed ACK holds back 40 ms.
 QUICKACK = getattr(socket, "TCP_QUICKACK", None)
+
+
+#: The TCP ports a simulator's input socket can take (JSBSim reads 0 as no port given).
+PORTS = range(1, 65536)
+
+#: How :data:`PORTS` reads in a message.
+PORTS_TEXT = f"a port {PORTS.start}..{PORTS.stop - 1}"
+
+
+def is_port(port: int) -> bool:
+    """True if ``port`` is one of :data:`PORTS`."""
+    return port in PORTS
 
 
 class SimConnectionError(ConnectionError):
@@ -37,11 +49,11 @@ def parse_address(text: str) -> tuple[str, int]:
     Raises
     ------
     ValueError
-        If it is not ``HOST:PORT`` with a port 1..65535.
+        If it is not ``HOST:PORT`` with a port in :data:`PORTS`.
     """
     host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise ValueError(f"--connect {text!r}: give HOST:PORT (a port 1..65535)")
+    if not sep or not host or not port.isdigit() or not is_port(int(port)):
+        raise ValueError(f"--connect {text!r}: give HOST:PORT ({PORTS_TEXT})")
     return host.strip("[]"), int(port)
 
 

@@ -9,10 +9,10 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import shlex
 import socket
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -68,36 +68,88 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _fly_live(base: Path, text: str):
-    """``text`` flown live on a separate jsbsim process (always stopped afterwards) into
-    ``base``; its scenario."""
+#: The longest the simulator may take to stop after the flight computer is done, s.
+STOP_S = 5.0
+
+
+#: Where Linux lists the TCP sockets.
+PROC_NET_TCP = Path("/proc/net/tcp")
+
+
+def _listening(port: int) -> set[str]:
+    """The IPv4 addresses listening on TCP ``port`` (Linux's /proc/net/tcp)."""
+    found = set()
+    for row in PROC_NET_TCP.read_text().splitlines()[1:]:
+        local, state = row.split()[1], row.split()[3]
+        address, hex_port = local.split(":")
+        if state == "0A" and int(hex_port, 16) == port:
+            found.add(socket.inet_ntoa(bytes.fromhex(address)[::-1]))
+    return found
+
+
+@contextlib.contextmanager
+def _simulator(base: Path, sim_dir: Path, extra: tuple[str, ...] = ()):
+    """The command ``--write-sim`` wrote into ``sim_dir`` (plus ``extra``), run as written
+    (its first word is the jsbsim executable) from ``base`` until it has trimmed; stopped
+    afterwards if it is still running."""
+    line = [*shlex.split((sim_dir / "command.txt").read_text()), *extra]
+    log_path = base / "jsbsim.log"
+    log = log_path.open("w")
+    proc = subprocess.Popen(line, stdout=log, stderr=subprocess.STDOUT, cwd=base)
+    try:
+        deadline = time.monotonic() + START_S
+        while "Execution beginning" not in log_path.read_text():
+            assert proc.poll() is None and time.monotonic() < deadline, "jsbsim did not start"
+            time.sleep(0.1)
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        log.close()
+
+
+def _stopped_within(proc: subprocess.Popen, limit_s: float) -> float | None:
+    """Seconds until ``proc`` exits, or None if it still runs after ``limit_s``."""
+    start = time.monotonic()
+    try:
+        proc.wait(timeout=limit_s)
+    except subprocess.TimeoutExpired:
+        return None
+    return time.monotonic() - start
+
+
+def _write_sim(base: Path, text: str) -> tuple[Path, Path, int]:
+    """``text`` as a scenario in ``base`` and its simulator's files: (scenario, root, port)."""
     scenario = base / "live.toml"
     scenario.write_text(text)
     port = _free_port()
     sim_dir = base / "sim"
     assert main(["live", str(scenario), "--write-sim", str(sim_dir), "--port", str(port)]) == 0
-    line = shlex.split((sim_dir / "command.txt").read_text())
-    line[0] = str(Path(sys.executable).with_name("jsbsim"))
-    log = (base / "jsbsim.log").open("w")
-    proc = subprocess.Popen(line, stdout=log, stderr=subprocess.STDOUT, cwd=base)
-    try:
-        deadline = time.monotonic() + START_S
-        while "Execution beginning" not in (base / "jsbsim.log").read_text():
-            assert proc.poll() is None and time.monotonic() < deadline, "jsbsim did not start"
-            time.sleep(0.1)
+    return scenario, sim_dir, port
+
+
+def _fly_live(base: Path, text: str, extra: tuple[str, ...] = ()):
+    """``text`` flown live on a separate jsbsim process (always stopped afterwards) into
+    ``base``; its scenario.  ``base/progress.txt`` gets the progress lines and
+    ``base/sim-stopped.txt`` the seconds the simulator took to exit after the flight
+    (``running`` if it had not after :data:`STOP_S`), ``base/listening.txt`` the addresses it
+    listened at (where Linux's /proc/net/tcp tells)."""
+    scenario, sim_dir, port = _write_sim(base, text)
+    with _simulator(base, sim_dir, extra) as proc:
+        if PROC_NET_TCP.is_file():
+            (base / "listening.txt").write_text(" ".join(sorted(_listening(port))))
         with contextlib.redirect_stderr(io.StringIO()) as err:
             code = main(
                 ["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(base)]
             )
         (base / "progress.txt").write_text(err.getvalue())
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        log.close()
+        stopped = _stopped_within(proc, STOP_S)
+        (base / "sim-stopped.txt").write_text("running" if stopped is None else f"{stopped:.3f}")
     assert code == 0
     return load_scenario(scenario)
 
@@ -252,3 +304,78 @@ def test_the_live_sensors_measure_with_the_suites_noise_and_bias(sensed, tmp_pat
         assert abs(noise.std() / sigma - 1.0) < 0.1, channel
         assert abs(noise.mean()) < 4 * sigma / np.sqrt(noise.size), channel
         assert abs(trims[0][channel] - trims[1][channel]) < 0.1 * sigma, channel
+
+
+def _scenario_file(tmp_path: Path) -> Path:
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO)
+    return scenario
+
+
+@pytest.mark.parametrize(("port", "ok"), [(0, False), (1, True), (65535, True), (65536, False)])
+def test_write_sim_takes_a_port_1_to_65535(tmp_path, capsys, port, ok):
+    sim_dir = tmp_path / "sim"
+    code = main(
+        ["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir), "--port", str(port)]
+    )
+    err = capsys.readouterr().err
+    if ok:
+        assert code == 0
+        assert f'port="{port}"' in (sim_dir / "aircraft" / "737" / "737.xml").read_text()
+    else:
+        assert code == 2 and err.count("\n") == 1 and "--port" in err and "1..65535" in err
+        assert not sim_dir.exists()
+
+
+@pytest.mark.parametrize(("port", "ok"), [(0, False), (1, True), (65535, True), (65536, False)])
+def test_connect_takes_a_port_1_to_65535(tmp_path, capsys, port, ok):
+    out = tmp_path / "out"
+    scenario = str(_scenario_file(tmp_path))
+    code = main(["live", scenario, "--connect", f"127.0.0.1:{port}", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert ("1..65535" in err) == (not ok) and ("no simulator at" in err) == ok
+    assert not (out / "live-737").exists()
+
+
+def test_port_with_connect_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    scenario = str(_scenario_file(tmp_path))
+    connect = f"127.0.0.1:{_free_port()}"
+    code = main(["live", scenario, "--connect", connect, "--port", "5140", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--port" in err and "--connect" in err
+    assert not out.exists()
+
+
+def test_write_sim_prints_a_command_that_runs_as_printed(tmp_path, capsys):
+    """The printed command's first word is the jsbsim executable (JSBSim's Python package
+    installs it beside this Python, which need not be on PATH); command.txt holds it too."""
+    sim_dir = tmp_path / "sim"
+    assert main(["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir)]) == 0
+    out = capsys.readouterr().out
+    printed = out.splitlines()[0]
+    assert (sim_dir / "command.txt").read_text() == printed + "\n"
+    program = Path(shlex.split(printed)[0])
+    assert program.is_absolute() and program.name == "jsbsim"
+    assert program.is_file() and os.access(program, os.X_OK)
+    version = subprocess.run([program, "--version"], capture_output=True, text=True, timeout=60)
+    assert version.returncode == 0 and version.stdout.strip()
+
+
+def test_write_sim_says_the_socket_listens_on_every_interface(tmp_path, capsys):
+    """JSBSim binds its input socket to every interface and has no attribute to do
+    otherwise (docs/live.md): ``--write-sim`` says so."""
+    sim_dir = tmp_path / "sim"
+    assert main(["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir)]) == 0
+    captured = capsys.readouterr()
+    assert "every interface" in captured.err and "5139" in captured.err
+    assert captured.out.count("\n") == 1  # stdout: the command alone
+
+
+@pytest.mark.skipif(not PROC_NET_TCP.is_file(), reason="reads Linux's /proc/net/tcp")
+def test_the_simulator_listens_on_every_interface(live):
+    """JSBSim binds its input socket to every interface, as docs/live.md says (it has no
+    address for it): a JSBSim that binds otherwise fails here, and the doc is to change."""
+    base, _ = live
+    assert (base / "listening.txt").read_text() == "0.0.0.0"
