@@ -371,11 +371,11 @@ def _report(bar: Progress, monitor: _Monitor, est: Any, first: int, count: int) 
     latest estimate's largest tap of the first monitored channel and the first alarm."""
     j, channel = monitor.monitored[0]
     end_s = (first + count) * monitor.scn.period_s
-    if est.periods.size:
-        h = est.h[-1, j]
+    h = est.h[-1, j] if est.periods.size else None
+    if h is not None and np.isfinite(h).all():
         peak = int(np.argmax(np.abs(h)))
         latest = f"{channel} h peak {h[peak]:.4g} at tap {peak} (period {int(est.periods[-1])})"
-    else:
+    else:  # no row yet, or the streaming estimator's NaN row before its first estimate
         latest = "no estimate yet"
     alarm = monitor.first_alarm
     first_alarm = "none" if alarm is None else f"period {alarm}"

@@ -306,6 +306,23 @@ def test_the_live_sensors_measure_with_the_suites_noise_and_bias(sensed, tmp_pat
         assert abs(trims[0][channel] - trims[1][channel]) < 0.1 * sigma, channel
 
 
+@pytest.mark.parametrize("flight", ["live", "sensed"])
+def test_the_progress_says_no_estimate_yet_before_the_first_estimate(flight, request):
+    """Before the first estimate the line says "no estimate yet", as docs/live.md does, and
+    no line reports a NaN tap: with detrending the first period has no row, without it
+    (``sensed``: the streaming estimator) its row is NaN."""
+    base, scn = request.getfixturevalue(flight)
+    lines = [x for x in (base / "progress.txt").read_text().splitlines() if ": period " in x]
+    assert len(lines) == scn.periods
+    assert not any("nan" in line.lower() for line in lines)
+    estimated = _table(base / scn.name, "probing.parquet").dropna(subset=["h_est"])
+    first = int(estimated.period.min())
+    assert first >= 1
+    for p, line in enumerate(lines):
+        assert ("no estimate yet" in line) == (p < first), line
+        assert ("h peak" in line) == (p >= first), line
+
+
 def _scenario_file(tmp_path: Path) -> Path:
     scenario = tmp_path / "live.toml"
     scenario.write_text(SCENARIO)
