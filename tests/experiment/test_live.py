@@ -306,6 +306,14 @@ def test_the_live_sensors_measure_with_the_suites_noise_and_bias(sensed, tmp_pat
         assert abs(trims[0][channel] - trims[1][channel]) < 0.1 * sigma, channel
 
 
+def test_the_simulator_stops_when_the_flight_is_done(live):
+    """The flight computer ends the simulator's run (``simulation/terminate``): it does not
+    stay held, polling its socket on a core, after the flight."""
+    base, _ = live
+    stopped = (base / "sim-stopped.txt").read_text()
+    assert stopped != "running" and float(stopped) < STOP_S
+
+
 @pytest.mark.parametrize("flight", ["live", "sensed"])
 def test_the_progress_says_no_estimate_yet_before_the_first_estimate(flight, request):
     """Before the first estimate the line says "no estimate yet", as docs/live.md does, and
@@ -390,9 +398,45 @@ def test_write_sim_says_the_socket_listens_on_every_interface(tmp_path, capsys):
     assert captured.out.count("\n") == 1  # stdout: the command alone
 
 
+def _ask(sock: socket.socket, command: str) -> str:
+    """One command to a JSBSim input socket; its reply line."""
+    sock.sendall(f"{command}\r\n".encode())
+    data = b""
+    while b"\r\n" not in data.replace(b"JSBSim> ", b"").lstrip(b"\r\n"):
+        data += sock.recv(4096)
+    return data.decode().replace("JSBSim> ", "").strip()
+
+
 @pytest.mark.skipif(not PROC_NET_TCP.is_file(), reason="reads Linux's /proc/net/tcp")
 def test_the_simulator_listens_on_every_interface(live):
     """JSBSim binds its input socket to every interface, as docs/live.md says (it has no
     address for it): a JSBSim that binds otherwise fails here, and the doc is to change."""
     base, _ = live
     assert (base / "listening.txt").read_text() == "0.0.0.0"
+
+
+def test_a_simulator_that_has_flown_is_refused_at_connect(tmp_path, capsys):
+    """A simulator that has flown past its trim frame (a first client flew one frame, then
+    held it and left, as a live flight used to) is refused when the flight computer
+    connects: one line, exit code 2, nothing written; and the simulator is stopped.  (Every
+    other flight of this file connects at the trim frame, 0.01 s, and is flown.)"""
+    scenario, sim_dir, port = _write_sim(tmp_path, SCENARIO)
+    with _simulator(tmp_path, sim_dir) as proc:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as first:
+            assert "JSBSim" in first.recv(4096).decode()
+            assert _ask(first, "resume") == "Resuming"
+            # a frame past the trim's (0.01 s, where every flight of this file connects)
+            for _ in range(5):
+                time_s = float(_ask(first, "get simulation/sim-time-sec").split("=")[1])
+                if time_s > 0.015:
+                    break
+            assert 0.015 < time_s < 0.035
+            assert _ask(first, "hold") == "Holding"
+            first.sendall(b"quit\r\n")
+        capsys.readouterr()  # --write-sim's
+        out = tmp_path / "out"
+        code = main(["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "has flown" in err, err
+        assert not out.exists()
+        assert _stopped_within(proc, STOP_S) is not None
