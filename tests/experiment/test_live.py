@@ -26,6 +26,7 @@ from probing.experiment.monitor import logged_chunk_periods, monitor_scenario, r
 from probing.experiment.run import CHUNK_STEPS
 from probing.experiment.scenario import load_scenario
 from probing.experiment.storage import read_footer
+from probing.sim.channels import CHANNELS
 
 pytestmark = pytest.mark.jsbsim
 
@@ -440,3 +441,75 @@ def test_a_simulator_that_has_flown_is_refused_at_connect(tmp_path, capsys):
         assert code == 2 and err.count("\n") == 1 and "has flown" in err, err
         assert not out.exists()
         assert _stopped_within(proc, STOP_S) is not None
+
+
+#: Channels of both kinds: the integrator's state (already the frame's when the message is
+#: answered) and what JSBSim computes after the command (air data, load factors, the
+#: surface: the frame's only in the next frame's message).  Not ``h_ft``, ``u_fps`` or
+#: ``vt_fps``: a frame changes them by less than the socket's 6 digits resolve (0.1 ft at
+#: 15,000 ft, 0.01 ft/s at 586 ft/s), so a shift would not show.
+FRAMED_CHANNELS = (
+    "theta_rad",
+    "q_rad_s",
+    "w_fps",
+    "alpha_rad",
+    "gamma_rad",
+    "nz_g",
+    "elevator_deg",
+)
+
+#: The scenario with those channels and no sensor noise: the log holds the simulator's values.
+FRAMED = (
+    SCENARIO.replace('name = "live-737"', 'name = "live-737-framed"')
+    .replace("sensor_noise = { theta_rad = 1e-6 }\n", "")
+    .replace(
+        'channels = ["theta_rad", "q_rad_s", "alpha_rad"]',
+        f"channels = {json.dumps(list(FRAMED_CHANNELS))}",
+    )
+)
+
+
+@pytest.fixture(scope="module")
+def framed(tmp_path_factory):
+    """The scenario with :data:`FRAMED_CHANNELS` flown live, the simulator writing its own
+    values of them at every frame (JSBSim's CSV output: ``sim/frames.csv``, in its root, at
+    the end of each frame, with its time, in full precision)."""
+    base = tmp_path_factory.mktemp("framed")
+    props = "".join(f"  <property>{CHANNELS[c].prop}</property>\n" for c in FRAMED_CHANNELS)
+    directive = base / "frames.xml"
+    directive.write_text(f'<output name="frames.csv" type="CSV" rate="100">\n{props}</output>\n')
+    scn = _fly_live(base, FRAMED, extra=(f"--logdirectivefile={directive}",))
+    return base, scn
+
+
+def _frames(path: Path, dt_s: float) -> dict[int, np.ndarray]:
+    """JSBSim's CSV output: frame number (its time over dt) -> the row's values (the last
+    row of a frame written twice: the held trim frame is)."""
+    rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {round(row[0] / dt_s): row[1:] for row in rows}
+
+
+def _agree(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where ``a`` (read through the socket: 6 significant digits) is ``b`` (full)."""
+    return np.abs(a - b) <= 5e-6 * np.abs(b) + 1e-15
+
+
+def test_each_logged_value_is_the_simulators_own_of_its_frame(framed):
+    """Every logged value, of the integrator's state and of what JSBSim computes after the
+    command (air data, load factors, the surface), is the simulator's own value (its CSV
+    output) of the row's frame: the row at ``time_s`` after the trim is the frame at sim time
+    trim + ``time_s`` (the trim's frame is the first, at one dt), to the socket's 6 digits.
+    The frame before and the frame after differ by more, for every channel, so a channel
+    logged a frame early or late fails here."""
+    base, scn = framed
+    frames = _frames(base / "sim" / "frames.csv", scn.dt_s)
+    log = _table(base / scn.name, "sensors.parquet")
+    assert len(log) == scn.total_steps
+    frame = 1 + np.rint(log["time_s"].to_numpy() / scn.dt_s).astype(int)
+    for j, channel in enumerate(FRAMED_CHANNELS):
+        logged = log[channel].to_numpy()
+        own = np.array([frames[f][j] for f in frame])
+        assert _agree(logged, own).all(), channel
+        for shift in (-1, 1):
+            other = np.array([frames[f + shift][j] for f in frame])
+            assert not _agree(logged, other).all(), (channel, shift)
