@@ -13,7 +13,9 @@ import os
 import shlex
 import socket
 import subprocess
+import threading
 import time
+import types
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +23,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from probing.cli import main
-from probing.experiment.live import LIVE_CHUNK_PERIODS
+from probing.experiment import live as live_module
+from probing.experiment.live import LIVE_CHUNK_PERIODS, live_monitor
 from probing.experiment.monitor import logged_chunk_periods, monitor_scenario, replay_monitor
 from probing.experiment.run import CHUNK_STEPS
 from probing.experiment.scenario import load_scenario
@@ -513,3 +516,86 @@ def test_each_logged_value_is_the_simulators_own_of_its_frame(framed):
         for shift in (-1, 1):
             other = np.array([frames[f + shift][j] for f in frame])
             assert not _agree(logged, other).all(), (channel, shift)
+
+
+@contextlib.contextmanager
+def _fake_simulator(dt_s: float, delay_s: float):
+    """A stand-in for JSBSim's blocking input socket on a free loopback port (yielded): it
+    answers like JSBSim (``set``, ``get``, ``hold``, ``resume``, ``quit``), at its trim frame
+    (``simulation/sim-time-sec`` = dt), with made-up values, each message ``delay_s`` late."""
+    server = socket.create_server(("127.0.0.1", 0))
+    values = iter(np.random.default_rng(0).normal(0.0, 1e-3, 10**7).tolist())
+    fixed = {"simulation/dt": dt_s, "simulation/sim-time-sec": dt_s}
+
+    def reply(line: str) -> str:
+        words = line.split()
+        if words[0] == "set":
+            return "set successful"
+        if words[0] == "get":
+            return f"{words[1]} = {fixed.get(words[1], next(values)):12.6g}"
+        return {"hold": "Holding", "resume": "Resuming"}[words[0]]
+
+    def serve() -> None:
+        conn, _ = server.accept()
+        with conn:
+            conn.sendall(b"Connected to JSBSim server\r\nJSBSim> ")
+            buffer = ""
+            while True:
+                data = conn.recv(65536)
+                if not data:
+                    return
+                buffer += data.decode()
+                *lines, buffer = buffer.split("\r\n")
+                if any(line.startswith("quit") for line in lines):
+                    return
+                time.sleep(delay_s)
+                conn.sendall("".join(f"{reply(x)}\r\nJSBSim> " for x in lines if x).encode())
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1]
+    finally:
+        server.close()
+        thread.join(timeout=10)
+
+
+#: The fake simulator's delay per message, s.
+DELAY_S = 0.002
+
+
+def test_the_compute_time_leaves_out_the_waits_for_the_simulator(tmp_path):
+    """Every frame waits ``DELAY_S`` for the (fake) simulator's reply: the waits count all of
+    it, and the flight computer's own time per period none of it."""
+    scn = load_scenario(_scenario_file(tmp_path))
+    with _fake_simulator(scn.dt_s, DELAY_S) as port:
+        result = live_monitor(scn, "127.0.0.1", port, tmp_path, progress=False)
+    periods = result.steps / result.steps_per_period
+    assert result.steps == scn.total_steps
+    assert result.wait_s >= result.steps * DELAY_S
+    assert result.compute_per_period_s * periods <= result.wall_s - result.steps * DELAY_S
+
+
+def test_the_compute_time_leaves_out_the_waits_for_the_clock(tmp_path, monkeypatch):
+    """Paced at the wall clock (``realtime``), each frame sleeps until its time: the waits
+    count every sleep, and the flight computer's own time per period none of them."""
+    slept = []
+
+    def sleep(seconds: float) -> None:
+        slept.append(seconds)
+        time.sleep(seconds)
+
+    clock = types.SimpleNamespace(perf_counter=time.perf_counter, sleep=sleep)
+    monkeypatch.setattr(live_module, "time", clock)
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO.replace("bit_duration_s = 0.02", "bit_duration_s = 0.01"))
+    scn = load_scenario(scenario)
+    with _fake_simulator(scn.dt_s, 0.0) as port:
+        result = live_monitor(scn, "127.0.0.1", port, tmp_path, realtime=True, progress=False)
+    periods = result.steps / result.steps_per_period
+    assert (
+        len(slept) == result.steps == scn.total_steps
+        and sum(slept) > 0.25 * scn.total_steps * scn.dt_s
+    )
+    assert result.wait_s >= sum(slept)
+    assert result.compute_per_period_s * periods <= result.wall_s - sum(slept)
