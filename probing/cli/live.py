@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import shlex
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,12 +25,23 @@ if TYPE_CHECKING:
 #: Simulated time the written script flies beyond the scenario, s (set-up and margin).
 END_MARGIN_S = 60.0
 
+#: ``--write-sim``'s port when ``--port`` is not given.
+DEFAULT_PORT = 5139
+
 
 def _cmd_live(args: argparse.Namespace) -> int:
     from probing.experiment.live import LiveError, check_live
+    from probing.experiment.sim_socket import PORTS_TEXT, is_port
 
     if (args.connect is None) == (args.write_sim is None):
         raise UsageError("live: give --connect HOST:PORT or --write-sim DIR (one of them)")
+    if args.port is not None and args.connect is not None:
+        raise UsageError(
+            f"--port {args.port}: --port is the port --write-sim writes; with --connect the "
+            "port is the one in HOST:PORT"
+        )
+    if args.port is not None and not is_port(args.port):
+        raise UsageError(f"--port {args.port}: give {PORTS_TEXT}")
     scn = _load_scenario(args.scenario)
     try:
         check_live(scn)
@@ -42,12 +54,14 @@ def _cmd_live(args: argparse.Namespace) -> int:
 
 def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
     """``--write-sim DIR``: the simulator's files, and the command that starts it."""
-    from probing.sim.live_sim import write_sim
+    from probing.sim.live_sim import LISTENS_EVERYWHERE, write_sim
 
     folder = _out_folder(args.write_sim, "--write-sim")
     end_s = scn.total_steps * scn.dt_s + END_MARGIN_S
-    line = write_sim(scn.flight, folder, args.port, end_s)
+    port = DEFAULT_PORT if args.port is None else args.port
+    line = write_sim(scn.flight, folder, port, end_s)
     print(shlex.join(line))
+    print(f"probing: note: {LISTENS_EVERYWHERE.format(port=port)}", file=sys.stderr)
     return 0
 
 
@@ -96,7 +110,9 @@ def register(sub: Subcommands) -> None:
         help="write the simulator's JSBSim root into DIR and print the command that starts it",
     )
     live.add_argument(
-        "--port", type=int, default=5139, help="with --write-sim: the input socket's TCP port"
+        "--port",
+        type=int,
+        help=f"with --write-sim: the input socket's TCP port (default {DEFAULT_PORT})",
     )
     live.add_argument(
         "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"

@@ -51,6 +51,7 @@ __all__ = [
     "LIVE_DRIFTS",
     "LiveError",
     "LiveResult",
+    "at_trim_frame",
     "check_live",
     "live_monitor",
 ]
@@ -68,6 +69,14 @@ SUPPORTED = (
     "probing live supports open-loop scenarios (no [control]) in calm air, without [fault], "
     "with output.drift none or detrend"
 )
+
+
+def at_trim_frame(time_s: float, dt_s: float) -> bool:
+    """True if a simulator whose time is ``time_s`` (s, stepping at ``dt_s``, s) is still at
+    the frame of its trim: the written script trims in its first frame (``time_s`` = dt) and
+    ``--suspend`` holds it there.  Past it, the aircraft has flown (the probe of a flight
+    before, or freely without a client) and its trim is gone."""
+    return time_s < 1.5 * dt_s
 
 
 class LiveError(ValueError):
@@ -233,15 +242,23 @@ def live_monitor(
         For a scenario :func:`check_live` refuses.
     probing.experiment.sim_socket.SimConnectionError
         If the simulator cannot be reached or answers something else (nothing written).
+
+    The simulator's run is ended when the flight is done, and on any error
+    (:meth:`~probing.experiment.sim_socket.SimSocket.close`): it cannot fly a second time.
     """
     check_live(scn)
     sim = SimSocket(host, port, timeout_s)
     try:
         plant = make_plant(scn.flight)  # the actuator's map, as the flight computer knows it
         sim.hold()
-        (dt_sim,) = sim.get(["simulation/dt"])
+        dt_sim, time_sim = sim.get(["simulation/dt", "simulation/sim-time-sec"])
         if not math.isclose(dt_sim, scn.dt_s, rel_tol=1e-5):
             raise LiveError(f"{sim.where} steps at dt {dt_sim:g} s, the scenario at {scn.dt_s:g} s")
+        if not at_trim_frame(time_sim, dt_sim):
+            raise LiveError(
+                f"{sim.where} has flown already (its time is {time_sim:g} s; one started with "
+                f"--suspend waits at {dt_sim:g} s, its trim's frame): start it again"
+            )
         read = _Read(scn, sim)  # held: the trimmed aircraft
         sim.resume()  # it runs the frame's rest at the trim, then waits in the next frame
         target = Path(folder) if folder is not None else Path(out) / scn.name
@@ -371,11 +388,11 @@ def _report(bar: Progress, monitor: _Monitor, est: Any, first: int, count: int) 
     latest estimate's largest tap of the first monitored channel and the first alarm."""
     j, channel = monitor.monitored[0]
     end_s = (first + count) * monitor.scn.period_s
-    if est.periods.size:
-        h = est.h[-1, j]
+    h = est.h[-1, j] if est.periods.size else None
+    if h is not None and np.isfinite(h).all():
         peak = int(np.argmax(np.abs(h)))
         latest = f"{channel} h peak {h[peak]:.4g} at tap {peak} (period {int(est.periods[-1])})"
-    else:
+    else:  # no row yet, or the streaming estimator's NaN row before its first estimate
         latest = "no estimate yet"
     alarm = monitor.first_alarm
     first_alarm = "none" if alarm is None else f"period {alarm}"

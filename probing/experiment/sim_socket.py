@@ -3,7 +3,11 @@
 A JSBSim whose aircraft has ``<input type="SOCKET" port="P" protocol="TCP"/>`` answers
 lines ending in ``\\r\\n``: ``set <property> <value>`` (``set successful``), ``get
 <property>`` (``<property> = <value>``, printed with 6 significant digits), ``hold``
-(``Holding``), ``resume`` (``Resuming``), ``iterate <n>``, ``quit``.  With
+(``Holding``), ``resume`` (``Resuming``), ``iterate <n>``, ``quit`` (closes the connection
+only: the simulator goes on, held or flying, and a held one polls its socket on a core for
+ever).  It has no command that ends the simulator; ``set simulation/terminate 1`` does
+(``FGFDMExec::Run`` returns false and JSBSim's loop ends, held or not), and the client sends
+it before ``quit`` when it closes (:meth:`SimSocket.close`).  With
 ``action="BLOCKING_INPUT"`` a running simulator waits in every frame, after integrating the
 state and before the flight-control system, until a message comes, and answers every
 command in it: one message is one frame.  Each reply line is followed by the
@@ -17,14 +21,29 @@ import ipaddress
 import socket
 import time
 
-__all__ = ["SimConnectionError", "SimSocket", "is_loopback", "parse_address"]
+__all__ = ["PORTS", "SimConnectionError", "SimSocket", "is_loopback", "is_port", "parse_address"]
 
 PROMPT = "JSBSim> "
+
+#: The property that ends JSBSim's run (``FGFDMExec``'s ``Terminate``).
+TERMINATE = "simulation/terminate"
 
 #: Acknowledge each segment at once (Linux): JSBSim sends a reply and its prompt in separate
 #: small segments, and with Nagle's algorithm on its side each one after the first waits for
 #: the acknowledgement of the one before, which a delayed ACK holds back 40 ms.
 QUICKACK = getattr(socket, "TCP_QUICKACK", None)
+
+
+#: The TCP ports a simulator's input socket can take (JSBSim reads 0 as no port given).
+PORTS = range(1, 65536)
+
+#: How :data:`PORTS` reads in a message.
+PORTS_TEXT = f"a port {PORTS.start}..{PORTS.stop - 1}"
+
+
+def is_port(port: int) -> bool:
+    """True if ``port`` is one of :data:`PORTS`."""
+    return port in PORTS
 
 
 class SimConnectionError(ConnectionError):
@@ -37,11 +56,11 @@ def parse_address(text: str) -> tuple[str, int]:
     Raises
     ------
     ValueError
-        If it is not ``HOST:PORT`` with a port 1..65535.
+        If it is not ``HOST:PORT`` with a port in :data:`PORTS`.
     """
     host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise ValueError(f"--connect {text!r}: give HOST:PORT (a port 1..65535)")
+    if not sep or not host or not port.isdigit() or not is_port(int(port)):
+        raise ValueError(f"--connect {text!r}: give HOST:PORT ({PORTS_TEXT})")
     return host.strip("[]"), int(port)
 
 
@@ -84,7 +103,7 @@ class SimSocket:
         self.wait_s = 0.0
         greeting = self._lines(1)[0]
         if "JSBSim" not in greeting:
-            self.close()
+            self.sock.close()
             raise SimConnectionError(f"{self.where} is not a JSBSim input socket: {greeting!r}")
 
     def _lines(self, count: int) -> list[str]:
@@ -149,10 +168,13 @@ class SimSocket:
                 raise SimConnectionError(f"{self.where}: {command}: {reply!r}")
 
     def close(self) -> None:
-        """Say ``quit`` (the simulator stays held) and close."""
+        """End the simulator's run (``set simulation/terminate 1``: a simulator that has flown
+        cannot fly again, and held it would poll its socket on a core), say ``quit`` and
+        close; a simulator that is gone already is let be."""
         try:
+            self._expect([f"set {TERMINATE} 1"], ["set successful"])
             self.sock.sendall(b"quit\r\n")
-        except OSError:
+        except (OSError, SimConnectionError):
             pass
         self.sock.close()
 

@@ -12,19 +12,32 @@ from __future__ import annotations
 
 import shlex
 import shutil
+import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from probing.sim.aircraft import sanitised_root, stock_root
 from probing.sim.flight import Flight
 
-__all__ = ["SCRIPT", "sim_command", "write_sim"]
+__all__ = ["LISTENS_EVERYWHERE", "SCRIPT", "jsbsim_executable", "sim_command", "write_sim"]
 
 #: The script's path inside the written root.
 SCRIPT = "scripts/probing_live.xml"
 
 #: The initialisation file's name in the aircraft's folder (without ``.xml``).
 IC_NAME = "probing_live_ic"
+
+#: What the simulator's socket admits (``{port}`` is its port).  JSBSim's TCP input socket
+#: takes a port and no address: ``FGInputSocket::Load`` (``src/input_output/FGInputSocket.cpp``)
+#: reads ``port`` and ``action`` only, and the server constructor ``FGfdmSocket(int port, int
+#: protocol, int precision)`` in ``src/input_output/FGfdmSocket.cpp`` zeroes the address
+#: (``memset(&scktName, 0, ...)``: ``INADDR_ANY``) and binds it; with JSBSim 1.3.3, ``ss -ltn``
+#: shows ``0.0.0.0:PORT`` (docs/live.md).
+LISTENS_EVERYWHERE = (
+    "the simulator's input socket listens on every interface (0.0.0.0:{port}), not on "
+    "loopback only: JSBSim's socket takes no address (src/input_output/FGfdmSocket.cpp binds "
+    "INADDR_ANY); keep port {port} closed to other machines"
+)
 
 #: JSBSim's initialisation element for each speed kind (:data:`probing.sim.flight.SPEED_KINDS`).
 _IC_SPEED = {
@@ -75,14 +88,24 @@ def write_sim(flight: Flight, folder: Path, port: int, end_s: float) -> list[str
     return line
 
 
+def jsbsim_executable() -> str:
+    """The ``jsbsim`` executable JSBSim's Python package installs: beside the running Python
+    (a virtual environment's ``bin``, which need not be on PATH), else the one on PATH, else
+    the bare name."""
+    beside = Path(sys.executable).parent / "jsbsim"
+    if beside.is_file():
+        return str(beside)
+    return shutil.which("jsbsim") or "jsbsim"
+
+
 def sim_command(folder: Path, dt_s: float) -> list[str]:
-    """``jsbsim --root=... --script=... --suspend``: held after its trim, it waits for the
-    flight computer's ``iterate`` (JSBSim's Python package's ``jsbsim`` polls its socket
-    without sleeping while held: ``--nice`` would sleep 10 s between two looks).  Its
-    ``--simulation-rate`` is the scenario's dt: that ``jsbsim`` passes its own rate to the
-    script, whose ``dt`` it overrides."""
+    """``/path/to/jsbsim --root=... --script=... --suspend`` (:func:`jsbsim_executable`):
+    held after its trim, it waits for the flight computer (JSBSim's Python package's
+    ``jsbsim`` polls its socket without sleeping while held: ``--nice`` would sleep 10 s
+    between two looks).  Its ``--simulation-rate`` is the scenario's dt: that ``jsbsim``
+    passes its own rate to the script, whose ``dt`` it overrides."""
     return [
-        "jsbsim",
+        jsbsim_executable(),
         f"--root={folder.resolve()}",
         f"--script={SCRIPT}",
         f"--simulation-rate={dt_s!r}",

@@ -9,11 +9,13 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import shlex
 import socket
 import subprocess
-import sys
+import threading
 import time
+import types
 from pathlib import Path
 
 import numpy as np
@@ -21,11 +23,13 @@ import pyarrow.parquet as pq
 import pytest
 
 from probing.cli import main
-from probing.experiment.live import LIVE_CHUNK_PERIODS
+from probing.experiment import live as live_module
+from probing.experiment.live import LIVE_CHUNK_PERIODS, live_monitor
 from probing.experiment.monitor import logged_chunk_periods, monitor_scenario, replay_monitor
 from probing.experiment.run import CHUNK_STEPS
 from probing.experiment.scenario import load_scenario
 from probing.experiment.storage import read_footer
+from probing.sim.channels import CHANNELS
 
 pytestmark = pytest.mark.jsbsim
 
@@ -68,36 +72,88 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _fly_live(base: Path, text: str):
-    """``text`` flown live on a separate jsbsim process (always stopped afterwards) into
-    ``base``; its scenario."""
+#: The longest the simulator may take to stop after the flight computer is done, s.
+STOP_S = 5.0
+
+
+#: Where Linux lists the TCP sockets.
+PROC_NET_TCP = Path("/proc/net/tcp")
+
+
+def _listening(port: int) -> set[str]:
+    """The IPv4 addresses listening on TCP ``port`` (Linux's /proc/net/tcp)."""
+    found = set()
+    for row in PROC_NET_TCP.read_text().splitlines()[1:]:
+        local, state = row.split()[1], row.split()[3]
+        address, hex_port = local.split(":")
+        if state == "0A" and int(hex_port, 16) == port:
+            found.add(socket.inet_ntoa(bytes.fromhex(address)[::-1]))
+    return found
+
+
+@contextlib.contextmanager
+def _simulator(base: Path, sim_dir: Path, extra: tuple[str, ...] = ()):
+    """The command ``--write-sim`` wrote into ``sim_dir`` (plus ``extra``), run as written
+    (its first word is the jsbsim executable) from ``base`` until it has trimmed; stopped
+    afterwards if it is still running."""
+    line = [*shlex.split((sim_dir / "command.txt").read_text()), *extra]
+    log_path = base / "jsbsim.log"
+    log = log_path.open("w")
+    proc = subprocess.Popen(line, stdout=log, stderr=subprocess.STDOUT, cwd=base)
+    try:
+        deadline = time.monotonic() + START_S
+        while "Execution beginning" not in log_path.read_text():
+            assert proc.poll() is None and time.monotonic() < deadline, "jsbsim did not start"
+            time.sleep(0.1)
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        log.close()
+
+
+def _stopped_within(proc: subprocess.Popen, limit_s: float) -> float | None:
+    """Seconds until ``proc`` exits, or None if it still runs after ``limit_s``."""
+    start = time.monotonic()
+    try:
+        proc.wait(timeout=limit_s)
+    except subprocess.TimeoutExpired:
+        return None
+    return time.monotonic() - start
+
+
+def _write_sim(base: Path, text: str) -> tuple[Path, Path, int]:
+    """``text`` as a scenario in ``base`` and its simulator's files: (scenario, root, port)."""
     scenario = base / "live.toml"
     scenario.write_text(text)
     port = _free_port()
     sim_dir = base / "sim"
     assert main(["live", str(scenario), "--write-sim", str(sim_dir), "--port", str(port)]) == 0
-    line = shlex.split((sim_dir / "command.txt").read_text())
-    line[0] = str(Path(sys.executable).with_name("jsbsim"))
-    log = (base / "jsbsim.log").open("w")
-    proc = subprocess.Popen(line, stdout=log, stderr=subprocess.STDOUT, cwd=base)
-    try:
-        deadline = time.monotonic() + START_S
-        while "Execution beginning" not in (base / "jsbsim.log").read_text():
-            assert proc.poll() is None and time.monotonic() < deadline, "jsbsim did not start"
-            time.sleep(0.1)
+    return scenario, sim_dir, port
+
+
+def _fly_live(base: Path, text: str, extra: tuple[str, ...] = ()):
+    """``text`` flown live on a separate jsbsim process (always stopped afterwards) into
+    ``base``; its scenario.  ``base/progress.txt`` gets the progress lines and
+    ``base/sim-stopped.txt`` the seconds the simulator took to exit after the flight
+    (``running`` if it had not after :data:`STOP_S`), ``base/listening.txt`` the addresses it
+    listened at (where Linux's /proc/net/tcp tells)."""
+    scenario, sim_dir, port = _write_sim(base, text)
+    with _simulator(base, sim_dir, extra) as proc:
+        if PROC_NET_TCP.is_file():
+            (base / "listening.txt").write_text(" ".join(sorted(_listening(port))))
         with contextlib.redirect_stderr(io.StringIO()) as err:
             code = main(
                 ["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(base)]
             )
         (base / "progress.txt").write_text(err.getvalue())
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        log.close()
+        stopped = _stopped_within(proc, STOP_S)
+        (base / "sim-stopped.txt").write_text("running" if stopped is None else f"{stopped:.3f}")
     assert code == 0
     return load_scenario(scenario)
 
@@ -252,3 +308,294 @@ def test_the_live_sensors_measure_with_the_suites_noise_and_bias(sensed, tmp_pat
         assert abs(noise.std() / sigma - 1.0) < 0.1, channel
         assert abs(noise.mean()) < 4 * sigma / np.sqrt(noise.size), channel
         assert abs(trims[0][channel] - trims[1][channel]) < 0.1 * sigma, channel
+
+
+def test_the_simulator_stops_when_the_flight_is_done(live):
+    """The flight computer ends the simulator's run (``simulation/terminate``): it does not
+    stay held, polling its socket on a core, after the flight."""
+    base, _ = live
+    stopped = (base / "sim-stopped.txt").read_text()
+    assert stopped != "running" and float(stopped) < STOP_S
+
+
+@pytest.mark.parametrize("flight", ["live", "sensed"])
+def test_the_progress_says_no_estimate_yet_before_the_first_estimate(flight, request):
+    """Before the first estimate the line says "no estimate yet", as docs/live.md does, and
+    no line reports a NaN tap: with detrending the first period has no row, without it
+    (``sensed``: the streaming estimator) its row is NaN."""
+    base, scn = request.getfixturevalue(flight)
+    lines = [x for x in (base / "progress.txt").read_text().splitlines() if ": period " in x]
+    assert len(lines) == scn.periods
+    assert not any("nan" in line.lower() for line in lines)
+    estimated = _table(base / scn.name, "probing.parquet").dropna(subset=["h_est"])
+    first = int(estimated.period.min())
+    assert first >= 1
+    for p, line in enumerate(lines):
+        assert ("no estimate yet" in line) == (p < first), line
+        assert ("h peak" in line) == (p >= first), line
+
+
+def _scenario_file(tmp_path: Path) -> Path:
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO)
+    return scenario
+
+
+@pytest.mark.parametrize(("port", "ok"), [(0, False), (1, True), (65535, True), (65536, False)])
+def test_write_sim_takes_a_port_1_to_65535(tmp_path, capsys, port, ok):
+    sim_dir = tmp_path / "sim"
+    code = main(
+        ["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir), "--port", str(port)]
+    )
+    err = capsys.readouterr().err
+    if ok:
+        assert code == 0
+        assert f'port="{port}"' in (sim_dir / "aircraft" / "737" / "737.xml").read_text()
+    else:
+        assert code == 2 and err.count("\n") == 1 and "--port" in err and "1..65535" in err
+        assert not sim_dir.exists()
+
+
+@pytest.mark.parametrize(("port", "ok"), [(0, False), (1, True), (65535, True), (65536, False)])
+def test_connect_takes_a_port_1_to_65535(tmp_path, capsys, port, ok):
+    out = tmp_path / "out"
+    scenario = str(_scenario_file(tmp_path))
+    code = main(["live", scenario, "--connect", f"127.0.0.1:{port}", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert ("1..65535" in err) == (not ok) and ("no simulator at" in err) == ok
+    assert not (out / "live-737").exists()
+
+
+def test_port_with_connect_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    scenario = str(_scenario_file(tmp_path))
+    connect = f"127.0.0.1:{_free_port()}"
+    code = main(["live", scenario, "--connect", connect, "--port", "5140", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--port" in err and "--connect" in err
+    assert not out.exists()
+
+
+def test_write_sim_prints_a_command_that_runs_as_printed(tmp_path, capsys):
+    """The printed command's first word is the jsbsim executable (JSBSim's Python package
+    installs it beside this Python, which need not be on PATH); command.txt holds it too."""
+    sim_dir = tmp_path / "sim"
+    assert main(["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir)]) == 0
+    out = capsys.readouterr().out
+    printed = out.splitlines()[0]
+    assert (sim_dir / "command.txt").read_text() == printed + "\n"
+    program = Path(shlex.split(printed)[0])
+    assert program.is_absolute() and program.name == "jsbsim"
+    assert program.is_file() and os.access(program, os.X_OK)
+    version = subprocess.run([program, "--version"], capture_output=True, text=True, timeout=60)
+    assert version.returncode == 0 and version.stdout.strip()
+
+
+def test_write_sim_says_the_socket_listens_on_every_interface(tmp_path, capsys):
+    """JSBSim binds its input socket to every interface and has no attribute to do
+    otherwise (docs/live.md): ``--write-sim`` says so."""
+    sim_dir = tmp_path / "sim"
+    assert main(["live", str(_scenario_file(tmp_path)), "--write-sim", str(sim_dir)]) == 0
+    captured = capsys.readouterr()
+    assert "every interface" in captured.err and "5139" in captured.err
+    assert captured.out.count("\n") == 1  # stdout: the command alone
+
+
+def _ask(sock: socket.socket, command: str) -> str:
+    """One command to a JSBSim input socket; its reply line."""
+    sock.sendall(f"{command}\r\n".encode())
+    data = b""
+    while b"\r\n" not in data.replace(b"JSBSim> ", b"").lstrip(b"\r\n"):
+        data += sock.recv(4096)
+    return data.decode().replace("JSBSim> ", "").strip()
+
+
+@pytest.mark.skipif(not PROC_NET_TCP.is_file(), reason="reads Linux's /proc/net/tcp")
+def test_the_simulator_listens_on_every_interface(live):
+    """JSBSim binds its input socket to every interface, as docs/live.md says (it has no
+    address for it): a JSBSim that binds otherwise fails here, and the doc is to change."""
+    base, _ = live
+    assert (base / "listening.txt").read_text() == "0.0.0.0"
+
+
+def test_a_simulator_that_has_flown_is_refused_at_connect(tmp_path, capsys):
+    """A simulator that has flown past its trim frame (a first client flew one frame, then
+    held it and left, as a live flight used to) is refused when the flight computer
+    connects: one line, exit code 2, nothing written; and the simulator is stopped.  (Every
+    other flight of this file connects at the trim frame, 0.01 s, and is flown.)"""
+    scenario, sim_dir, port = _write_sim(tmp_path, SCENARIO)
+    with _simulator(tmp_path, sim_dir) as proc:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as first:
+            assert "JSBSim" in first.recv(4096).decode()
+            assert _ask(first, "resume") == "Resuming"
+            # a frame past the trim's (0.01 s, where every flight of this file connects)
+            for _ in range(5):
+                time_s = float(_ask(first, "get simulation/sim-time-sec").split("=")[1])
+                if time_s > 0.015:
+                    break
+            assert 0.015 < time_s < 0.035
+            assert _ask(first, "hold") == "Holding"
+            first.sendall(b"quit\r\n")
+        capsys.readouterr()  # --write-sim's
+        out = tmp_path / "out"
+        code = main(["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "has flown" in err, err
+        assert not out.exists()
+        assert _stopped_within(proc, STOP_S) is not None
+
+
+#: Channels of both kinds: the integrator's state (already the frame's when the message is
+#: answered) and what JSBSim computes after the command (air data, load factors, the
+#: surface: the frame's only in the next frame's message).  Not ``h_ft``, ``u_fps`` or
+#: ``vt_fps``: a frame changes them by less than the socket's 6 digits resolve (0.1 ft at
+#: 15,000 ft, 0.01 ft/s at 586 ft/s), so a shift would not show.
+FRAMED_CHANNELS = (
+    "theta_rad",
+    "q_rad_s",
+    "w_fps",
+    "alpha_rad",
+    "gamma_rad",
+    "nz_g",
+    "elevator_deg",
+)
+
+#: The scenario with those channels and no sensor noise: the log holds the simulator's values.
+FRAMED = (
+    SCENARIO.replace('name = "live-737"', 'name = "live-737-framed"')
+    .replace("sensor_noise = { theta_rad = 1e-6 }\n", "")
+    .replace(
+        'channels = ["theta_rad", "q_rad_s", "alpha_rad"]',
+        f"channels = {json.dumps(list(FRAMED_CHANNELS))}",
+    )
+)
+
+
+@pytest.fixture(scope="module")
+def framed(tmp_path_factory):
+    """The scenario with :data:`FRAMED_CHANNELS` flown live, the simulator writing its own
+    values of them at every frame (JSBSim's CSV output: ``sim/frames.csv``, in its root, at
+    the end of each frame, with its time, in full precision)."""
+    base = tmp_path_factory.mktemp("framed")
+    props = "".join(f"  <property>{CHANNELS[c].prop}</property>\n" for c in FRAMED_CHANNELS)
+    directive = base / "frames.xml"
+    directive.write_text(f'<output name="frames.csv" type="CSV" rate="100">\n{props}</output>\n')
+    scn = _fly_live(base, FRAMED, extra=(f"--logdirectivefile={directive}",))
+    return base, scn
+
+
+def _frames(path: Path, dt_s: float) -> dict[int, np.ndarray]:
+    """JSBSim's CSV output: frame number (its time over dt) -> the row's values (the last
+    row of a frame written twice: the held trim frame is)."""
+    rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {round(row[0] / dt_s): row[1:] for row in rows}
+
+
+def _agree(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where ``a`` (read through the socket: 6 significant digits) is ``b`` (full)."""
+    return np.abs(a - b) <= 5e-6 * np.abs(b) + 1e-15
+
+
+def test_each_logged_value_is_the_simulators_own_of_its_frame(framed):
+    """Every logged value, of the integrator's state and of what JSBSim computes after the
+    command (air data, load factors, the surface), is the simulator's own value (its CSV
+    output) of the row's frame: the row at ``time_s`` after the trim is the frame at sim time
+    trim + ``time_s`` (the trim's frame is the first, at one dt), to the socket's 6 digits.
+    The frame before and the frame after differ by more, for every channel, so a channel
+    logged a frame early or late fails here."""
+    base, scn = framed
+    frames = _frames(base / "sim" / "frames.csv", scn.dt_s)
+    log = _table(base / scn.name, "sensors.parquet")
+    assert len(log) == scn.total_steps
+    frame = 1 + np.rint(log["time_s"].to_numpy() / scn.dt_s).astype(int)
+    for j, channel in enumerate(FRAMED_CHANNELS):
+        logged = log[channel].to_numpy()
+        own = np.array([frames[f][j] for f in frame])
+        assert _agree(logged, own).all(), channel
+        for shift in (-1, 1):
+            other = np.array([frames[f + shift][j] for f in frame])
+            assert not _agree(logged, other).all(), (channel, shift)
+
+
+@contextlib.contextmanager
+def _fake_simulator(dt_s: float, delay_s: float):
+    """A stand-in for JSBSim's blocking input socket on a free loopback port (yielded): it
+    answers like JSBSim (``set``, ``get``, ``hold``, ``resume``, ``quit``), at its trim frame
+    (``simulation/sim-time-sec`` = dt), with made-up values, each message ``delay_s`` late."""
+    server = socket.create_server(("127.0.0.1", 0))
+    values = iter(np.random.default_rng(0).normal(0.0, 1e-3, 10**7).tolist())
+    fixed = {"simulation/dt": dt_s, "simulation/sim-time-sec": dt_s}
+
+    def reply(line: str) -> str:
+        words = line.split()
+        if words[0] == "set":
+            return "set successful"
+        if words[0] == "get":
+            return f"{words[1]} = {fixed.get(words[1], next(values)):12.6g}"
+        return {"hold": "Holding", "resume": "Resuming"}[words[0]]
+
+    def serve() -> None:
+        conn, _ = server.accept()
+        with conn:
+            conn.sendall(b"Connected to JSBSim server\r\nJSBSim> ")
+            buffer = ""
+            while True:
+                data = conn.recv(65536)
+                if not data:
+                    return
+                buffer += data.decode()
+                *lines, buffer = buffer.split("\r\n")
+                if any(line.startswith("quit") for line in lines):
+                    return
+                time.sleep(delay_s)
+                conn.sendall("".join(f"{reply(x)}\r\nJSBSim> " for x in lines if x).encode())
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1]
+    finally:
+        server.close()
+        thread.join(timeout=10)
+
+
+#: The fake simulator's delay per message, s.
+DELAY_S = 0.002
+
+
+def test_the_compute_time_leaves_out_the_waits_for_the_simulator(tmp_path):
+    """Every frame waits ``DELAY_S`` for the (fake) simulator's reply: the waits count all of
+    it, and the flight computer's own time per period none of it."""
+    scn = load_scenario(_scenario_file(tmp_path))
+    with _fake_simulator(scn.dt_s, DELAY_S) as port:
+        result = live_monitor(scn, "127.0.0.1", port, tmp_path, progress=False)
+    periods = result.steps / result.steps_per_period
+    assert result.steps == scn.total_steps
+    assert result.wait_s >= result.steps * DELAY_S
+    assert result.compute_per_period_s * periods <= result.wall_s - result.steps * DELAY_S
+
+
+def test_the_compute_time_leaves_out_the_waits_for_the_clock(tmp_path, monkeypatch):
+    """Paced at the wall clock (``realtime``), each frame sleeps until its time: the waits
+    count every sleep, and the flight computer's own time per period none of them."""
+    slept = []
+
+    def sleep(seconds: float) -> None:
+        slept.append(seconds)
+        time.sleep(seconds)
+
+    clock = types.SimpleNamespace(perf_counter=time.perf_counter, sleep=sleep)
+    monkeypatch.setattr(live_module, "time", clock)
+    scenario = tmp_path / "live.toml"
+    scenario.write_text(SCENARIO.replace("bit_duration_s = 0.02", "bit_duration_s = 0.01"))
+    scn = load_scenario(scenario)
+    with _fake_simulator(scn.dt_s, 0.0) as port:
+        result = live_monitor(scn, "127.0.0.1", port, tmp_path, realtime=True, progress=False)
+    periods = result.steps / result.steps_per_period
+    assert (
+        len(slept) == result.steps == scn.total_steps
+        and sum(slept) > 0.25 * scn.total_steps * scn.dt_s
+    )
+    assert result.wait_s >= sum(slept)
+    assert result.compute_per_period_s * periods <= result.wall_s - sum(slept)
