@@ -126,6 +126,7 @@ def _design_table(d: Any) -> str:
         ("bit_duration_s", f"{d.bit_duration_s:g}", d.reasons["bit_duration_s"]),
         ("amplitude_deg", f"{d.amplitude_deg:.4g}", d.reasons["amplitude_deg"]),
         ("estimator", d.estimator, d.reasons["estimator"]),
+        ("drift", d.drift, d.reasons["drift"]),
         ("periods", f"{d.periods} ({d.settle_periods} settling)", d.reasons["periods"]),
     ]
     w0 = max(len(r[0]) for r in rows)
