@@ -1,4 +1,5 @@
-"""The package as a user installs it: the wheel ships the GTM and the example scenarios, and
+"""The package as a user installs it: the wheel ships the GTM, the example scenarios and the
+examples of the docs (examples/), and
 (slow) installed into a fresh virtual environment it runs the GTM and a stock aircraft from a
 folder outside the repository."""
 
@@ -18,13 +19,14 @@ ROOT = Path(__file__).resolve().parents[1]
 VERSION = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
 #: What a wheel is built from (the rest of the repository is not the package's).
 SOURCES = ("pyproject.toml", "README.md", "LICENSE", "probing", "analysis", "aircraft", "scenarios")
+SOURCES += ("examples",)
 #: Messages of pip that say no package index could be reached.
 OFFLINE = ("NewConnectionError", "Temporary failure in name resolution", "No matching distribution")
 
 
 def shipped(folder: str) -> list[str]:
-    """The files of the repository's ``folder`` (``aircraft``, ``scenarios``), as the wheel
-    names them."""
+    """The files of the repository's ``folder`` (``aircraft``, ``scenarios``, ``examples``), as
+    the wheel names them."""
     base = ROOT / folder
     return sorted(
         f"probing/data/{folder}/{p.relative_to(base).as_posix()}"
@@ -55,14 +57,16 @@ def build_wheel(tmp: Path) -> Path:
     return wheel
 
 
-def test_the_wheel_ships_the_gtm_and_the_scenarios(tmp_path: Path) -> None:
+def test_the_wheel_ships_the_gtm_the_scenarios_and_the_examples(tmp_path: Path) -> None:
     wheel = build_wheel(tmp_path)
     assert wheel.name == f"probing-{VERSION}-py3-none-any.whl"
     names = set(zipfile.ZipFile(wheel).namelist())
     for required in ("probing/data/aircraft/gtm_t2/gtm_t2.xml", "probing/cli/examples.py"):
         assert required in names
     assert "probing/data/scenarios/fig4/a_deadband.toml" in names
-    for folder in ("aircraft", "scenarios"):
+    for doc_example in ("live/scenario.toml", "foreign-log/map.toml", "your-data/make_csv.py"):
+        assert f"probing/data/examples/{doc_example}" in names
+    for folder in ("aircraft", "scenarios", "examples"):
         missing = [n for n in shipped(folder) if n not in names]
         assert missing == [], missing
     assert not [n for n in names if "__pycache__" in n or n.endswith(".pyc")]
@@ -115,11 +119,12 @@ def test_installed_in_a_fresh_venv_it_runs_outside_the_repository(tmp_path: Path
 
     assert probing("--version").strip() == f"probing {VERSION}"
     assert str(venv) in probing("examples").splitlines()[0]  # the installed copy, not ROOT
-    probing("examples", "--copy", "scenarios")
-    short(outside / "scenarios" / "fig4" / "a_deadband.toml")
-    short(outside / "scenarios" / "baseline-737.toml")
-    probing("run", "scenarios/fig4/a_deadband.toml", "--out", "results")  # the GTM
-    probing("run", "scenarios/baseline-737.toml", "--out", "results", "--truth")  # stock
+    probing("examples", "--copy", "copied")  # copied/scenarios and copied/examples
+    assert (outside / "copied" / "examples" / "your-data" / "probe_response.csv").is_file()
+    short(outside / "copied" / "scenarios" / "fig4" / "a_deadband.toml")
+    short(outside / "copied" / "scenarios" / "baseline-737.toml")
+    probing("run", "copied/scenarios/fig4/a_deadband.toml", "--out", "results")  # the GTM
+    probing("run", "copied/scenarios/baseline-737.toml", "--out", "results", "--truth")
     for run in ("fig4-a-deadband", "baseline-737"):
         assert (outside / "results" / run / "probing.parquet").is_file()
     info = probing("cache", "info")

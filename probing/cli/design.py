@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import types
 import typing
 from dataclasses import asdict
@@ -41,18 +42,20 @@ def _cmd_design(args: argparse.Namespace) -> int:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return _error(f"infeasible: {exc}", 2)
-        _write_exports(args, d, scn)
+        written = _write_exports(args, d, scn)
         if args.json:
             fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
             payload = {"feasible": True, **fields, "modes": _modes_dict(modes)}
             print(strict_json(payload, indent=2, sort_keys=False))
-            return 0
-        print(
-            f"{args.aircraft} at {args.altitude_ft:g} ft, {args.speed_kcas:g} kcas: short period "
-            f"wn = {modes.sp_wn:.3g} rad/s, zeta = {modes.sp_zeta:.3g}; phugoid wn = "
-            f"{modes.ph_wn:.3g} rad/s, zeta = {modes.ph_zeta:.3g}"
-        )
-        print(_design_table(d))
+        else:
+            print(
+                f"{args.aircraft} at {args.altitude_ft:g} ft, {args.speed_kcas:g} kcas: short "
+                f"period wn = {modes.sp_wn:.3g} rad/s, zeta = {modes.sp_zeta:.3g}; phugoid wn = "
+                f"{modes.ph_wn:.3g} rad/s, zeta = {modes.ph_zeta:.3g}"
+            )
+            print(_design_table(d))
+        for path in written:  # stdout stays one JSON object with --json
+            print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
         return 0
 
     return _simulating(job, f"--aircraft {args.aircraft}")
@@ -70,20 +73,27 @@ def _check_exports(args: argparse.Namespace) -> None:
             raise UsageError(f"--export-probe {path}: the file must end in .csv or .h")
     if args.save_scenario is not None:
         _out_file(args.save_scenario, "--save-scenario")
+        if args.save_scenario.suffix != ".toml":
+            raise UsageError(
+                f"--save-scenario {args.save_scenario}: the file must end in .toml (a "
+                "scenario file is TOML)"
+            )
     paths = [*args.export_probe, *([args.save_scenario] if args.save_scenario else [])]
     if len({p.resolve() for p in paths}) < len(paths):
         raise UsageError("design: one file named twice by --export-probe and --save-scenario")
 
 
-def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> None:
-    """Write the designed probe (``--export-probe``) and the scenario (``--save-scenario``)."""
+def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> list[Path]:
+    """Write the designed probe (``--export-probe``) and the scenario (``--save-scenario``);
+    the files written, in order."""
     from probing.experiment.probe_export import export_probe
     from probing.experiment.storage import write_text_atomic
 
-    for path in args.export_probe:
-        export_probe(scn, path)
+    written = [export_probe(scn, path) for path in args.export_probe]
     if args.save_scenario is not None:
         write_text_atomic(args.save_scenario, d.scenario_toml)
+        written.append(args.save_scenario)
+    return written
 
 
 def _check_simultaneous(path: Path) -> int:
@@ -126,6 +136,7 @@ def _design_table(d: Any) -> str:
         ("bit_duration_s", f"{d.bit_duration_s:g}", d.reasons["bit_duration_s"]),
         ("amplitude_deg", f"{d.amplitude_deg:.4g}", d.reasons["amplitude_deg"]),
         ("estimator", d.estimator, d.reasons["estimator"]),
+        ("drift", d.drift, d.reasons["drift"]),
         ("periods", f"{d.periods} ({d.settle_periods} settling)", d.reasons["periods"]),
     ]
     w0 = max(len(r[0]) for r in rows)
@@ -231,7 +242,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
         type=_path,
         default=None,
         metavar="FILE",
-        help="write the recommended scenario (probing run FILE flies it)",
+        help="write the recommended scenario, FILE.toml (probing run FILE flies it)",
     )
 
 

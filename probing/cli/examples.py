@@ -1,4 +1,6 @@
-"""``probing examples``: the example scenarios the package ships, listed or copied out."""
+"""``probing examples``: the example scenarios and the docs' examples the package ships,
+listed or copied out as the repository lays them out (``scenarios/``, ``examples/``), so that
+the commands of the README and docs/ run from the folder they are copied into."""
 
 from __future__ import annotations
 
@@ -11,20 +13,25 @@ from pathlib import Path
 from probing.cli.common import Subcommands, UsageError, _out_folder, _path, command
 
 
-def _copy(target: Path) -> None:
-    """Copy the shipped scenarios into ``target`` (new, or an empty folder), all or nothing:
-    into a temporary folder beside it, renamed at the end."""
-    from probing.data import SCENARIOS
+def _shipped() -> dict[str, Path]:
+    """The shipped folders by the name they have in the repository (and in a copy)."""
+    from probing.data import EXAMPLES, SCENARIOS
 
+    return {"scenarios": SCENARIOS, "examples": EXAMPLES}
+
+
+def _copy(target: Path) -> None:
+    """Copy the shipped folders into ``target`` (new, or an empty folder), all or nothing:
+    into a temporary folder beside it, renamed at the end."""
     _out_folder(target, "--copy")
     if target.exists() and any(target.iterdir()):
         raise UsageError(f"--copy {target}: is not empty")
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}-", dir=target.parent))
     try:
-        shutil.copytree(
-            SCENARIOS, tmp, dirs_exist_ok=True, ignore=shutil.ignore_patterns("__pycache__")
-        )
+        for name, folder in _shipped().items():
+            ignore = shutil.ignore_patterns("__pycache__")
+            shutil.copytree(folder, tmp / name, ignore=ignore)
         if target.exists():
             target.rmdir()
         os.replace(tmp, target)
@@ -34,15 +41,21 @@ def _copy(target: Path) -> None:
 
 
 def _cmd_examples(args: argparse.Namespace) -> int:
-    from probing.data import SCENARIOS
-
+    shipped = _shipped()
     if args.copy is not None:
         _copy(args.copy)
-        print(f"example scenarios copied to {args.copy}")
+        print(f"example scenarios and examples copied to {args.copy}")
         return 0
-    print(f"example scenarios in {SCENARIOS} (probing examples --copy DIR copies them out):")
-    for path in sorted(SCENARIOS.rglob("*.toml")):
-        print(path.relative_to(SCENARIOS).as_posix())
+    print(
+        f"example scenarios in {shipped['scenarios']} and examples in {shipped['examples']} "
+        "(probing examples --copy DIR copies them into DIR/scenarios and DIR/examples):"
+    )
+    for path in sorted(shipped["scenarios"].rglob("*.toml")):
+        print(f"scenarios/{path.relative_to(shipped['scenarios']).as_posix()}")
+    examples = shipped["examples"]
+    for path in sorted(examples.rglob("*")):
+        if path.is_file() and "__pycache__" not in path.parts:
+            print(f"examples/{path.relative_to(examples).as_posix()}")
     return 0
 
 
@@ -51,9 +64,13 @@ def register(sub: Subcommands) -> None:
     examples = command(
         sub,
         "examples",
-        "list the example scenarios shipped with the package, or copy them into a folder",
+        "list the example scenarios and the docs' examples shipped with the package, or "
+        "copy them into a folder",
     )
     examples.add_argument(
-        "--copy", type=_path, metavar="DIR", help="copy them into DIR (new or empty)"
+        "--copy",
+        type=_path,
+        metavar="DIR",
+        help="copy them into DIR (new or empty) as DIR/scenarios and DIR/examples",
     )
     examples.set_defaults(func=_cmd_examples)

@@ -126,6 +126,26 @@ class FaultType:
         """True if one of its fields names a nonlinearity, whose parameters come along."""
         return any(f.kind == "nonlinearity" for f in self.fields)
 
+    def takes(self, nonlinearity: str | None = None) -> tuple[str, ...]:
+        """The fields a ``[fault]`` of this type takes besides ``type``, sorted: ``onset_s``,
+        its own, and with a nonlinearity field the parameters of ``nonlinearity`` (of every
+        nonlinearity while it is not known)."""
+        params: set[str] = set()
+        if self.takes_nonlinearity:
+            kinds = [NONLINEARITIES[nonlinearity]] if nonlinearity else NONLINEARITIES.values()
+            params = {n for t in kinds for n in t.names}
+        return tuple(sorted({"onset_s", *self.names, *params}))
+
+    def not_a_field(self, name: str, nonlinearity: str | None = None) -> str | None:
+        """The one message for a field ``name`` this type does not take (:meth:`takes`), or
+        None if it takes it: ``not a field of a stuck fault (takes onset_s)``, ``not a field
+        of a backlash nonlinearity fault (takes nonlinearity, onset_s, width_deg)``."""
+        if name == "type" or name in self.takes(nonlinearity):
+            return None
+        which = f"{nonlinearity} " if nonlinearity else ""
+        takes = ", ".join(self.takes(nonlinearity))
+        return f"not a field of a {which}{self.name} fault (takes {takes})"
+
     def build(self, onset_s: float, values: Mapping[str, Any]) -> Any:
         """The fault as its place uses it (see :attr:`builder`); ``onset_s`` in s."""
         return self.builder(onset_s, values)
@@ -275,13 +295,13 @@ def sweep_fields(kind: str, values: Mapping[str, Any]) -> dict[str, Any]:
     KeyError
         If ``kind`` is not a fault type.
     ValueError
-        If a value is not one of the type's fields (a nonlinearity's parameters are checked
-        when the sweep is read, with the rest of the scenario).
+        If a value is not one of the type's fields (:meth:`FaultType.not_a_field`; a
+        nonlinearity's parameters are checked when the sweep is read, with the rest of the
+        scenario).
     """
     entry = FAULTS[kind]
-    params = {n for t in NONLINEARITIES.values() for n in t.names}
-    allowed = {"onset_s", *entry.names, *(params if entry.takes_nonlinearity else ())}
     for name in values:
-        if name not in allowed:
-            raise ValueError(f"{name} is not a field of a {kind} fault")
+        message = entry.not_a_field(name)
+        if message is not None:
+            raise ValueError(f"fault.{name}: {message}")
     return {"fault.type": kind, **{f"fault.{k}": v for k, v in values.items()}}

@@ -1,15 +1,17 @@
-"""The files the package ships: the project's aircraft and the example scenarios.
+"""The files the package ships: the project's aircraft, the example scenarios and the
+examples the docs follow (a live flight, a foreign log's map, a recorded CSV).
 
-In the repository ``probing/data/aircraft`` and ``probing/data/scenarios`` are links to the
-top-level ``aircraft/`` and ``scenarios/``; an installed package holds copies of them (package
-data, ``pyproject.toml``), so both are found the same way wherever the package is.
+In the repository ``probing/data/aircraft``, ``probing/data/scenarios`` and
+``probing/data/examples`` are links to the top-level ``aircraft/``, ``scenarios/`` and
+``examples/``; an installed package holds copies of them (package data, ``pyproject.toml``),
+so all three are found the same way wherever the package is.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["AIRCRAFT", "SCENARIOS"]
+__all__ = ["AIRCRAFT", "EXAMPLES", "SCENARIOS"]
 
 _HERE = Path(__file__).resolve().parent
 
@@ -18,3 +20,7 @@ AIRCRAFT = (_HERE / "aircraft").resolve()
 
 #: The example scenarios and sweeps (``probing examples`` lists and copies them).
 SCENARIOS = (_HERE / "scenarios").resolve()
+
+#: The examples docs/live.md, docs/formats.md and docs/analyze.md follow (``probing examples``
+#: lists and copies them beside the scenarios).
+EXAMPLES = (_HERE / "examples").resolve()

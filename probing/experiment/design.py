@@ -110,6 +110,7 @@ class Design:
     periods: int
     settle_periods: int
     estimator: str
+    drift: str  # the scenario's reference (output.drift)
     channel: str
     predicted_gain_stderr: float
     predicted_h_stderr: float
@@ -330,6 +331,7 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     periods = scn.settled_periods
     reasons = dict(shape.reasons)
     reasons["estimator"] = _estimator_reason(request, estimator, scores, target)
+    reasons["drift"] = request.drift_reason()
     reasons["periods"] = _periods_reason(request, periods, pred, target, gusts.on)
     warnings = list(shape.warnings)
     if window is not None:
@@ -346,6 +348,7 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
         periods=scn.periods,
         settle_periods=scn.settle_periods,
         estimator=estimator,
+        drift=scn.drift,
         channel=request.channel,
         predicted_gain_stderr=pred.gain_stderr,
         predicted_h_stderr=pred.h_stderr,
@@ -432,7 +435,8 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-#: Candidates, the preferred first on a tie (no noise: the smaller bias wins).
+#: Candidates in the order of their scatter under white sensor noise (docs/noise.md, "The
+#: three estimators"), the preferred first on a tie; without any noise the first is taken.
 _CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming")}
 
 
@@ -449,6 +453,8 @@ def _estimator(
         scores[name] = _score(found, kind)
     if request.estimator is not None:
         return request.estimator, scores
+    if request.noiseless:  # every scatter is 0: the least under sensor noise
+        return _CANDIDATES[kind][0], scores
     finite = [k for k in _CANDIDATES[kind] if math.isfinite(scores[k])]
     if not finite:
         return _CANDIDATES[kind][0], scores
@@ -527,6 +533,13 @@ def _estimator_reason(
     request: DesignRequest, estimator: str, scores: dict[str, float], target: Any
 ) -> str:
     kind = target[0] if target else "gain"
+    if request.noiseless and not request.estimator:
+        return (
+            "no noise to compare the estimators on (no --noise-sigma, --turbulence or "
+            f"--sensors: each predicts a scatter of 0); {estimator}, the one with the least "
+            f"{'gain' if kind == 'gain' else 'h'} scatter under sensor noise "
+            f"({' < '.join(_CANDIDATES[kind])})"
+        )
     listing = ", ".join(f"{k} {v:.3g}" for k, v in scores.items())
     how = "given" if request.estimator else "smallest predicted"
     return f"{how} {'gain' if kind == 'gain' else 'h'} scatter per settled period: {listing}"

@@ -151,8 +151,7 @@ class DesignRequest:
     def base(self) -> dict[str, Any]:
         """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
         noise = {self.channel: self.noise_sigma} if self.noise_sigma else {}
-        # in calm air without sensors every twin is the same aircraft: the reference's
-        drift = "reference" if self.turbulence == "none" and self.sensors is None else self.drift
+        drift = "reference" if self.every_twin_alike else self.drift
         data: dict[str, Any] = {
             "name": "design",
             "aircraft": {"model": self.aircraft},
@@ -178,6 +177,28 @@ class DesignRequest:
         if self.closed_loop:
             data["control"] = {"pitch_hold": True, "bank_hold": True, "speed_hold": True}
         return data
+
+    @property
+    def every_twin_alike(self) -> bool:
+        """True in calm air without sensors: every reference twin is the same aircraft, so
+        ``--drift`` changes nothing and the scenario says ``drift = "reference"``."""
+        return self.turbulence == "none" and self.sensors is None
+
+    @property
+    def noiseless(self) -> bool:
+        """True without sensor noise, turbulence or a sensor suite: every estimator's
+        predicted scatter is 0, so there is no noise to compare them on or to meet a
+        precision target against."""
+        return self.noise_sigma == 0 and self.every_twin_alike
+
+    def drift_reason(self) -> str:
+        """What the design's reference is, and why (one line, for the design's table)."""
+        if self.every_twin_alike:
+            return (
+                "calm air without sensors: every twin is the same aircraft, so the reference "
+                "is a calm twin, whatever --drift"
+            )
+        return f"--drift {self.drift}: the reference the turbulence is calibrated against"
 
     def nonlinearities(self) -> list[tuple[str, dict[str, Any]]]:
         """The nonlinearities asked about, as (option, scenario changes), in order."""
@@ -238,7 +259,7 @@ class DesignRequest:
                 "--target-gain-se", "give one target: a gain standard error, a gain change "
                 "to detect, or a standard error of h"
             )  # fmt: skip
-        if targets and self.noise_sigma == 0 and self.turbulence == "none" and not self.sensors:
+        if targets and self.noiseless:
             raise DesignInputError(
                 "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
             )
@@ -254,7 +275,7 @@ class DesignRequest:
             raise DesignInputError(
                 "--noise-sigma", "the suite's sensors carry the noise (--sensors): give one"
             )
-        if self.drift != "gust" or (self.turbulence == "none" and self.sensors is None):
+        if self.drift != "gust" or self.every_twin_alike:
             return
         if self.sensors is None:
             raise DesignInputError(

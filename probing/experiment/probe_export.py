@@ -16,6 +16,7 @@ scenario's order, from its first bit (the phase the probe starts with at the tri
 
 from __future__ import annotations
 
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from probing.core.prbs import RECURRENCE, mls
 from probing.experiment.scenario import Scenario
 from probing.experiment.storage import write_text_atomic
 
-__all__ = ["EXPORT_SUFFIXES", "export_probe", "probe_csv", "probe_header"]
+__all__ = ["EXPORT_SUFFIXES", "export_probe", "probe_csv", "probe_header", "step_decimals"]
 
 #: The file kinds ``--export-probe`` writes, by the file's suffix.
 EXPORT_SUFFIXES = (".csv", ".h")
@@ -43,15 +44,31 @@ def probe_csv(scn: Scenario) -> str:
     -------
     str
         A header line ``time_s,command_<unit>`` and M = 2**n - 1 rows: the start of bit k,
-        k t0 in s, and the command a sigma(k) relative to trim, in the surface's unit.
-        Floats are written with :func:`repr`, so they read back exactly.
+        k t0 in s, as decimal text with the simulation step's decimals (t0 is a whole
+        number of steps: ``5.10``, not the float product ``5.1000000000000005``), and the
+        command a sigma(k) relative to trim, in the surface's unit, written with
+        :func:`repr` so that it reads back exactly.
     """
     probe = scn.probe
     command = probe.amplitude_deg * mls(probe.order)
+    decimals = step_decimals(scn.dt_s)
     lines = [f"time_s,command_{scn.surface_unit}"]
     for k, value in enumerate(command.tolist()):
-        lines.append(f"{k * probe.bit_duration_s!r},{value!r}")
+        lines.append(f"{k * probe.bit_duration_s:.{decimals}f},{value!r}")
     return "\n".join(lines) + "\n"
+
+
+def step_decimals(dt_s: float) -> int:
+    """The decimals of a time step's shortest text (s): 2 for 0.01, 3 for 0.005, 0 for 1.
+
+    Examples
+    --------
+    >>> [step_decimals(dt) for dt in (0.01, 0.005, 0.1, 1.0, 2.5, 1e-05)]
+    [2, 3, 1, 0, 1, 5]
+    """
+    exponent = Decimal(repr(dt_s)).normalize().as_tuple().exponent
+    assert isinstance(exponent, int)  # a finite step
+    return max(0, -exponent)
 
 
 def _taps_text(order: int) -> tuple[str, str]:

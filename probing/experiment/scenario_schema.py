@@ -65,8 +65,9 @@ SECTIONS: dict[str, set[str] | None] = {
 }
 #: Fields of a ``[sensors.<channel>]`` table: :class:`probing.core.sensors.SensorSpec`'s.
 SENSOR_FIELDS = tuple(f.name for f in dataclasses.fields(SensorSpec))
-#: Sections whose keys their own parser checks (the message then names what is allowed there).
-_OWN_KEYS = {"sensors"}
+#: Sections whose keys their own parser checks (the message then names what is allowed there:
+#: a fault's by its type, :meth:`probing.core.faults.FaultType.not_a_field`).
+_OWN_KEYS = {"sensors", "fault"}
 #: Fault types of the ``[fault]`` section, from the registry :data:`probing.core.faults.FAULTS`.
 FAULT_TYPES = tuple(FAULTS)
 _REQUIRED = {

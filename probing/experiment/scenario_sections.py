@@ -236,13 +236,13 @@ def _fault(fault: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
         raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULTS)})")
     kind = _choice(fault, "fault", "type", tuple(FAULTS))
     entry = FAULTS[kind]
-    own = {"type", "onset_s", *entry.names}
+    named = [fault.get(f.name) for f in entry.fields if f.kind == "nonlinearity"]
+    known = named and isinstance(named[0], str) and named[0] in NONLINEARITIES
+    nonlinearity = named[0] if known else None  # an unknown one is refused below
     for key in fault:
-        if key not in own and not entry.takes_nonlinearity:  # its parameters are checked below
-            raise ScenarioError(
-                f"fault.{field_label(key)}",
-                f"not a field of a {kind} fault (takes {', '.join(sorted(own - {'type'}))})",
-            )
+        message = entry.not_a_field(key, nonlinearity)
+        if message is not None:
+            raise ScenarioError(f"fault.{field_label(key)}", message)
     for key in ("onset_s", *entry.names):
         if key not in fault:
             raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")

@@ -32,6 +32,7 @@ __all__ = [
     "aircraft_name",
     "alpha_range_rad",
     "cache_dir",
+    "discard_sanitised",
     "find_aircraft",
     "is_path",
     "jsbsim_version",
@@ -247,6 +248,17 @@ def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
         if not model_file(root, model).is_file():
             raise
     return root
+
+
+def discard_sanitised(root: Path) -> None:
+    """Remove a copy made by :func:`sanitised_root` that JSBSim could not load: renamed out of
+    the cache's names first (a temporary beside it), so no process finds it half-removed."""
+    tmp = root.parent / f".{root.name}-discarded-{os.getpid()}"
+    try:
+        os.replace(root, tmp)
+    except OSError:
+        return  # gone already (another process discarded it)
+    shutil.rmtree(tmp, ignore_errors=True)
 
 
 def model_file(root: Path, model: str) -> Path:

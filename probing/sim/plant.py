@@ -15,6 +15,7 @@ import functools
 import math
 import os
 from collections.abc import Sequence
+from pathlib import Path
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
@@ -113,7 +114,7 @@ class Plant:
         fdm["atmosphere/randomseed"] = self.seed  # the turbulence generator; set before loading
         fdm.set_dt(self.dt_s)  # before loading: FCS components keep the dt they were built with
         if not fdm.load_model(aircraft_files.aircraft_name(model)):
-            raise AircraftNotFoundError(f"JSBSim could not load aircraft {model!r}")
+            raise AircraftNotFoundError(self._not_loaded(model, root))
         fdm.set_dt(self.dt_s)
         self.fdm = fdm
         self._alpha_range = alpha_range_rad(aircraft_files.model_file(root, model))
@@ -122,6 +123,15 @@ class Plant:
         self.turn_trim: TurnTrim | None = None  # how the last trim found its turn, if a turn
         self._drives: dict[str, SurfaceDrive] = {}
         self._is_calibration_copy = False  # a copy made to calibrate on: calibrates in place
+
+    def _not_loaded(self, model: str, root: Path) -> str:
+        """Why JSBSim could not load the aircraft, in one line: its own messages (they name a
+        missing file), with the cached copy's folder named as the aircraft's own; the copy
+        is removed from the cache, so the folder's next load starts afresh."""
+        copy = str(aircraft_files.model_file(root, model).parent)
+        why = self.log.take().replace(copy, str(aircraft_files.find_aircraft(model)))
+        aircraft_files.discard_sanitised(root)
+        return f"JSBSim could not load aircraft {model!r}" + (f": {why}" if why else "")
 
     # ----------------------------------------------------------------- trim
     def trim(

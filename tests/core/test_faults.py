@@ -158,7 +158,7 @@ def test_the_study_generators_sweep_fields_are_the_registrys():
     }
     fields = faults.sweep_fields("nonlinearity", {"nonlinearity": "backlash", "width_deg": 0.1})
     assert list(fields) == ["fault.type", "fault.nonlinearity", "fault.width_deg"]
-    with pytest.raises(ValueError, match="scale is not a field of a stuck fault"):
+    with pytest.raises(ValueError, match=r"fault\.scale: not a field of a stuck fault"):
         faults.sweep_fields("stuck", {"scale": 0.5})
     with pytest.raises(KeyError):
         faults.sweep_fields("no_such_fault", {})

@@ -5,6 +5,7 @@ of an amplitude the surface has no room for."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -122,3 +123,48 @@ def test_a_gust_design_predicts_the_per_period_gain_scatter_of_its_runs(capsys):
     found = measured(design["scenario_toml"], 16)
     ratio = window["period_gain_stderr"] / found["period_gain_std"]
     assert ratio == pytest.approx(1.0, abs=0.25), (window, found)
+
+
+def _row(out: str, name: str) -> str:
+    """The design table's row of ``name`` (not the printed scenario's ``name = ...``)."""
+    rows = [line.split() for line in out.splitlines()]
+    (row,) = [" ".join(r) for r in rows if len(r) > 1 and r[0] == name and r[1] != "="]
+    return row
+
+
+@pytest.mark.jsbsim
+def test_a_calm_air_design_says_its_reference_is_a_calm_twin_whatever_drift(capsys):
+    """``--drift gust`` in calm air without sensors: the scenario's reference, said plainly
+    in the table and in the JSON's reasons; with no noise at all, the estimator's row says
+    there is none to compare them on, and which one is picked and why."""
+    assert cli_main([*CONDITION, "--drift", "gust"]) == 0
+    out = capsys.readouterr().out
+    drift = _row(out, "drift")
+    assert drift.split()[1] == "reference" and 'drift = "reference"' in out
+    assert "every twin is the same aircraft" in drift and "whatever --drift" in drift
+    estimator = _row(out, "estimator")
+    assert estimator.split()[1] == "ac"
+    assert "no noise to compare the estimators on" in estimator
+    assert "ac 0," not in estimator  # not a comparison of zeros
+    assert cli_main([*CONDITION, "--drift", "oracle", "--json"]) == 0
+    design = json.loads(capsys.readouterr().out)
+    assert "whatever --drift" in design["reasons"]["drift"]
+    assert "no noise to compare" in design["reasons"]["estimator"]
+
+
+def test_the_reference_the_design_flies_and_whether_it_has_noise() -> None:
+    """Both sides of each boundary: calm air and no suite (every twin alike), then
+    turbulence or a suite; no noise at all, then sensor noise, turbulence or a suite."""
+    from probing.experiment.design_request import DesignRequest
+
+    calm = DesignRequest(aircraft="737", altitude_ft=15000, speed_kcas=280, drift="gust")
+    assert calm.every_twin_alike and calm.noiseless
+    assert calm.base()["output"]["drift"] == "reference"
+    assert "whatever --drift" in calm.drift_reason()
+    for change in ({"turbulence": "light"}, {"sensors": "nasa_t2"}):
+        other = dataclasses.replace(calm, **change)
+        assert not other.every_twin_alike and not other.noiseless
+        assert other.base()["output"]["drift"] == "gust"
+        assert other.drift_reason().startswith("--drift gust")
+    assert not dataclasses.replace(calm, noise_sigma=1e-5).noiseless
+    assert dataclasses.replace(calm, noise_sigma=1e-5).every_twin_alike

@@ -133,6 +133,27 @@ def test_a_throttle_probe_is_exported_in_its_unit() -> None:
     assert "#define PROBE_AMPLITUDE_NORM 0.01" in probe_header(scn)
 
 
+@pytest.mark.parametrize(
+    ("dt_s", "steps", "decimals"), [(0.01, 1, 2), (0.01, 3, 2), (0.1, 3, 1), (0.005, 1, 3)]
+)
+def test_the_csv_times_are_exact_decimals_of_the_step(dt_s, steps, decimals) -> None:
+    """k t0 as decimal text at the simulation step's decimals: bit 510 of 0.01 s bits starts
+    at 5.10 s, not 5.1000000000000005 (the float product)."""
+    from probing.experiment.probe_export import probe_csv
+    from probing.experiment.scenario import load_scenario
+
+    root = Path(__file__).resolve().parents[2]
+    scn = load_scenario(root / "scenarios" / "baseline-737.toml").replace(
+        {"simulation.dt_s": dt_s, "probe.bit_duration_s": steps * dt_s, "probe.order": 9}
+    )
+    rows = probe_csv(scn).splitlines()[1:]
+    scale = 10**decimals
+    ticks = round(steps * dt_s * scale)  # the bit in units of the last decimal
+    for k, row in enumerate(rows):
+        whole, part = divmod(k * ticks, scale)
+        assert row.split(",")[0] == f"{whole}.{part:0{decimals}d}", (k, row)
+
+
 @pytest.fixture
 def no_design(monkeypatch: pytest.MonkeyPatch) -> None:
     def work(*args: object, **kwargs: object) -> None:
@@ -148,7 +169,9 @@ def no_design(monkeypatch: pytest.MonkeyPatch) -> None:
         (["--export-probe", "{d}/a-folder.h"], "is a folder, not a file"),
         (["--export-probe", "{d}/p.csv", "--save-scenario", "{d}/a-file/s.toml"], "below a file"),
         (["--save-scenario", "{d}/a-folder.h"], "is a folder, not a file"),
-        (["--export-probe", "{d}/p.h", "--save-scenario", "{d}/p.h"], "named twice"),
+        (["--export-probe", "{d}/p.h", "--export-probe", "{d}/p.h"], "named twice"),
+        (["--save-scenario", "{d}/design.json"], "must end in .toml"),
+        (["--save-scenario", "{d}/design"], "must end in .toml"),
     ],
 )
 def test_bad_output_paths_are_one_line_exit_2_and_nothing_written(
@@ -175,3 +198,21 @@ def test_json_output_is_unchanged_by_the_exports(exported: dict, capsys) -> None
     assert cli_main([*DESIGN, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["scenario_toml"] == exported["toml"].read_text()
+
+
+def test_each_file_written_is_named_on_its_own_line(tmp_path: Path, capsys) -> None:
+    """``wrote FILE`` per file, after the design; with --json on stderr, so stdout stays one
+    JSON object."""
+    files = [tmp_path / "probe.csv", tmp_path / "probe.h", tmp_path / "design.toml"]
+    argv = [*DESIGN, "--export-probe", str(files[0]), "--export-probe", str(files[1])]
+    argv += ["--save-scenario", str(files[2])]
+    assert cli_main(argv) == 0
+    out, err = capsys.readouterr()
+    assert out.splitlines()[-3:] == [f"wrote {f}" for f in files] and err == ""
+    for f in files:
+        f.unlink()
+    assert cli_main([*argv, "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["feasible"] is True
+    assert err.splitlines() == [f"wrote {f}" for f in files]
+    assert all(f.is_file() for f in files)

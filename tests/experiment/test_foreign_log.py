@@ -267,3 +267,50 @@ def test_the_shipped_example_maps_every_column_its_scenario_reads() -> None:
     assert scn.drift in LOG_DRIFTS
     assert {*log_columns(scn), "probe_deg"} <= set(how.columns)
     assert how.columns["theta_rad"].scale == pytest.approx(math.pi / 180)
+
+
+@pytest.mark.slow
+def test_the_docs_recipe_makes_a_flight_csv_the_monitor_replays(tmp_path: Path) -> None:
+    """docs/formats.md's three commands (fly the example, convert its log with
+    examples/foreign-log/make_flight.py, replay it through the map), on the example scenario
+    shortened (24 periods, a baseline of 14): the replay's estimates are the flight's own to
+    the rounding of the unit conversions, and its alarms the same."""
+    import subprocess
+    import sys
+
+    example = ROOT / "examples" / "foreign-log"
+    doc = " ".join((ROOT / "docs" / "formats.md").read_text().replace("\\\n", " ").split())
+    for command in (
+        "probing monitor examples/foreign-log/scenario.toml --out results/own",
+        "python examples/foreign-log/make_flight.py "
+        "results/own/gtm-flight-test/sensors.parquet flight.csv",
+        "probing monitor examples/foreign-log/scenario.toml --replay flight.csv "
+        "--map examples/foreign-log/map.toml --out results",
+    ):
+        assert command in doc, command
+    text = (example / "scenario.toml").read_text()
+    for old, new in [
+        ("periods = 100", "periods = 24"),
+        ("baseline_periods = 50", "baseline_periods = 14"),
+    ]:
+        assert old in text
+        text = text.replace(old, new)
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(text)
+    assert cli_main(["monitor", str(scenario), "--out", str(tmp_path / "own")]) == 0
+    own = tmp_path / "own" / "gtm-flight-test"
+    flight = tmp_path / "flight.csv"
+    script = [sys.executable, str(example / "make_flight.py"), str(own / "sensors.parquet")]
+    subprocess.run([*script, str(flight)], check=True, capture_output=True)
+    header = flight.read_text().split("\n", 1)[0].split(",")
+    assert {"Time", "ElevProbe_deg", "Theta_deg", "Alt_m"} <= set(header)
+    out = tmp_path / "results"
+    argv = ["monitor", str(scenario), "--replay", str(flight), "--map", str(example / "map.toml")]
+    assert cli_main([*argv, "--out", str(out)]) == 0
+    for name in ("probing.parquet", "monitor.parquet"):
+        a, b = pd.read_parquet(own / name), pd.read_parquet(out / "gtm-flight-test" / name)
+        assert list(a.columns) == list(b.columns) and len(a) == len(b) > 0, name
+        for column in a.select_dtypes("number").columns:
+            scale = max(float(np.nanmax(np.abs(a[column]))), 1e-300)
+            diff = np.nanmax(np.abs(a[column] - b[column])) if len(a) else 0.0
+            assert diff <= 1e-6 * scale, (name, column, diff, scale)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -394,6 +395,62 @@ def test_a_fault_onset_must_come_before_the_run_ends(kind: str):
     assert info.value.field == "fault.onset_s"
     for onset in (math.nextafter(duration, 0.0), duration - 0.01, 0.0):
         assert parse_scenario(with_onset(onset)).fault_onset_s == onset
+
+
+#: A valid [fault] of each type (on the GTM), its nonlinearity a backlash.
+VALID_FAULTS = {
+    "nonlinearity": {"nonlinearity": "backlash", "width_deg": 0.002},
+    "gtm_damage": {"case": 2},
+    "effectiveness": {"scale": 0.5},
+    "stuck": {},
+    "sensor_bias": {"channel": "theta_rad", "bias": 0.01},
+}
+#: The one form of the message for a field a fault type does not take.
+NOT_A_FIELD = re.compile(r"not a field of a (?:(\w+) )?(\w+) fault \(takes ([a-z_, ]+)\)")
+
+
+def test_every_fault_type_has_a_valid_example_here():
+    from probing.core.faults import FAULTS
+
+    assert set(VALID_FAULTS) == set(FAULTS)
+
+
+@pytest.mark.parametrize("kind", sorted(VALID_FAULTS))
+@pytest.mark.parametrize("extra", ["bogus_deg", "scale", "lower_deg"])
+def test_a_field_a_fault_does_not_take_is_told_in_one_form(kind: str, extra: str):
+    """Every fault type, a nonlinearity fault with a parameter of another nonlinearity
+    (lower_deg, a deadband's) too: the same message, naming the fields it takes."""
+    data = _baseline_dict()
+    data["aircraft"]["model"] = "gtm_t2"
+    fault = {"type": kind, "onset_s": 1.0, **VALID_FAULTS[kind]}
+    parse_scenario({**data, "fault": fault})  # valid as it is
+    if extra in fault:
+        return  # effectiveness takes a scale
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario({**data, "fault": {**fault, extra: 1.0}})
+    assert info.value.field == f"fault.{extra}"
+    found = NOT_A_FIELD.fullmatch(info.value.message)
+    assert found is not None, info.value.message
+    qualifier, named, takes = found.groups()
+    assert named == kind and qualifier == VALID_FAULTS[kind].get("nonlinearity")
+    assert takes.split(", ") == sorted({"onset_s", *VALID_FAULTS[kind]})
+
+
+def test_the_bad_fault_files_and_the_sweeps_tell_an_unknown_field_the_same_way():
+    from probing.core.faults import sweep_fields
+
+    told = []
+    for path in BAD_FILES:
+        if path.name.startswith("fault-"):
+            with pytest.raises(ScenarioError) as info:
+                load_scenario(path)
+            if "not a" in info.value.message:
+                told.append(info.value.message)
+                assert NOT_A_FIELD.fullmatch(info.value.message), (path.name, info.value.message)
+    assert len(told) >= 4
+    with pytest.raises(ValueError) as info:
+        sweep_fields("stuck", {"scale": 0.5})
+    assert str(info.value) == "fault.scale: not a field of a stuck fault (takes onset_s)"
 
 
 @pytest.mark.parametrize(

@@ -119,6 +119,33 @@ def test_a_folder_that_is_no_aircraft_is_refused(tmp_path: Path, cache: None, ca
     assert not out.exists()  # nothing written
 
 
+def test_a_folder_jsbsim_cannot_load_says_why_and_leaves_no_copy(
+    tmp_path: Path, cache: None, capsys
+) -> None:
+    """The stock DHC-6 copied without its propeller (Engines/Propeller.xml, which JSBSim's
+    own engine folder does not have): one line with JSBSim's reason, naming the missing
+    file and the user's folder (not the cache's copy), exit 2, nothing in the cache; put
+    back, the next load works without clearing the cache."""
+    from probing.sim.plant import Plant
+
+    folder = tmp_path / "mydhc6"
+    shutil.copytree(stock_root() / "aircraft" / "DHC6", folder)
+    (folder / "DHC6.xml").rename(folder / "mydhc6.xml")
+    propeller = (folder / "Engines" / "Propeller.xml").read_bytes()
+    (folder / "Engines" / "Propeller.xml").unlink()
+    assert not (stock_root() / "engine" / "Propeller.xml").exists()
+    path = scenario_file(tmp_path, "dhc6", "./mydhc6")
+    out = tmp_path / "out"
+    assert cli_main(["run", str(path), "--out", str(out)]) == 2
+    one_line(capsys, "could not load", str(folder), "Could not open file: Propeller")
+    assert not out.exists()
+    roots = tmp_path / "cache" / "jsbsim-root"
+    assert [p.name for p in roots.iterdir()] == []  # no broken copy, no temporary
+    (folder / "Engines" / "Propeller.xml").write_bytes(propeller)
+    Plant(str(folder), 0.01)  # loads
+    assert len(list(roots.iterdir())) == 1
+
+
 def test_a_folder_that_does_not_trim_is_exit_2(tmp_path: Path, cache: None, capsys) -> None:
     copy_737(tmp_path)
     slow = {"altitude_ft": 45000, "speed_kcas": 90}
