@@ -19,7 +19,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: (file, text, mutated text, tests that must fail): the issue's 15 survivors.
+#: (file, text, mutated text, tests that must fail): the issue's 15 survivors, then those
+#: of a later probe.
 MUTATIONS = [
     (
         "probing/core/monitor.py",
@@ -110,6 +111,12 @@ MUTATIONS = [
         "first_alarm is not None and first_alarm > onset",
         "first_alarm is not None and first_alarm >= onset",
         "tests/analysis/test_monitoring.py::test_a_first_alarm_at_the_onset_gives_no_verdict_for_the_fault",
+    ),
+    (
+        "probing/sim/gust_twin.py",
+        '*(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "pqr"),',
+        '*(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "prq"),',
+        "tests/sim/test_gust_twin.py::test_each_rotational_gust_reaches_its_own_axis_of_the_model",
     ),
 ]
 
