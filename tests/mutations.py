@@ -118,6 +118,12 @@ MUTATIONS = [
         '*(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "prq"),',
         "tests/sim/test_gust_twin.py::test_each_rotational_gust_reaches_its_own_axis_of_the_model",
     ),
+    (
+        "probing/experiment/analyze.py",
+        "    return y - y.mean(axis=0)",
+        "    return y - y.mean()",
+        "tests/experiment/test_analyze.py::test_each_output_loses_a_constant_of_its_own",
+    ),
 ]
 
 
