@@ -124,6 +124,12 @@ MUTATIONS = [
         "    return y - y.mean()",
         "tests/experiment/test_analyze.py::test_each_output_loses_a_constant_of_its_own",
     ),
+    (
+        "probing/experiment/foreign_log.py",
+        "before = (t <= 0) & (t > -how.trim_mean_before_s)",
+        "before = (t < 0) & (t > -how.trim_mean_before_s)",
+        "tests/experiment/test_foreign_log.py::test_the_trim_reading_is_the_mean_of_the_rows_up_to_time_0",
+    ),
 ]
 
 
