@@ -130,6 +130,18 @@ MUTATIONS = [
         "before = (t < 0) & (t > -how.trim_mean_before_s)",
         "tests/experiment/test_foreign_log.py::test_the_trim_reading_is_the_mean_of_the_rows_up_to_time_0",
     ),
+    (
+        "probing/experiment/design_window.py",
+        "else min(met, key=_amplitude)",
+        "else max(met, key=_amplitude)",
+        "tests/experiment/test_design_window.py::test_when_the_last_flight_misses_the_smallest_amplitude_that_met_the_goal_is_taken",
+    ),
+    (
+        "probing/experiment/design_window.py",
+        "for p in range(first, scn.periods)",
+        "for p in range(0, scn.periods)",
+        "tests/experiment/test_design_window.py::test_the_per_period_gain_scatter_is_that_of_the_settled_periods_alone",
+    ),
 ]
 
 
