@@ -142,6 +142,12 @@ MUTATIONS = [
         "for p in range(0, scn.periods)",
         "tests/experiment/test_design_window.py::test_the_per_period_gain_scatter_is_that_of_the_settled_periods_alone",
     ),
+    (
+        "analysis/excitations.py",
+        "float(gains.std(ddof=1))",
+        "float(gains.std(ddof=0))",
+        "tests/analysis/test_excitations.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
+    ),
 ]
 
 
