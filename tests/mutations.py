@@ -148,6 +148,12 @@ MUTATIONS = [
         "float(gains.std(ddof=0))",
         "tests/analysis/test_excitations.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
     ),
+    (
+        "analysis/monitoring.py",
+        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)",
+        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0)",
+        "tests/analysis/test_monitoring.py::test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels",
+    ),
 ]
 
 
