@@ -204,11 +204,11 @@ def _panels(data: Fig4Data, bounds: bool = False) -> Any:
         note = _draw_panel(ax, p, data, z0, lag, bounds)
         if note is not None:
             offset_note = note
-    if offset_note is not None:  # once every panel is drawn: the layout is final
-        place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
     info = axes.flat[-1]
     info.axis("off")
     _label_lag(axes)
+    if offset_note is not None:  # once every panel is drawn: the layout is final
+        place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
     info.text(
         0.0,
         1.0,
