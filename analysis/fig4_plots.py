@@ -29,6 +29,7 @@ from probing.experiment.layouts import BOUNDS_LEVEL
 __all__ = ["draw", "figures"]
 MRAD = 1e3  # rad -> mrad
 C_BASE, C_NL, C_PRED, C_FIX = "0.55", "tab:red", "k", "tab:blue"
+Z_PRED = 2.5  # a prediction's dashed line is drawn over the solid curves (2) that it matches
 BAND_ALPHA = 0.25  # opacity of a confidence band
 
 
@@ -41,23 +42,35 @@ def _band(ax: Any, lag: np.ndarray, periods: np.ndarray, color: str, bounds: boo
     ax.fill_between(lag, low * MRAD, high * MRAD, color=color, alpha=BAND_ALPHA, lw=0)
 
 
-def _title(p: PanelResult, remedy_gain: float | None = None) -> str:
+def _title(p: PanelResult, measured_gain: float | None) -> str:
+    """A panel's title: the nonlinearity, then a~/a predicted and ``measured_gain``, the
+    least-squares gain of the z drawn against the baseline's (None: the panel has none)."""
     head = f"({p.letter}) {p.nonlinearity}: {p.parameters}"
     scn = p.run.scenario
     nl = scn.build_nonlinearity()
     if isinstance(nl, RateLimit):
         ratio = nl.ratio(scn.amplitude_deg, scn.bit_duration_s)
         verdict = "meets" if ratio >= 1 - 1e-12 else "below"
-        pred = f"r_l / (2a/t0) = {ratio:.2f}: {verdict} the bound (21)"
-    else:
-        a = scn.amplitude_deg
-        b = p.predicted_offset_deg / a
-        b_txt = "0" if b == 0 else f"{b:+.3g}a"
-        pred = f"a~ = {p.predicted_gain:.3g}a, b~ = {b_txt}; measured gain {p.measured_gain:.3g}"
-        if p.key == "b_saturation" and remedy_gain is not None:
-            # the DC note on the third line: on the second it ran off the figure's edge
-            pred += f"\n(b~ DC); offset twin subtracted: gain {remedy_gain:.3f}"
-    return f"{head}\n{pred}"
+        return f"{head}\nr_l / (2a/t0) = {ratio:.2f}: {verdict} the bound (21)"
+    a = scn.amplitude_deg
+    b = p.predicted_offset_deg / a
+    b_txt = "0" if b == 0 else f"{b:+.3g}a"
+    pred = f"a~ = {p.predicted_gain:.3g}a, b~ = {b_txt}"
+    if p.key != "b_saturation":
+        return f"{head}\n{pred}; measured a~/a {measured_gain:.3f}"
+    # The saturated run's own gain counts the leaked step of b~ (-5.3 on the GTM's h_est):
+    # a~/a is measured on the offset twin subtracted (blue), or not at all.
+    if measured_gain is None:
+        return f"{head}\n{pred} (b~ DC)\na~/a unreadable: the offset's step leaks into z"
+    return f"{head}\n{pred} (b~ DC)\nmeasured a~/a {measured_gain:.3f} (offset twin subtracted)"
+
+
+def _measured_gain(p: PanelResult, data: Fig4Data) -> float | None:
+    """The gain a panel's title states: of its z against the baseline's; for the saturation,
+    of the run with the offset twin subtracted (None without that twin)."""
+    if p.key != "b_saturation":
+        return p.measured_gain_z
+    return None if data.remedy_row is None else data.remedy_row.measured_gain_z
 
 
 def _predicted_z(p: PanelResult, z0: np.ndarray) -> np.ndarray:
@@ -88,6 +101,7 @@ def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -
             color=C_PRED,
             ls="--",
             lw=0.8,
+            zorder=Z_PRED,
             label="(a~/a) x no nonlinearity",
         )
         offset = (_predicted_z(p, z0) - p.predicted_gain * z0).mean()
@@ -107,6 +121,7 @@ def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -
             color=C_PRED,
             ls="--",
             lw=0.8,
+            zorder=Z_PRED,
             label="predicted, eq. (11)",
         )
     return None
@@ -131,7 +146,7 @@ def _draw_panel(
             lw=0.8,
             label="offset twin subtracted",
         )
-    ax.set_title(_title(p, data.remedy_row.measured_gain if data.remedy_row else None), loc="left")
+    ax.set_title(_title(p, _measured_gain(p, data)), loc="left")
     ax.set_ylabel("z of pitch θ (mrad)")
     if p.key == "b_saturation":
         lo, hi = ax.get_ylim()
@@ -140,6 +155,18 @@ def _draw_panel(
     else:
         ax.legend(loc="best", frameon=False)
     return note
+
+
+def _label_lag(axes: np.ndarray) -> None:
+    """Name the lag and show its tick labels under every panel with no panel below it (the
+    bottom row's, and one above an empty slot), however ``sharex`` hid them."""
+    grid = np.atleast_2d(axes)
+    rows = grid.shape[0]
+    for r, c in np.ndindex(grid.shape):
+        ax = grid[r, c]
+        if ax.axison and (r == rows - 1 or not grid[r + 1, c].axison):
+            ax.tick_params(axis="x", labelbottom=True)
+            ax.set_xlabel("lag (s)")
 
 
 def _info_text(data: Fig4Data) -> str:
@@ -177,12 +204,11 @@ def _panels(data: Fig4Data, bounds: bool = False) -> Any:
         note = _draw_panel(ax, p, data, z0, lag, bounds)
         if note is not None:
             offset_note = note
-    if offset_note is not None:  # once every panel is drawn: the layout is final
-        place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
-    for ax in axes[-1]:
-        ax.set_xlabel("lag (s)")
     info = axes.flat[-1]
     info.axis("off")
+    _label_lag(axes)
+    if offset_note is not None:  # once every panel is drawn: the layout is final
+        place_clear_of_data(offset_note.axes, offset_note, _NOTE_POSITIONS)
     info.text(
         0.0,
         1.0,
@@ -220,8 +246,7 @@ def _compensated(data: Fig4Data, bounds: bool = False) -> Any:
         ax.legend(loc="best", frameon=False)
     for ax in axes.flat[len(items) :]:
         ax.axis("off")
-    for ax in axes[-1]:
-        ax.set_xlabel("lag (s)")
+    _label_lag(axes)
     fig.suptitle(
         f"Compensated probing output, eq. (11) undone per settled period ({data.set_name})",
         fontsize=8,

@@ -19,7 +19,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: (file, text, mutated text, tests that must fail): the issue's 15 survivors.
+#: (file, text, mutated text, tests that must fail): the issue's 15 survivors, then those
+#: of a later probe.
 MUTATIONS = [
     (
         "probing/core/monitor.py",
@@ -110,6 +111,48 @@ MUTATIONS = [
         "first_alarm is not None and first_alarm > onset",
         "first_alarm is not None and first_alarm >= onset",
         "tests/analysis/test_monitoring.py::test_a_first_alarm_at_the_onset_gives_no_verdict_for_the_fault",
+    ),
+    (
+        "probing/sim/gust_twin.py",
+        '*(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "pqr"),',
+        '*(GUST_INPUTS[f"{a}_gust_rad_s"] for a in "prq"),',
+        "tests/sim/test_gust_twin.py::test_each_rotational_gust_reaches_its_own_axis_of_the_model",
+    ),
+    (
+        "probing/experiment/analyze.py",
+        "    return y - y.mean(axis=0)",
+        "    return y - y.mean()",
+        "tests/experiment/test_analyze.py::test_each_output_loses_a_constant_of_its_own",
+    ),
+    (
+        "probing/experiment/foreign_log.py",
+        "before = (t <= 0) & (t > -how.trim_mean_before_s)",
+        "before = (t < 0) & (t > -how.trim_mean_before_s)",
+        "tests/experiment/test_foreign_log.py::test_the_trim_reading_is_the_mean_of_the_rows_up_to_time_0",
+    ),
+    (
+        "probing/experiment/design_window.py",
+        "else min(met, key=_amplitude)",
+        "else max(met, key=_amplitude)",
+        "tests/experiment/test_design_window.py::test_when_the_last_flight_misses_the_smallest_amplitude_that_met_the_goal_is_taken",
+    ),
+    (
+        "probing/experiment/design_window.py",
+        "for p in range(first, scn.periods)",
+        "for p in range(0, scn.periods)",
+        "tests/experiment/test_design_window.py::test_the_per_period_gain_scatter_is_that_of_the_settled_periods_alone",
+    ),
+    (
+        "analysis/excitations.py",
+        "float(gains.std(ddof=1))",
+        "float(gains.std(ddof=0))",
+        "tests/analysis/test_excitations.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
+    ),
+    (
+        "analysis/monitoring.py",
+        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)",
+        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0)",
+        "tests/analysis/test_monitoring.py::test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels",
     ),
 ]
 

@@ -500,6 +500,34 @@ def test_the_threshold_law_counts_periods_over_the_check_rates_threshold(tmp_pat
     assert f"| oracle (upper bound: knows the gusts) | probing | 28 | 3 | {promised:.1f} |" in text
 
 
+def test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels(tmp_path):
+    """Two monitored channels share the check rate: each period and channel gets half the
+    one-channel probability, so its threshold is log10(2) higher.  Statistics between the
+    one-channel and the two-channel thresholds are not over; those above both are; the
+    promise over the 2 x 28 tested rows is that of 28 periods at the one-channel rate."""
+    from analysis.monitoring import CHECK_RATE_PER_HOUR
+
+    row = _flight(tmp_path, "monitor-none", "h1", math.nan, {})
+    path = tmp_path / "monitor-none" / "points" / "point_id=h1" / "monitor.parquet"
+    table = pq.read_table(path)
+    theta = table.to_pandas()
+    both = pd.concat([theta, theta.assign(channel="q_rad_s")], ignore_index=True)
+    one = CHECK_RATE_PER_HOUR * T / 3600.0  # the probability of one channel alone
+    shared = one / 2
+    edge_one, edge_shared = -math.log10(one), -math.log10(shared)
+    tested = np.flatnonzero(both.statistic.notna())  # 2 x 28 rows
+    both.loc[tested, "statistic"] = edge_one - 0.5
+    both.loc[tested[:4], "statistic"] = (edge_one + edge_shared) / 2  # over one's, not shared
+    both.loc[tested[-2:], "statistic"] = edge_shared + 0.1  # over both
+    out = pa.Table.from_pandas(both, schema=table.schema, preserve_index=False)
+    pq.write_table(out.replace_schema_metadata(table.schema.metadata), path)
+    pd.DataFrame([row]).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
+    f = evaluate(load_study(tmp_path)).iloc[0]
+    assert f.alpha_check == pytest.approx(shared)
+    assert (f.tested_probing, f.over_check_probing) == (56, 2)
+    assert f.tested_probing * f.alpha_check == pytest.approx(28 * one)
+
+
 def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
     """The monitor has no sensor verdict: for a biased sensor every verdict but airframe is
     right; for the others only their own class."""

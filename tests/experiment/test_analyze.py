@@ -9,6 +9,7 @@ records), and the 95 % bounds must hold the known response on at least 85 % of t
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from pathlib import Path
@@ -23,6 +24,7 @@ from scipy import signal
 
 from probing.cli import main as cli_main
 from probing.core.prbs import mls
+from probing.experiment.analyze import AnalysisRequest, _deviations
 
 ORDER, M, AMPLITUDE, SIGMA, DT_S = 8, 255, 0.5, 0.01, 0.05
 SYSTEM = (  # a lightly damped second-order discrete system (poles 0.85 +- 0.3j) plus a D term
@@ -213,3 +215,23 @@ def test_bad_input_one_line_exit_2_nothing_written(
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("probing: error: ") and needle in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("drift", ["none", "detrend"])
+def test_each_output_loses_a_constant_of_its_own(drift: str) -> None:
+    """Drift removal works output by output: with two outputs 1000 apart, each one's
+    deviations are its own samples less a constant (``--drift none``: nothing else) and the
+    same as when it is analysed alone, not shifted by the other's level."""
+    m = 31
+    rng = np.random.default_rng(7)
+    t = np.arange(4 * m)
+    cols = {"a": 1000.0 + 0.01 * t + rng.normal(size=t.size), "b": -5.0 + rng.normal(size=t.size)}
+    req = AnalysisRequest(Path("rec.csv"), "u", ("a", "b"), 5, 0.01, drift=drift)
+    both = _deviations(req, cols, m)
+    for j, name in enumerate(("a", "b")):
+        alone = _deviations(dataclasses.replace(req, outputs=(name,)), cols, m)
+        np.testing.assert_allclose(both[:, j], alone[:, 0], rtol=0, atol=1e-9)
+        if drift == "none":
+            removed = cols[name] - both[:, j]
+            np.testing.assert_allclose(removed, removed[0], rtol=0, atol=1e-9)
+            assert abs(both[:, j].mean()) < 1e-9  # its own mean: no level left

@@ -135,6 +135,34 @@ def test_a_parquet_log_with_the_trim_before_the_probe(
     assert_equal(flown, replay_foreign(flown, log, map_text(names, None), tmp_path / "o"))
 
 
+@pytest.mark.parametrize(
+    ("before_s", "rows"),
+    [(0.025, [-0.02, -0.01, 0.0]), (0.02, [-0.01, 0.0])],
+)
+def test_the_trim_reading_is_the_mean_of_the_rows_up_to_time_0(
+    flown: dict, tmp_path: Path, before_s: float, rows: list[float]
+) -> None:
+    """``mean_before_s = S`` averages the rows with -S < time <= 0: the row at time 0 (the
+    trim, before the first probe step) counts, one exactly S before does not."""
+    df, trim = foreign(flown["log"])
+    times = [-0.02, -0.01, 0.0]
+    # each row before the probe reads the trim plus its own offset: 1, 10, 100 (channel unit)
+    offsets = dict(zip(times, [1.0, 10.0, 100.0], strict=True))
+    before = pd.DataFrame(
+        {c: [trim.get(c.removeprefix("rec."), 0.0) + offsets[t] for t in times] for c in df.columns}
+    )
+    before["rec.time_s"] = times
+    log = tmp_path / "log.parquet"
+    pd.concat([before, df], ignore_index=True).to_parquet(log)
+    names = [c.removeprefix("rec.") for c in df.columns]
+    mapping = map_text(names, None).replace("mean_before_s = 0.05", f"mean_before_s = {before_s}")
+    (tmp_path / "map.toml").write_text(mapping)
+    table = foreign_log(log, read_map(tmp_path / "map.toml"), load_scenario(flown["scenario"]))
+    got = json.loads(table.schema.metadata[b"probing.trim_measured"])
+    shift = float(np.mean([offsets[t] for t in rows]))
+    assert got == pytest.approx({c: v + shift for c, v in trim.items()}, rel=0, abs=1e-9)
+
+
 def test_degrees_scaled_to_radians_give_the_replay_to_rounding(flown: dict, tmp_path: Path) -> None:
     """theta, alpha and phi logged in deg and scaled by pi/180: the inputs differ from the
     original by a few units in the last place, the estimates by less than 1e-9 relative."""

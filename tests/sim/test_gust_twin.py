@@ -112,3 +112,22 @@ def test_a_gust_twin_refuses_turbulence_and_damage():
     damaged = dataclasses.replace(CALM, damage_case=5)
     with pytest.raises(ValueError, match="calm air"):
         GustTwin(damaged, CONTROL, control_power(CALM), ["theta_rad"])
+
+
+def test_each_rotational_gust_reaches_its_own_axis_of_the_model():
+    """The columns of ``rates_rad_s`` are body p, q, r: each goes to the model's gust input
+    of its axis, and a pitch gust pitches the twin (it does not yaw or roll it)."""
+    channels = ["p_rad_s", "q_rad_s", "r_rad_s"]
+    n = 100
+    flown = []
+    for gust in ([0.0, 0.0, 0.0], [0.01, 0.02, 0.03], [0.0, 0.01, 0.0]):
+        twin = GustTwin(CALM, CONTROL, control_power(CALM), channels)
+        phi0 = twin.plant.fdm["attitude/phi-rad"]
+        rates = np.tile(gust, (n, 1))
+        out = twin.next(np.zeros((n, 3)), rates, np.zeros(n), np.full(n, phi0))
+        held = [twin.plant.fdm[GUST_INPUTS[f"{a}_gust_rad_s"]] for a in "pqr"]
+        assert held == gust
+        flown.append(out)
+    moved = np.abs(flown[2] - flown[0]).max(axis=0)  # the pitch gust alone: p, q, r
+    assert moved[1] > 1e-3
+    assert moved[1] > 20 * max(moved[0], moved[2])
