@@ -328,3 +328,31 @@ def test_design_gain_se_is_the_monte_carlo_scatter_across_aircraft_and_noise(cas
     measured = scatter_over_seeds(design["scenario_toml"], seeds)
     for key, value in measured.items():
         assert value / design[key] == pytest.approx(1.0, abs=0.25), (key, value, design[key])
+
+
+@pytest.mark.jsbsim
+def test_design_check_measures_what_the_monte_carlo_test_measures(tmp_path, capsys):
+    """``python -m probing.experiment.design_check`` on a design without a window: its gain
+    and h scatter over seeds 0..5 are :func:`scatter_over_seeds`' (the design's reference
+    is the scenario's own noise-free run, built here independently), and it prints them
+    against the design's predictions."""
+    from probing.experiment import design_check
+
+    args = ["design", "--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
+    args += ["--deadband-deg", "-0.002", "0.002", "--deadband-margin", "2.5"]
+    args += ["--noise-sigma", "1e-5", "--target-gain-se", "0.1", "--json"]
+    assert cli_main(args) == 0
+    design = json.loads(capsys.readouterr().out)
+    ours = scatter_over_seeds(design["scenario_toml"], 6)
+    found = design_check.measured(design["scenario_toml"], 6)
+    assert found["gain_std"] == pytest.approx(ours["predicted_gain_stderr"], rel=1e-9)
+    assert found["h_std"] == pytest.approx(ours["predicted_h_stderr"], rel=1e-9)
+    assert found["mean_gain"] == pytest.approx(1.0, abs=0.05)  # not a~/a = 0.6
+    path = tmp_path / "design.json"
+    path.write_text(json.dumps(design))
+    assert design_check.main([str(path), "--seeds", "6"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["gain_std"] == pytest.approx(found["gain_std"], rel=1e-12)
+    assert out["gain_ratio"] == pytest.approx(
+        found["gain_std"] / design["predicted_gain_stderr"], rel=1e-12
+    )
