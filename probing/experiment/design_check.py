@@ -1,18 +1,23 @@
-"""``probing design``'s per-period gain standard deviation against runs of its own design.
+"""``probing design``'s gain standard deviation against runs of its own design.
 
 The designed scenario (``scenario_toml`` of ``probing design --json``) is flown at seeds 0,
 1, ..., K - 1 (the design calibrates on 1000, 1001, ...: independent), with its turbulence,
 sensors, autopilot and reference; each settled period's gain is the least-squares gain of
 its h against the design's reference (the mean settled h of the calm run without sensor
-noise, :func:`probing.experiment.design_runs.noise_free_reference`).  ``period_gain_std``
-is the seed-to-seed variance of each period's gain, averaged over the settled periods, its
-square root: what the design predicts (``window.period_gain_stderr``).
+noise, its nonlinearity kept: :func:`probing.experiment.design_runs.noise_free_reference`).
+``period_gain_std`` is the seed-to-seed variance of each period's gain, averaged over the
+settled periods, its square root: what a ``--window-periods`` design predicts
+(``window.period_gain_stderr``).  ``gain_std`` is the seed-to-seed standard deviation of the
+gain of the mean settled h, and ``h_std`` that of the mean settled h (RMS over taps): what
+every design predicts (``predicted_gain_stderr``, ``predicted_h_stderr``).
 
 Usage::
 
     python -m probing.experiment.design_check DESIGN.json [--seeds K] [--trial]
 
-``--trial`` flies the design at the amplitude search's trial amplitude instead, against the
+A design with a window is checked per period, one without on its mean settled h (the
+ratios are measured / predicted there, sampling error 1/sqrt(2 (K - 1))).  ``--trial``
+flies a window design at the amplitude search's trial amplitude instead, against the
 per-period prediction of its first calibration (``window.flights[0]``).
 """
 
@@ -64,11 +69,18 @@ def period_h(toml: str, seeds: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def measured(toml: str, seeds: int) -> dict[str, float]:
-    """``period_gain_std`` (module docstring) and the mean gain, dimensionless."""
+    """``period_gain_std``, ``gain_std`` (dimensionless) and ``h_std`` (channel unit per
+    deg) of the module docstring, and the mean gain."""
     h, ref = period_h(toml, seeds)
     gains = h @ ref / float(ref @ ref)
     per_period = float(np.sqrt(np.mean(gains.var(axis=0, ddof=1))))
-    return {"period_gain_std": per_period, "mean_gain": float(gains.mean())}
+    settled = h.mean(axis=1)  # (seeds, M): each run's mean settled h
+    return {
+        "period_gain_std": per_period,
+        "mean_gain": float(gains.mean()),
+        "gain_std": float((settled @ ref / float(ref @ ref)).std(ddof=1)),
+        "h_std": float(np.sqrt(np.mean(settled.var(axis=0, ddof=1)))),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,8 +95,25 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     design = json.loads(args.design.read_text())
-    predicted = design["window"]["period_gain_stderr"]
     toml = design["scenario_toml"]
+    if not design.get("window"):  # no window: the mean settled h's gain and h
+        if args.trial:
+            parser.error("--trial needs a design with --window-periods")
+        found = measured(toml, args.seeds)
+        out = {
+            "amplitude_deg": design["amplitude_deg"],
+            "seeds": args.seeds,
+            "predicted_gain_stderr": design["predicted_gain_stderr"],
+            "gain_std": found["gain_std"],
+            "gain_ratio": found["gain_std"] / design["predicted_gain_stderr"],
+            "predicted_h_stderr": design["predicted_h_stderr"],
+            "h_std": found["h_std"],
+            "h_ratio": found["h_std"] / design["predicted_h_stderr"],
+            "mean_gain": found["mean_gain"],
+        }
+        print(json.dumps(out, indent=2))
+        return 0
+    predicted = design["window"]["period_gain_stderr"]
     if args.trial:
         import tomli_w
 

@@ -91,18 +91,19 @@ def _deviation(scn: Scenario, aircraft: Any) -> np.ndarray:
 
 
 def noise_free_reference(scn: Scenario) -> dict[str, np.ndarray]:
-    """Mean settled h of a noise-free (:func:`quiet`), calm run of ``scn`` without its
-    nonlinearity: what the gain is measured against (the slow modes' bias included, as a
-    baseline flight has it)."""
+    """Mean settled h of a noise-free (:func:`quiet`), calm run of ``scn``, its nonlinearity
+    kept: what the gain is measured against, the run's own estimate without noise (the
+    nonlinearity's apparent gain and offset, the estimator's mean removal, the folded tail
+    and the slow modes' transient included, as a monitor's baseline learns it from the
+    flight).  Projecting on the response without the nonlinearity put the gain's scatter
+    a/a~ off behind a dead band (:mod:`probing.experiment.noise`, "The gain")."""
     import tempfile
 
     from probing.experiment.run import run_scenario
 
-    bare = quiet(scn).replace(
-        {"name": "design-reference", "nonlinearity.type": "none", "disturbance.turbulence": "none"}
-    )
+    own = quiet(scn).replace({"name": "design-reference", "disturbance.turbulence": "none"})
     with tempfile.TemporaryDirectory(prefix="probing-design-") as tmp:
-        return run_scenario(bare, tmp, progress=False).h_est
+        return run_scenario(own, tmp, progress=False).h_est
 
 
 class Gusts:

@@ -13,10 +13,31 @@ Two things move an estimate away from the aircraft's pulse response, and they ar
   (:class:`probing.sim.linear.LinearResponse`): the settled estimates of the response from
   rest minus those of the periodic steady state.
 
-Reported as RMS over the taps.  The gain's standard error is that of the least-squares gain
-of the mean settled h against the expected mean settled h of the same run without the
-nonlinearity (bias included): the scatter of the gain a sweep or a monitor measures against a
-noise-free baseline flown the same way.
+Reported as RMS over the taps.
+
+**The gain** is the least-squares projection g = <h, r> / <r, r> of the mean settled h on a
+noise-free reference r, and its standard error must be that of the projection on the r the
+run's gain is measured against: the noise-free estimate of the same run, its nonlinearity
+included (what a monitor's baseline learns from the flight, and what a noise-free flight of
+the same scenario reports).  The sensor noise n on h is additive and linear in the noise
+(n = W u, W the estimator's weights), so g - E[g] = <n, r> / <r, r> exactly and
+
+    std(g) = sqrt(r' Cov(n) r) / (r' r),
+
+which depends on r: for r = k r0, std(g; r) = std(g; r0) / k.  The model used to project on
+r0, the expected estimate of the *bare* probe (no nonlinearity).  Behind a symmetric dead band
+of half width d the probe is a scaled copy, a~ = a - d, so the run's r is (a~/a) r0 tap for
+tap, and the gain's scatter was a/a~ of the prediction: 1/0.6 = 1.67 on the 737 with
+d = 0.002 deg and a = 0.005 deg (h's scatter, which projects on nothing, was right).  What
+else separates the run's estimate from the linear pulse response (the ``ac`` estimator's mean
+removal h - sum(h)/(M+1), the tail beyond one period folded into the taps, eq. 8, the slow
+modes' transient in the settled periods, and the transient an offset b~ starts) was already
+in r0, which is the estimator's weights applied to the linearisation's response from rest;
+the nonlinearity was not.  So r is now E[mean settled h] of the scenario itself
+(``h_expected``: the nonlinearity's output through the linearisation from rest, the
+estimator's weights on its settled periods), the quantity the run reports without noise.  A
+design flies it instead (:func:`probing.experiment.design_runs.noise_free_reference`, the
+noise-free calm run of the scenario, nonlinearity kept) and passes it as ``reference``.
 """
 
 from __future__ import annotations
@@ -156,17 +177,13 @@ def _deterministic(
     lin: LinearResponse,
     h_rows: np.ndarray,
     step_response: Callable[[int], np.ndarray] | None = None,
-    bare: dict[str, np.ndarray] | None = None,
-) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Per channel: E[mean settled h], its periodic steady state, and E[mean settled h] of
-    the bare probe (no nonlinearity: the gain's reference, bias included, as a baseline run
-    of the same length measures it).
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Per channel: E[mean settled h] (bias included: what a noise-free run reports, and the
+    gain's reference) and its periodic steady state.
 
     Periods after the transient has decayed (:func:`_decay_periods`) are at the steady state:
     only the ones before are simulated, so a long run costs no more than a short one.
     ``step_response(n)``: ``lin.step_response(n)``, possibly remembered by the caller.
-    ``bare``: the third result if the caller has it (it is the first result of the same
-    scenario without its nonlinearity, to the bit: the probe repeats each period exactly).
     """
     probe = scn.probe
     m, spb = scn.bits_per_period, scn.steps_per_bit
@@ -196,16 +213,7 @@ def _deterministic(
     for j, channel in enumerate(lin.channels):
         expected[channel] = settled_mean(y_rest[:, j], y_ss[:, j])
         steady[channel] = h_rows @ (np.tile(y_ss[:, j], 2) if two else y_ss[:, j])
-    if bare is None:
-        bare = expected
-        if nl:
-            y_bare = lin.respond(x, pulse)[spb - 1 :: spb]
-            y_bare_ss = lin.periodic(x[:steps])[spb - 1 :: spb]
-            bare = {
-                channel: settled_mean(y_bare[:, j], y_bare_ss[:, j])
-                for j, channel in enumerate(lin.channels)
-            }
-    return expected, steady, bare
+    return expected, steady
 
 
 def _noise_free(scn: Scenario) -> Scenario:
@@ -220,24 +228,20 @@ def _noise_free(scn: Scenario) -> Scenario:
     )
 
 
-_DETERMINISTIC: dict[str, tuple[dict, dict, dict]] = {}
+_DETERMINISTIC: dict[str, tuple[dict, dict]] = {}
 
 
-def _deterministic_of(scn: Scenario) -> tuple[dict, dict, dict]:
+def _deterministic_of(scn: Scenario) -> tuple[dict, dict]:
     """:func:`_deterministic` on the flight's linearisation, remembered per noise-free
     scenario (a sweep over seeds or noise levels computes it once per worker)."""
     key = _noise_free(scn).to_json()
     if key not in _DETERMINISTIC:
-        # The bare probe's part is the same for every nonlinearity: from its own entry.
-        bare = None
-        if scn.nonlinearity != "none":
-            bare = _deterministic_of(scn.replace({"nonlinearity.type": "none"}))[0]
         if len(_DETERMINISTIC) >= 64:
             _DETERMINISTIC.clear()
         rows = scatter_models(scn)[scn.channels[0]].h_rows
         lin = linear_model(scn.flight, scn.channels)
         pulse = functools.partial(_step_response, scn.flight, scn.channels)
-        _DETERMINISTIC[key] = _deterministic(scn, lin, rows, pulse, bare)
+        _DETERMINISTIC[key] = _deterministic(scn, lin, rows, pulse)
     return _DETERMINISTIC[key]
 
 
@@ -265,8 +269,10 @@ def predict(
     linear : LinearResponse, optional
         The linearisation to use (default: :func:`linear_model` of the scenario's flight).
     reference : mapping, optional
-        Channel -> the noise-free mean settled h the gain is measured against (e.g. from a
-        noise-free run without the nonlinearity); default: the linearisation's.
+        Channel -> the noise-free mean settled h the gain is measured against (a design's:
+        :func:`probing.experiment.design_runs.noise_free_reference`, the scenario flown
+        without noise, its nonlinearity kept); default: the linearisation's E[mean settled
+        h] of the scenario itself, ``h_expected`` (module docstring, "The gain").
 
     Returns
     -------
@@ -275,12 +281,13 @@ def predict(
     """
     models = scatter_models(scn, extra_acov, extra_samples)
     if linear is None:  # the same for every seed and noise level: remembered
-        expected, steady, bare = _deterministic_of(scn)
+        expected, steady = _deterministic_of(scn)
     else:
-        expected, steady, bare = _deterministic(scn, linear, models[scn.channels[0]].h_rows)
+        expected, steady = _deterministic(scn, linear, models[scn.channels[0]].h_rows)
     out = {}
     for channel, model in models.items():
-        h_ref = reference[channel] if reference and channel in reference else bare.get(channel)
+        # the gain projects on what the run estimates without noise (module docstring)
+        h_ref = reference[channel] if reference and channel in reference else expected.get(channel)
         gain = model.gain_std(h_ref) if h_ref is not None else math.nan
         bias = _rms(expected[channel] - steady[channel]) if channel in expected else math.nan
         out[channel] = ChannelPrediction(

@@ -97,8 +97,10 @@ def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(
     """On a made-up linear plant (conftest's toy_linear), predict's
     h_expected, h_steady and gain reference are the run's estimators applied to the plant
     stepped one step at a time: the settled periods of a run from rest, the last period of a
-    run 300 periods long, and the bare probe's settled periods.  The run is long enough that
-    predict simulates only the periods before the slow mode has decayed."""
+    run 300 periods long, and again the settled periods of the run from rest, backlash
+    included (the gain projects on what the run estimates, not on the bare probe's response:
+    the backlash's apparent gain a~/a = 0.8 would put it 1.25x off).  The run is long enough
+    that predict simulates only the periods before the slow mode has decayed."""
     lin = toy_linear
     scn = load_scenario(ROOT / "scenarios" / "baseline-737.toml").replace(
         {
@@ -130,7 +132,7 @@ def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(
     asked = long[: long.size * scn.periods // 300]
     expected, _ = settled_and_last(scn.build_nonlinearity().apply(asked, scn.dt_s))
     _, steady = settled_and_last(scn.build_nonlinearity().apply(long, scn.dt_s))
-    bare, _ = settled_and_last(asked)
+    bare, _ = settled_and_last(asked)  # the probe without the backlash: not the reference
     found = predict(scn, linear=lin)
     models = scatter_models(scn)
     for j, channel in enumerate(lin.channels):
@@ -138,8 +140,11 @@ def test_deterministic_part_is_the_estimators_on_a_stepped_linear_model(
         np.testing.assert_allclose(found[channel].h_expected, expected[j], atol=1e-9 * scale)
         np.testing.assert_allclose(found[channel].h_steady, steady[j], atol=1e-9 * scale)
         assert found[channel].h_bias == pytest.approx(rms(expected[j] - steady[j]), rel=1e-6)
-        gain = models[channel].gain_std(bare[j])
-        assert found[channel].gain_stderr == pytest.approx(gain, rel=1e-9)
+        # the gain's reference is h_expected, the run's own settled estimate (checked above)
+        gain = models[channel].gain_std(found[channel].h_expected)
+        assert found[channel].gain_stderr == pytest.approx(gain, rel=1e-12)
+        assert gain == pytest.approx(models[channel].gain_std(expected[j]), rel=1e-6)
+        assert models[channel].gain_std(bare[j]) < 0.9 * gain  # a reference to get right
     assert found["theta_rad"].h_bias > 0.005 * rms(steady[0])  # a bias to get right
 
 
