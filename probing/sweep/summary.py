@@ -60,7 +60,11 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
     "h_stderr_naive": (PER_DEG, "sigma / (a sqrt(M P))"),
     "predicted_z_stderr": ("<channel>", "seed-to-seed std of the mean settled z, RMS over taps"),
     "predicted_h_stderr": (PER_DEG, "seed-to-seed std of the mean settled h_est, RMS over taps"),
-    "predicted_gain_stderr": ("1", "seed-to-seed std of the least-squares gain"),
+    "predicted_gain_stderr": (
+        "1",
+        "seed-to-seed std of the least-squares gain on the point's own noise-free estimate "
+        "(measured_gain's, on the reference's, is predicted_gain times it)",
+    ),
     "predicted_h_bias": (PER_DEG, "the slow modes' transient in the settled h_est, RMS over taps"),
     "wall_s": ("s", "wall time of the point's run"),
     "steps_simulated": ("1", "JSBSim steps the point's run simulated"),
