@@ -145,10 +145,10 @@ def _truth(run: Run, channel: str) -> tuple[np.ndarray, np.ndarray]:
     scn = run.scenario
     truth = pd.read_parquet(run.folder / "truth.parquet", filters=[("channel", "==", channel)])
     h_lin = truth.sort_values("tap").h_lin.to_numpy()
-    delayed = np.concatenate(([0.0], h_lin[:-1]))  # the airframe answers one step later
-    pred = predicted_probing(scn, {channel: delayed})[channel][scn.settle_periods :, 2]
+    # h_lin is stepped as JSBSim steps the aircraft: the airframe answers one step later
+    pred = predicted_probing(scn, {channel: h_lin})[channel][scn.settle_periods :, 2]
     m = scn.bits_per_period
-    whole = delayed[: (delayed.size // m) * m].reshape(-1, m).sum(axis=0)
+    whole = h_lin[: (h_lin.size // m) * m].reshape(-1, m).sum(axis=0)
     return pred.mean(axis=0), whole
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
+from probing.experiment.design_reasons import CANDIDATES, notes, said, too_tight
 from probing.experiment.design_request import (
     DesignError,
     DesignInputError,
@@ -51,11 +52,9 @@ from probing.experiment.design_runs import (
 )
 from probing.experiment.design_window import (
     WindowDesign,
-    missed,
     period_gain_std,
     smallest_amplitude,
     window_dict,
-    window_reasons,
 )
 from probing.experiment.noise import ChannelPrediction, predict
 from probing.experiment.scatter import scatter_models
@@ -328,15 +327,7 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
     pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[request.channel]
     if target is not None and window is None:
         scn, reference, pred = _meet(request, shape, scn, reference, gusts, target)
-    periods = scn.settled_periods
-    reasons = dict(shape.reasons)
-    reasons["estimator"] = _estimator_reason(request, estimator, scores, target)
-    reasons["drift"] = request.drift_reason()
-    reasons["periods"] = _periods_reason(request, periods, pred, target, gusts.on)
-    warnings = list(shape.warnings)
-    if window is not None:
-        reasons.update(window_reasons(request, window))
-        warnings += [w for w in [missed(window, request.gain_goal(scn.period_s))] if w]
+    reasons, warnings = said(request, shape, scn, window, (estimator, scores), pred, gusts)
     if request.closed_loop:  # the linearisation is the open loop's: no bias of the loop's h
         pred = replace(pred, h_bias=math.nan)
     design = Design(
@@ -358,7 +349,7 @@ def recommend(request: DesignRequest) -> tuple[Design, LongitudinalModes, Scenar
         phugoid_settling_s=modes.phugoid_settling_s,
         scenario_toml=_toml(scn, request),
         reasons=reasons,
-        warnings=warnings + _notes(request, pred),
+        warnings=warnings + notes(request, pred),
         estimators=scores,
         window=window_dict(request, window),
     )
@@ -437,9 +428,6 @@ def _rms(x: np.ndarray) -> float:
 
 #: Candidates in the order of their scatter under white sensor noise (docs/noise.md, "The
 #: three estimators"), the preferred first on a tie; without any noise the first is taken.
-_CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming")}
-
-
 def _estimator(
     request: DesignRequest, scn: Scenario, gusts: Gusts, target: tuple[str, float] | None
 ) -> tuple[str, dict[str, float]]:
@@ -447,18 +435,18 @@ def _estimator(
     each (``ac`` does not estimate h itself, so it is no candidate for an h target)."""
     kind = target[0] if target else "gain"
     scores = {}
-    for name in _CANDIDATES[kind]:
+    for name in CANDIDATES[kind]:
         candidate = replace(scn, estimator=name)
         found = predict(candidate, extra_samples=gusts.of(candidate))[request.channel]
         scores[name] = _score(found, kind)
     if request.estimator is not None:
         return request.estimator, scores
     if request.noiseless:  # every scatter is 0: the least under sensor noise
-        return _CANDIDATES[kind][0], scores
-    finite = [k for k in _CANDIDATES[kind] if math.isfinite(scores[k])]
+        return CANDIDATES[kind][0], scores
+    finite = [k for k in CANDIDATES[kind] if math.isfinite(scores[k])]
     if not finite:
-        return _CANDIDATES[kind][0], scores
-    return min(finite, key=lambda k: (scores[k], _CANDIDATES[kind].index(k))), scores
+        return CANDIDATES[kind][0], scores
+    return min(finite, key=lambda k: (scores[k], CANDIDATES[kind].index(k))), scores
 
 
 def _meet(
@@ -501,7 +489,7 @@ def _meet(
             h_ref = reference[channel]
             periods = fewest_periods(lambda p, h_ref=h_ref: scatter(p, h_ref), goal, limit)
         except DesignError as exc:
-            raise DesignError(_too_tight(request, shape, kind, goal, exc)) from None
+            raise DesignError(too_tight(request, shape, kind, goal, exc)) from None
         done = periods in tried or periods == scn.settled_periods
         tried.add(periods)
         scn = with_periods(scn, periods)
@@ -516,69 +504,6 @@ def _meet(
         reference = noise_free_reference(scn)
         pred = predict(scn, extra_samples=gusts.of(scn), reference=reference)[channel]
     return scn, reference, pred
-
-
-def _too_tight(
-    request: DesignRequest, shape: ProbeShape, kind: str, goal: float, exc: DesignError
-) -> str:
-    what = "gain standard error" if kind == "gain" else f"standard error of h on {request.channel}"
-    return (
-        f"the target {what} {goal:.3g} is out of reach: {exc}; the scatter falls as 1/a, so "
-        f"a larger amplitude than {shape.amplitude_deg:g} deg (--amplitude-deg) or less "
-        "noise would be needed"
-    )
-
-
-def _estimator_reason(
-    request: DesignRequest, estimator: str, scores: dict[str, float], target: Any
-) -> str:
-    kind = target[0] if target else "gain"
-    if request.noiseless and not request.estimator:
-        return (
-            "no noise to compare the estimators on (no --noise-sigma, --turbulence or "
-            f"--sensors: each predicts a scatter of 0); {estimator}, the one with the least "
-            f"{'gain' if kind == 'gain' else 'h'} scatter under sensor noise "
-            f"({' < '.join(_CANDIDATES[kind])})"
-        )
-    listing = ", ".join(f"{k} {v:.3g}" for k, v in scores.items())
-    how = "given" if request.estimator else "smallest predicted"
-    return f"{how} {'gain' if kind == 'gain' else 'h'} scatter per settled period: {listing}"
-
-
-def _periods_reason(
-    request: DesignRequest, periods: int, pred: ChannelPrediction, target: Any, gusts: bool
-) -> str:
-    sources = "sensor noise" + (" + turbulence the twin leaves" if gusts else "")
-    if target is None:
-        settle = request.settle_periods
-        return f"no precision target: {periods} settled periods, plus {settle} settling"
-    kind, goal = target
-    got = pred.gain_stderr if kind == "gain" else pred.h_stderr
-    text = "gain" if kind == "gain" else "h"
-    if request.detect_gain_change is not None:
-        text += (
-            f" (a change of {request.detect_gain_change:g} at false alarm "
-            f"{request.false_alarm:g}, detection {request.detection_probability:g})"
-        )
-    return (
-        f"{periods} settled periods bring the {text} scatter from {sources} to {got:.4g} "
-        f"<= {goal:.4g}, plus {request.settle_periods} settling"
-    )
-
-
-def _notes(request: DesignRequest, pred: ChannelPrediction) -> list[str]:
-    notes = []
-    if len(request.nonlinearities()) > 1:
-        notes.append(
-            f"a scenario holds one nonlinearity: the scenario carries the "
-            f"{request.nonlinearities()[0][1]['type']}; the bounds of all were applied"
-        )
-    if math.isfinite(pred.h_bias) and pred.h_bias > pred.h_stderr:
-        notes.append(
-            f"the slow modes' transient biases h by {pred.h_bias:.3g} (RMS), more than its "
-            f"scatter {pred.h_stderr:.3g}: more settling periods (--settle-periods) reduce it"
-        )
-    return notes
 
 
 def _toml(scn: Scenario, request: DesignRequest) -> str:

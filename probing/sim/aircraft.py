@@ -37,6 +37,7 @@ __all__ = [
     "is_path",
     "jsbsim_version",
     "model_file",
+    "not_loaded",
     "sanitised_root",
     "stock_root",
 ]
@@ -248,6 +249,17 @@ def sanitised_root(model: str, *, gust_inputs: bool = False) -> Path:
         if not model_file(root, model).is_file():
             raise
     return root
+
+
+def not_loaded(model: str, root: Path, log: str) -> str:
+    """Why JSBSim could not load the aircraft, in one line: its own messages ``log`` (they
+    name a missing file), with the cached copy's folder named as the aircraft's own; the
+    copy is removed from the cache (:func:`discard_sanitised`), so the folder's next load
+    starts afresh."""
+    copy = str(model_file(root, model).parent)
+    why = log.replace(copy, str(find_aircraft(model)))
+    discard_sanitised(root)
+    return f"JSBSim could not load aircraft {model!r}" + (f": {why}" if why else "")
 
 
 def discard_sanitised(root: Path) -> None:

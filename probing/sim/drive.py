@@ -162,6 +162,18 @@ def calibrate(fdm: Any, surface: Surface, nodes: list, pos_node: Any, model: str
     return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, grid[keep], position[keep])
 
 
+#: JSBSim's integrator choices, one per kind of state (0 holds the state still).
+INTEGRATORS = tuple(
+    f"simulation/integrator/{kind}"
+    for kind in (
+        "rate/rotational",
+        "rate/translational",
+        "position/rotational",
+        "position/translational",
+    )
+)
+
+
 def actuator_pulse_response(
     plant: Any, n_steps: int = 200, height: float = 1e-3, surface: str = DEFAULT_SURFACE
 ) -> np.ndarray:
@@ -170,9 +182,14 @@ def actuator_pulse_response(
     GTM's 5 Hz servos spread it over about 0.2 s).
 
     The pulse is small (``height``, in the surface's unit) so a rate limit does not act.
-    ``plant`` (a :class:`~probing.sim.plant.Plant`) is stepped: use it for nothing else
-    afterwards.
+    The aircraft is held still while it is measured (JSBSim's integrators off), so that
+    what the flight-control system does with the aircraft's motion (the 737's yaw damper
+    on the rudder) is not counted as the actuator's: the linearisation sees that through
+    the states.  ``plant`` (a :class:`~probing.sim.plant.Plant`) is stepped: use it for
+    nothing else afterwards.
     """
+    for integrator in INTEGRATORS:
+        plant.fdm[integrator] = 0  # eNone: the state stays, the flight-control system runs
     drive = plant.drive(surface)
     position = np.full(n_steps, drive.trim_position)
     position[0] += height

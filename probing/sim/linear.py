@@ -159,7 +159,7 @@ def linear_response(
     plant: Plant,
     channels: Sequence[str],
     surface: str = DEFAULT_SURFACE,
-    both_axes: bool = False,
+    full: bool = False,
 ) -> LinearResponse:
     """:class:`LinearResponse` of a trimmed plant to ``surface``: the longitudinal states (Vt,
     alpha, theta, q) for the elevator and throttle, with the lateral-directional ones (beta,
@@ -173,12 +173,17 @@ def linear_response(
     through the density gradient.  In straight and level flight of a symmetric aircraft the
     two axes decouple, which is why a longitudinal surface keeps the longitudinal states
     alone (as it always did).  The surface's input (``DeCmd``, ...) is converted to per unit
-    of position with the model's own command-to-position slope at the trim.  ``both_axes``
-    keeps the lateral-directional states for a longitudinal surface too (every channel with
-    a linearised output is covered; what the other axis shows is the model's coupling).
+    of position with the model's own command-to-position slope at the trim.  ``full`` keeps
+    the lateral-directional states for a longitudinal surface too, and the altitude (every
+    channel with a linearised output is covered, the other axis through the model's
+    coupling, and the slow height mode the density gradient gives the phugoid: what a
+    response from rest over many periods shows; :meth:`LinearResponse.periodic` wants the
+    default).
     """
     spec = SURFACES[surface]
-    states = LONG_STATES + LAT_STATES if spec.lateral or both_axes else LONG_STATES
+    states = LONG_STATES + LAT_STATES if spec.lateral or full else LONG_STATES
+    if full:
+        states += ("Alt",)
     lin = plant.linearise()
     gain = plant.drive(surface).gain_per_norm()
     iu = lin["u_names"].index(spec.linear_input)

@@ -15,7 +15,6 @@ import functools
 import math
 import os
 from collections.abc import Sequence
-from pathlib import Path
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
@@ -82,6 +81,8 @@ class Plant:
         Seed of JSBSim's random generator (turbulence).
     gust_inputs : bool
         Load the gust-ready copy of the aircraft (:func:`probing.sim.aircraft.sanitised_root`).
+    calibrates_in_place : bool
+        A copy made to calibrate a surface on (:meth:`drive`): it calibrates itself.
     """
 
     def __init__(
@@ -92,6 +93,7 @@ class Plant:
         turbulence: str = "none",
         seed: int = 0,
         gust_inputs: bool = False,
+        calibrates_in_place: bool = False,
     ) -> None:
         if turbulence not in TURBULENCE_SEVERITY:
             raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
@@ -114,7 +116,7 @@ class Plant:
         fdm["atmosphere/randomseed"] = self.seed  # the turbulence generator; set before loading
         fdm.set_dt(self.dt_s)  # before loading: FCS components keep the dt they were built with
         if not fdm.load_model(aircraft_files.aircraft_name(model)):
-            raise AircraftNotFoundError(self._not_loaded(model, root))
+            raise AircraftNotFoundError(aircraft_files.not_loaded(model, root, self.log.take()))
         fdm.set_dt(self.dt_s)
         self.fdm = fdm
         self._alpha_range = alpha_range_rad(aircraft_files.model_file(root, model))
@@ -122,16 +124,7 @@ class Plant:
         self.trim_result: TrimResult | None = None
         self.turn_trim: TurnTrim | None = None  # how the last trim found its turn, if a turn
         self._drives: dict[str, SurfaceDrive] = {}
-        self._is_calibration_copy = False  # a copy made to calibrate on: calibrates in place
-
-    def _not_loaded(self, model: str, root: Path) -> str:
-        """Why JSBSim could not load the aircraft, in one line: its own messages (they name a
-        missing file), with the cached copy's folder named as the aircraft's own; the copy
-        is removed from the cache, so the folder's next load starts afresh."""
-        copy = str(aircraft_files.model_file(root, model).parent)
-        why = self.log.take().replace(copy, str(aircraft_files.find_aircraft(model)))
-        aircraft_files.discard_sanitised(root)
-        return f"JSBSim could not load aircraft {model!r}" + (f": {why}" if why else "")
+        self._in_place = calibrates_in_place
 
     # ----------------------------------------------------------------- trim
     def trim(
@@ -348,10 +341,9 @@ class Plant:
         position: calibrated on first use after the trim (the elevator's, and the one
         :meth:`trim` is given, right after it, before turbulence is switched on).
 
-        The calibration evaluates the flight-control system with integration suspended on a
-        copy of the plant (:meth:`_calibrated_on_a_copy`), so this one steps exactly as the
-        trim left it.  Call it for a new surface before the plant is disturbed or forked, so
-        that every copy gets the same map without calibrating again.
+        Calibrated on a copy (:meth:`_calibrated_on_a_copy`), so this plant steps as the trim
+        left it.  Call it for a new surface before the plant is disturbed or forked, so that
+        every copy gets the same map without calibrating again.
 
         Raises
         ------
@@ -362,28 +354,23 @@ class Plant:
         if surface not in self._drives:
             if surface not in SURFACES:
                 raise ValueError(f"surface must be one of {', '.join(SURFACES)}, got {surface!r}")
-            if self._is_calibration_copy:
+            if self._in_place:
                 self._drives[surface] = self._calibrate(SURFACES[surface])
             else:
                 self._drives[surface] = self._calibrated_on_a_copy(SURFACES[surface])
         return self._drives[surface]
 
     def _calibrated_on_a_copy(self, surface: Surface) -> SurfaceDrive:
-        """:meth:`_calibrate` run on an identical copy of this plant, the map handed back:
-        evaluating the model at other commands leaves JSBSim's derived values behind (its
-        load factor is computed from the previous frame's forces, its integrators keep the
-        previous frames' derivatives, FCS components move by rounding), and this plant must
-        step exactly as the trim left it (the elevator's calibration, done in place until
-        2026-11, gave the 737 a first step with q = 5.6e-5 rad/s at the trim command).  The
-        copy is a forked child, or, where the system cannot fork, the same aircraft loaded
-        and trimmed afresh."""
+        """:meth:`_calibrate` on a copy (a forked child, or the aircraft loaded and trimmed
+        afresh): evaluating the model at other commands leaves JSBSim's derived values behind
+        (Nz from the last frame's forces, the integrators' past derivatives), and this plant
+        must step as the trim left it (in place, the 737's first step had q = 5.6e-5 rad/s)."""
         if can_fork():
             calibrate = functools.partial(_calibration, plant=self)
             (outcome,) = forked_map(calibrate, [surface.name])
             found = outcome.get()
         else:
-            copy = Plant(self.model, self.dt_s)
-            copy._is_calibration_copy = True
+            copy = Plant(self.model, self.dt_s, calibrates_in_place=True)
             if self.model == DAMAGE_MODEL:
                 copy.fdm[DAMAGE_PROPERTY] = self.fdm[DAMAGE_PROPERTY]
             copy.trim(**self._trim_args)

@@ -124,7 +124,7 @@ def linear_pulse_response(
         return {}
     spb = steps_per_bit(bit_duration_s, flight.dt_s)
     covered = [c for c in channels if CHANNELS[c].linear_output is not None]
-    lin = linear_response(make_plant(flight), covered, flight.surface, both_axes=True)
+    lin = linear_response(make_plant(flight), covered, flight.surface, full=True)
     asked = np.zeros(n_bits * spb)
     asked[:spb] = 1.0
     h = lin.respond(asked)[spb - 1 :: spb]

@@ -94,7 +94,8 @@ def test_ground_truth_agreement(baseline: Path) -> None:
     A settled period's z agrees with the superposition of the single-pulse response over
     the actual probe history to 1 % relative L2; the DC-corrected estimate agrees with
     JSBSim's linearised model (folded the same way, one-step delay) over the short-period
-    part (first 2 s).
+    part (first 2 s).  ``h_lin`` is stepped as JSBSim steps the aircraft, its one-step delay
+    included.
     """
     pr = pd.read_parquet(baseline / "probing.parquet")
     pred = pd.read_parquet(baseline / "prediction.parquet")
@@ -108,15 +109,15 @@ def test_ground_truth_agreement(baseline: Path) -> None:
     h_est = pr[pr.period >= 2].groupby(["channel", "tap"]).h_est.mean()
     limits = {"theta_rad": 0.005, "q_rad_s": 0.02, "alpha_rad": 0.02}
     for channel, limit in limits.items():
-        h_lin = truth[truth.channel == channel].h_lin.to_numpy()
-        delayed = np.concatenate(([0.0], h_lin[:-1]))  # JSBSim: pitch responds one step later
-        expected = predicted_probing(scn, {channel: delayed})[channel][2:, 2].mean(axis=0)
+        h_lin = truth[truth.channel == channel].h_lin.to_numpy()  # one-step delay included
+        expected = predicted_probing(scn, {channel: h_lin})[channel][2:, 2].mean(axis=0)
         est = h_est[channel].to_numpy()
         error = rel_l2(est[:200], expected[:200])
         assert error < limit, (channel, error)
         if channel != "theta_rad":  # theta's folded estimate is dominated by the phugoid tail
-            # Without the delay the agreement is clearly worse: the alignment matters.
-            undelayed = predicted_probing(scn, {channel: h_lin})[channel][2:, 2].mean(axis=0)
+            # A step early the agreement is clearly worse: the alignment matters.
+            early = np.concatenate((h_lin[1:], [h_lin[-1]]))
+            undelayed = predicted_probing(scn, {channel: early})[channel][2:, 2].mean(axis=0)
             assert rel_l2(est[:200], undelayed[:200]) > 1.5 * error
 
 

@@ -57,17 +57,17 @@ def rel_l2(a: pd.Series, b: pd.Series) -> float:
 
 
 def test_a_window_shorter_than_the_memory_is_refused() -> None:
-    """Order 7 leaves each surface 63 bits (6.3 s); the rudder's sideslip lasts 18 s: its
+    """Order 7 leaves each surface 63 bits (6.3 s); the rudder's yaw rate lasts 18 s: its
     tail lands in the aileron's window, which the check predicts and refuses."""
     scn = load_scenario(SHIFT)
     check = check_separation(scn)
     assert check.ok
-    crowded = scn.replace({"probe.order": 7})  # a 6.3 s window, rudder -> beta lasts 18 s
+    crowded = scn.replace({"probe.order": 7})  # a 6.3 s window, rudder -> r lasts 18 s
     check = check_separation(crowded)
     assert not check.ok
     worst = max(r["predicted_crosstalk"] for r in check.rows)
     assert worst > 0.05
-    assert "refused" in check.refusal() and "beta_rad" in check.refusal()
+    assert "refused" in check.refusal() and "rudder -> r_rad_s lasts 18.0 s" in check.refusal()
 
 
 def test_attitude_and_unlinearised_channels_are_refused() -> None:

@@ -197,9 +197,8 @@ def _h_against_linearisation(folder: Path, scn, channel: str) -> float:
     pr = pd.read_parquet(folder / "probing.parquet")
     truth = pd.read_parquet(folder / "truth.parquet")
     h_lin = truth[truth.channel == channel].h_lin.to_numpy()
-    delayed = np.concatenate(([0.0], h_lin[:-1]))  # the airframe answers one step later
-    first = scn.settle_periods
-    expected = predicted_probing(scn, {channel: delayed})[channel][first:, 2].mean(axis=0)
+    first = scn.settle_periods  # h_lin: the airframe answers one step later already
+    expected = predicted_probing(scn, {channel: h_lin})[channel][first:, 2].mean(axis=0)
     sel = (pr.channel == channel) & (pr.period >= first)
     est = pr[sel].groupby("tap").h_est.mean().to_numpy()
     return rel_l2(est[:200], expected[:200])
