@@ -9,6 +9,7 @@ records), and the 95 % bounds must hold the known response on at least 85 % of t
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 from pathlib import Path
@@ -22,7 +23,7 @@ import scipy.io
 from scipy import signal
 
 from probing.cli import main as cli_main
-from probing.core.prbs import mls
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, mls
 
 ORDER, M, AMPLITUDE, SIGMA, DT_S = 8, 255, 0.5, 0.01, 0.05
 SYSTEM = (  # a lightly damped second-order discrete system (poles 0.85 +- 0.3j) plus a D term
@@ -212,4 +213,31 @@ def test_bad_input_one_line_exit_2_nothing_written(
     assert analyze(path, out, *extra) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("probing: error: ") and needle in err[0], err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("order", "code"),
+    [("-3", 2), ("0", 2), (str(MIN_ORDER - 1), 2), (str(MIN_ORDER), None),
+     (str(MAX_ORDER), None), (str(MAX_ORDER + 1), 2), ("eight", 2)],
+)  # fmt: skip
+def test_order_outside_the_supported_range_is_refused_by_the_parser(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], order: str, code: int | None
+) -> None:
+    """The orders of probing.core.prbs (MIN_ORDER to MAX_ORDER) pass the parser: a record that
+    is not that m-sequence is then refused by the analysis, with its own message."""
+    path = write(make_record(), tmp_path / "rec.csv")
+    out = tmp_path / "out"
+    capsys.readouterr()
+    argv = ["analyze", str(path), "--input", "u_deg", "--output", "y", "--time", "t_s",
+            "--order", order, "--bit-duration-s", str(DT_S), "--out", str(out)]  # fmt: skip
+    with pytest.raises(SystemExit) if code is not None else contextlib.nullcontext() as stop:
+        got = cli_main(argv)
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("probing: error: "), err
+    if code is not None:
+        assert stop.value.code == 2
+        assert f"--order: must be an integer from {MIN_ORDER} to {MAX_ORDER}" in err[0], err
+    else:
+        assert got == 2 and "not an m-sequence" in err[0], err
     assert not out.exists()
