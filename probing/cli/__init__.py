@@ -122,8 +122,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _error(str(exc), 2)
     except ValueError as exc:  # a stored file that cannot be read, wherever it is read
         from probing.experiment.storage import StoredFileError
+        from probing.sim.errors import CacheFolderError
 
-        if isinstance(exc, StoredFileError):
+        # a cache folder that is not one, wherever the cache is resolved (probing.sim.aircraft)
+        if isinstance(exc, (StoredFileError, CacheFolderError)):
             return _error(str(exc), 2)
         raise
     except Terminated:
