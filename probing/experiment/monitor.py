@@ -105,11 +105,12 @@ class MonitorResult:
 
     def line(self) -> str:
         """The two facts on one line, as the command prints them."""
-        when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"
-        by = "" if self.alarm_detector is None else f", {self.alarm_detector}"
-        line = (
-            f"first alarm: {when} (period {self.first_alarm_period}{by}); verdict: {self.verdict}"
-        )
+        if self.first_alarm_s is None:
+            when = "none"
+        else:
+            by = "" if self.alarm_detector is None else f", {self.alarm_detector}"
+            when = f"{self.first_alarm_s:.2f} s (period {self.first_alarm_period}{by})"
+        line = f"first alarm: {when}; verdict: {self.verdict}"
         return line if self.ended is None else f"{line}; the flight ended: {self.ended}"
 
 
