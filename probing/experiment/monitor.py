@@ -328,6 +328,15 @@ class ReplayError(ValueError):
     """A log that cannot be replayed; the message names it and why."""
 
 
+class NotAFlightLog(ReplayError):
+    """A file without the metadata of a monitored flight's log: the message names the first
+    key it lacks (a log recorded elsewhere needs a map: ``docs/formats.md``)."""
+
+
+#: The metadata keys a replay needs in a log (the scenario, its digest, the trim reading).
+LOG_KEYS = (b"probing.scenario", b"probing.scenario_digest", b"probing.trim_measured")
+
+
 #: The metadata of a log that belongs to the log alone, not to what is computed from it.
 _LOG_ONLY = (
     b"probing.description",
@@ -430,11 +439,13 @@ def logged_scenario(
 ) -> tuple[Scenario, np.ndarray]:
     """The scenario a log was flown with and the sensors' reading of the trim (``names``:
     the log's columns, read from the file if None)."""
-    resolved = meta.get(b"probing.scenario")
-    trim = meta.get(b"probing.trim_measured")
-    digest = meta.get(b"probing.scenario_digest")
-    if resolved is None or trim is None or digest is None:
-        raise ReplayError(f"{log}: not the sensors.parquet of a monitored flight")
+    lacking = [k.decode() for k in LOG_KEYS if k not in meta]
+    if lacking:
+        raise NotAFlightLog(
+            f"{log}: not the sensors.parquet of a monitored flight (no metadata "
+            f"{', '.join(lacking)})"
+        )
+    resolved, digest, trim = (meta[k] for k in LOG_KEYS)
     try:
         scn = parse_scenario(json.loads(resolved), source=str(log))
     except (ScenarioError, ValueError) as exc:

@@ -140,3 +140,22 @@ def test_the_command_replays_and_refuses_in_one_line(flights, tmp_path):
         assert bad.returncode == 2, (args, bad.stderr)
         assert len(bad.stderr.strip().splitlines()) == 1, (args, bad.stderr)
         assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_foreign_log_without_map_is_told_to_give_one(tmp_path, capsys, suffix):
+    """A log recorded elsewhere (a CSV, or a Parquet file without a flight's metadata),
+    replayed without --map: one line that names --map, exit 2, nothing written."""
+    from probing.cli import main as cli_main
+
+    log = tmp_path / f"flight{suffix}"
+    if suffix == ".csv":
+        log.write_text("t,q\n0,0.1\n0.01,0.2\n")
+    else:
+        pq.write_table(pa.table({"t": [0.0, 0.01], "q": [0.1, 0.2]}), log)
+    capsys.readouterr()
+    assert cli_main(["monitor", "--replay", str(log), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"probing: error: {log}"), err
+    assert "--map" in err[0] and "docs/formats.md" in err[0], err
+    assert not (tmp_path / "out").exists()
