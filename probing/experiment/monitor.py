@@ -399,7 +399,7 @@ def replay_monitor(
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     lag_s = np.arange(m) * probe.bit_duration_s
     ended = meta.get(b"probing.ended")
-    kept = {k: v for k, v in meta.items() if k not in _LOG_ONLY}
+    kept = {k: v for k, v in meta.items() if k.startswith(b"probing.") and k not in _LOG_ONLY}
     twin = open_reference_twin(scn, nominal=True, use_cache=twin_cache)
     with twin or nullcontext():
         onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)

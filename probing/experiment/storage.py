@@ -241,6 +241,18 @@ def write_text_atomic(path: Path, text: str) -> None:
         tmp.unlink(missing_ok=True)
 
 
+#: The schema key under which pandas keeps a DataFrame's ``attrs`` (``read_parquet`` fills
+#: them from it, ``to_parquet`` writes them back).
+PANDAS_ATTRS = b"PANDAS_ATTRS"
+
+
+def pandas_attrs(meta: dict[bytes, bytes]) -> dict[bytes, bytes]:
+    """The ``probing.*`` keys of ``meta`` as pandas' ``attrs`` (:data:`PANDAS_ATTRS`), so a
+    file read and written again by pandas keeps them (:func:`read_footer` reads them back)."""
+    attrs = {k.decode(): v.decode() for k, v in meta.items() if k.startswith(b"probing.")}
+    return {PANDAS_ATTRS: json.dumps(attrs, sort_keys=True).encode()}
+
+
 class AtomicParquetWriter:
     """Write a Parquet file under a temporary name in large row groups; rename on :meth:`close`.
 
@@ -255,6 +267,9 @@ class AtomicParquetWriter:
     row_group_rows : int
         Rows buffered before they are written as one row group (the last group of the file
         holds the rest).  Memory stays bounded by this many rows whatever the file's length.
+    pandas_attrs : bool
+        Also keep the ``probing.*`` keys in ``PANDAS_ATTRS`` (:func:`pandas_attrs`), so a
+        file pandas reads and writes again keeps them (a log a user edits).
 
     Notes
     -----
@@ -270,6 +285,7 @@ class AtomicParquetWriter:
         schema: pa.Schema,
         metadata: dict[bytes, bytes],
         row_group_rows: int = ROW_GROUP_ROWS,
+        pandas_attrs: bool = False,
     ) -> None:
         if row_group_rows < 1:
             raise ValueError("row_group_rows must be >= 1")
@@ -280,18 +296,30 @@ class AtomicParquetWriter:
         self.path = Path(path)
         self.tmp = self.path.with_name(f".{self.path.name}.{writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
+        self.pandas_attrs = pandas_attrs
         self.row_group_rows = int(row_group_rows)
         self._pending: list[pa.Table] = []
         self._pending_rows = 0
-        strings = [f.name for f in schema if pa.types.is_string(f.type)]
-        floats = [f.name for f in schema if pa.types.is_floating(f.type)]
-        self._writer = pq.ParquetWriter(
-            self.tmp,
-            self.schema,
-            compression="zstd",
-            use_dictionary=strings or False,
-            use_byte_stream_split=floats or False,
-        )
+        self._writer: pq.ParquetWriter | None = None  # opened with the first row group
+
+    def _opened(self) -> pq.ParquetWriter:
+        """The Parquet writer, opened on first use with the schema's metadata as it is then
+        (and, with ``pandas_attrs``, the same keys in ``PANDAS_ATTRS``)."""
+        if self._writer is None:
+            schema = self.schema
+            if self.pandas_attrs:
+                meta = schema.metadata or {}
+                schema = schema.with_metadata({**meta, **pandas_attrs(meta)})
+            strings = [f.name for f in schema if pa.types.is_string(f.type)]
+            floats = [f.name for f in schema if pa.types.is_floating(f.type)]
+            self._writer = pq.ParquetWriter(
+                self.tmp,
+                schema,
+                compression="zstd",
+                use_dictionary=strings or False,
+                use_byte_stream_split=floats or False,
+            )
+        return self._writer
 
     def write(self, columns: dict[str, Any]) -> None:
         """Append rows (columns of equal length); written out once a row group is full.
@@ -311,12 +339,20 @@ class AtomicParquetWriter:
             return
         table = pa.concat_tables(self._pending)
         self._pending, self._pending_rows = [], 0
-        self._writer.write_table(table, row_group_size=max(table.num_rows, 1))
+        self._opened().write_table(table, row_group_size=max(table.num_rows, 1))
 
     def add_metadata(self, items: dict[bytes, bytes]) -> None:
-        """Key-value metadata known only at the end (a monitor's verdict), added to the
-        file's footer before it is closed."""
-        self._writer.add_key_value_metadata(items)
+        """Key-value metadata known after the writer was made.
+
+        Before the first row group is written (a log's trim reading) the items join the
+        schema's metadata, which a reader's table keeps (``pq.read_table``, a read and
+        write again); after it (a monitor's verdict, known at the end) they go to the
+        file's footer only (:func:`read_footer`).
+        """
+        if self._writer is None:
+            self.schema = self.schema.with_metadata({**(self.schema.metadata or {}), **items})
+        else:
+            self._writer.add_key_value_metadata(items)
 
     def close(self) -> None:
         """Write the buffered rows, finish the file and move it to its final name."""
@@ -326,7 +362,7 @@ class AtomicParquetWriter:
     def finish(self) -> None:
         """Write the buffered rows and finish the file, still under its temporary name."""
         self._flush()
-        self._writer.close()
+        self._opened().close()  # a file without rows still has its schema
 
     def commit(self) -> None:
         """Move the finished file to its final name."""
@@ -336,7 +372,8 @@ class AtomicParquetWriter:
         """Drop the partial file."""
         self._pending, self._pending_rows = [], 0
         try:
-            self._writer.close()
+            if self._writer is not None:
+                self._writer.close()
         finally:
             self.tmp.unlink(missing_ok=True)
 
@@ -376,7 +413,8 @@ class OutputFolder:
             raise ValueError(f"{name}: not in OUTPUT_FILES, or laid out per run: give schema")
         found = {**units(schema, channels, per), **(own_units or {})}
         meta = {**self.metadata, **metadata(description=description, units=found), **(extra or {})}
-        w = AtomicParquetWriter(self.path / name, schema, meta)
+        keep = spec is not None and spec.pandas_attrs
+        w = AtomicParquetWriter(self.path / name, schema, meta, pandas_attrs=keep)
         self.writers.append(w)
         return w
 
@@ -506,7 +544,8 @@ def read_schema(path: Path) -> pa.Schema:
 
 def read_footer(path: Path) -> dict[bytes, bytes]:
     """The key-value metadata of a stored Parquet file's footer, with what its writer added
-    at the end (a monitor's verdict, a log's trim reading).
+    at the end (a monitor's verdict), and the ``probing.*`` keys pandas kept in
+    ``PANDAS_ATTRS`` after a read and write of the file (the footer's own win).
 
     Raises
     ------
@@ -514,7 +553,23 @@ def read_footer(path: Path) -> dict[bytes, bytes]:
         When ``path`` is missing, unreadable or not a Parquet file.
     """
     with _reading(path):
-        return dict(pq.read_metadata(path).metadata or {})
+        meta = dict(pq.read_metadata(path).metadata or {})
+    return {**_from_pandas_attrs(meta), **meta}
+
+
+def _from_pandas_attrs(meta: dict[bytes, bytes]) -> dict[bytes, bytes]:
+    """The ``probing.*`` keys pandas kept in :data:`PANDAS_ATTRS` (none if it holds none)."""
+    try:
+        attrs = json.loads(meta.get(PANDAS_ATTRS, b"{}"))
+    except ValueError:
+        return {}
+    if not isinstance(attrs, dict):
+        return {}
+    return {
+        k.encode(): v.encode()
+        for k, v in attrs.items()
+        if isinstance(k, str) and k.startswith("probing.") and isinstance(v, str)
+    }
 
 
 @dataclass(frozen=True)

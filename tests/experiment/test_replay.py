@@ -4,6 +4,7 @@ and never sees the simulated atmosphere."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -159,3 +160,43 @@ def test_a_foreign_log_without_map_is_told_to_give_one(tmp_path, capsys, suffix)
     assert len(err) == 1 and err[0].startswith(f"probing: error: {log}"), err
     assert "--map" in err[0] and "docs/formats.md" in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+def _pyarrow_round_trip(log: Path, to: Path) -> None:
+    pq.write_table(pq.read_table(log), to)
+
+
+def _pandas_round_trip(log: Path, to: Path) -> None:
+    import pandas as pd
+
+    pd.read_parquet(log).to_parquet(to)
+
+
+@pytest.mark.parametrize("round_trip", [_pyarrow_round_trip, _pandas_round_trip])
+def test_a_log_read_and_written_again_replays_the_same(flights, tmp_path, round_trip):
+    """A user's edit reads the log and writes it again (pyarrow's read_table/write_table,
+    pandas' read_parquet/to_parquet): every key the replay needs survives, and the replay's
+    tables equal the flight's."""
+    live = flights["nominal"]
+    copy = tmp_path / "edited.parquet"
+    round_trip(live.out_dir / "sensors.parquet", copy)
+    again = replay_monitor(copy, tmp_path / "out", progress=False)
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
+        a, b = _tables(live.out_dir, name)[0], _tables(again.out_dir, name)[0]
+        assert len(a) > 0 and a.equals(b), name
+    assert (again.first_alarm_s, again.verdict) == (live.first_alarm_s, live.verdict)
+
+
+@pytest.mark.parametrize(
+    "key", [b"probing.scenario", b"probing.scenario_digest", b"probing.trim_measured"]
+)
+def test_a_log_without_a_key_names_it(flights, tmp_path, key):
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    table = pq.read_table(log)
+    meta = {k: v for k, v in (table.schema.metadata or {}).items() if k != key}
+    attrs = json.loads(meta.pop(b"PANDAS_ATTRS"))  # the copy pandas keeps: without it too
+    del attrs[key.decode()]
+    meta[b"PANDAS_ATTRS"] = json.dumps(attrs).encode()
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "cut.parquet")
+    with pytest.raises(ReplayError, match=f"no metadata {key.decode()}"):
+        replay_monitor(tmp_path / "cut.parquet", tmp_path / "out", progress=False)
