@@ -162,7 +162,7 @@ def _replay(args: argparse.Namespace) -> int:
     table = None if args.map is None else _foreign(args)
     try:
         meta = read_footer(args.replay) if table is None else table.schema.metadata
-        scn, _ = logged_scenario(args.replay, meta, None if table is None else table.column_names)
+        scn, _ = logged_scenario(args.replay, meta, table)
     except (ReplayError, StoredFileError) as exc:
         foreign = isinstance(exc, NotAFlightLog) or (
             isinstance(exc, StoredFileError) and args.replay.is_file()

@@ -200,3 +200,43 @@ def test_a_log_without_a_key_names_it(flights, tmp_path, key):
     pq.write_table(table.replace_schema_metadata(meta), tmp_path / "cut.parquet")
     with pytest.raises(ReplayError, match=f"no metadata {key.decode()}"):
         replay_monitor(tmp_path / "cut.parquet", tmp_path / "out", progress=False)
+
+
+def _null_at(table: pa.Table, column: str, row: int) -> pa.Table:
+    values = table.column(column).to_pylist()
+    values[row] = None
+    return table.set_column(table.schema.get_field_index(column), column, pa.array(values))
+
+
+def _nan_at(table: pa.Table, column: str, row: int) -> pa.Table:
+    values = table.column(column).to_numpy().copy()
+    values[row] = np.nan
+    return table.set_column(table.schema.get_field_index(column), column, pa.array(values))
+
+
+@pytest.mark.parametrize(
+    ("drift", "spoil", "needle"),
+    [
+        ("nominal", lambda t: _null_at(t, "theta_rad", 100), "theta_rad has no value at row 100"),
+        ("gust", lambda t: _nan_at(t, "alpha_rad", 200), "column alpha_rad has NaN at row 200"),
+        ("nominal", lambda t: _nan_at(t, "time_s", 0), "column time_s has NaN at row 0"),
+        ("gust", lambda t: t.drop_columns(["alpha_rad"]), "no column alpha_rad"),
+    ],
+)  # fmt: skip
+def test_a_spoilt_log_is_one_line_exit_2_nothing_written(
+    flights, tmp_path, capsys, drift, spoil, needle
+):
+    """A value missing (null, NaN) or a column dropped: one line naming the file, the column
+    (and the row), exit 2, nothing written; was ArrowInvalid, IndexError or KeyError."""
+    from probing.cli import main as cli_main
+
+    log = flights[drift].out_dir / "sensors.parquet"
+    table = pq.read_table(log)
+    spoilt = tmp_path / "spoilt.parquet"
+    pq.write_table(spoil(table).replace_schema_metadata(table.schema.metadata), spoilt)
+    capsys.readouterr()
+    assert cli_main(["monitor", "--replay", str(spoilt), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"probing: error: {spoilt}: "), err
+    assert needle in err[0], err
+    assert not (tmp_path / "out").exists()
