@@ -166,5 +166,7 @@ def _main(argv: Sequence[str] | None) -> int:
     finally:
         if stopping and argv is None:  # the process's own command line: it ends here
             _end_interrupted(stopping)
+        if argv is not None:  # in-process: the outputs' hold ends with the command
+            INTERRUPTS.release()
         if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+            INTERRUPTS.restore(signal.SIGTERM, previous)

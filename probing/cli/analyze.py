@@ -54,9 +54,11 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     except RecordError as exc:
         raise UsageError(str(exc)) from None
     from analysis.analyze_plots import draw_bounds
+    from probing.experiment.storage import staged_output
 
-    written = write_analysis(result, args.out)
-    figure = draw_bounds(args.out / "bounds.parquet", args.out / "pulse_response")
+    with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing
+        written = write_analysis(result, staging)
+        figure = draw_bounds(staging / "bounds.parquet", staging / "pulse_response")
     f = result.found
     print(
         f"{args.file.name}: sequence shift {f['sequence_shift_bits']} bits, bit boundary at "
@@ -65,7 +67,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         f"amplitude {result.amplitude:g}"
     )
     for path in (*written, figure):
-        print(f"-> {path}")
+        print(f"-> {args.out / path.name}")
     return 0
 
 

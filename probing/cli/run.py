@@ -172,8 +172,12 @@ def _replay(args: argparse.Namespace) -> int:
     _run_folder(args.out, scn)
 
     def job() -> int:
-        result = replay_monitor(args.replay, args.out, table=table)
-        print(f"{scn.name} (replayed): {result.line()} -> {result.out_dir / 'monitor.parquet'}")
+        from probing.experiment.storage import staged_output
+
+        folder = args.out / scn.name
+        with staged_output(folder) as staging:  # an interrupt at any moment leaves nothing
+            result = replay_monitor(args.replay, args.out, table=table, folder=staging)
+        print(f"{scn.name} (replayed): {result.line()} -> {folder / 'monitor.parquet'}")
         return 0
 
     return _simulating(job, str(args.replay))

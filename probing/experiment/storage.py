@@ -87,6 +87,7 @@ __all__ = [
     "read_schema",
     "read_settled",
     "read_table",
+    "staged_output",
     "strict_json",
     "timeseries_schema",
     "units",
@@ -430,21 +431,31 @@ def _scenario_digest(path: Path) -> bytes | None:
         return None
 
 
-def _earlier_files(folder: OutputFolder, adds: bool) -> list[Path]:
+def _earlier_files(
+    folder: Path, written: set[str], digest: bytes | None = None, adds: bool = False
+) -> list[Path]:
     """The files of an earlier run in ``folder`` that the files being written replace:
-    those of :data:`RUN_FILES` not written now (with ``adds``, only those of another
-    scenario than the folder's metadata names)."""
-    written = {w.path.name for w in folder.writers}
-    digest = folder.metadata.get(_DIGEST_KEY)
+    those of :data:`RUN_FILES` not among ``written`` (with ``adds``, only those of another
+    scenario than ``digest``)."""
     earlier = []
     for name in RUN_FILES:
-        path = folder.path / name
+        path = folder / name
         if name in written or not path.is_file():
             continue
         if adds and digest is not None and _scenario_digest(path) == digest:
             continue  # the run these files are added to
         earlier.append(path)
     return earlier
+
+
+def _report_removed(path: Path, earlier: list[Path], stream: TextIO | None) -> None:
+    if earlier:
+        names = ", ".join(p.name for p in earlier)
+        print(
+            f"{path}: removed the files of an earlier run: {names}",
+            file=stream or sys.stderr,
+            flush=True,
+        )
 
 
 @contextmanager
@@ -478,7 +489,8 @@ def output_folder(
         yield folder
         for w in folder.writers:
             w.finish()
-        earlier = _earlier_files(folder, adds)
+        written = {w.path.name for w in folder.writers}
+        earlier = _earlier_files(path, written, folder.metadata.get(_DIGEST_KEY), adds)
         for stale in earlier:
             stale.unlink(missing_ok=True)
         for w in folder.writers:
@@ -489,13 +501,45 @@ def output_folder(
         for p in reversed(created):
             shutil.rmtree(p, ignore_errors=True)
         raise
-    if earlier:
-        names = ", ".join(p.name for p in earlier)
-        print(
-            f"{path}: removed the files of an earlier run: {names}",
-            file=stream or sys.stderr,
-            flush=True,
-        )
+    _report_removed(path, earlier, stream)
+
+
+@contextmanager
+def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]:
+    """A command's whole output, made in a staging folder and moved into ``path`` as the
+    command's last act: an interrupt at any moment leaves nothing of it.
+
+    The staging folder (``path/.staged.<writer>.tmp``, made with ``path`` and its missing
+    parents) is yielded; the command writes every file there (through
+    :func:`output_folder`, a figure, ...).  On success Ctrl-C and SIGTERM are held to the
+    end of the process (:meth:`probing.core.forked.Interrupts.hold_to_the_end`: one noted
+    before is raised first), the files an earlier run left in ``path`` that are not written
+    now are removed (as :func:`output_folder` does), and the staged files moved into place.
+    On any exception the staging folder and the folders this call created are removed.
+    """
+    from probing.core.forked import INTERRUPTS
+
+    path = Path(path)
+    created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    staging = path / f".staged.{writer_tag()}.tmp"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        staging.mkdir()
+        yield staging
+        INTERRUPTS.hold_to_the_end()
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        for p in reversed(created):
+            shutil.rmtree(p, ignore_errors=True)
+        raise
+    staged = sorted(p for p in staging.iterdir() if not p.name.startswith("."))
+    earlier = _earlier_files(path, {p.name for p in staged})
+    for stale in earlier:
+        stale.unlink(missing_ok=True)
+    for p in staged:
+        os.replace(p, path / p.name)
+    shutil.rmtree(staging, ignore_errors=True)
+    _report_removed(path, earlier, stream)
 
 
 # ------------------------------------------------------------------ reading

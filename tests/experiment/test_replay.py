@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -240,3 +241,35 @@ def test_a_spoilt_log_is_one_line_exit_2_nothing_written(
     assert len(err) == 1 and err[0].startswith(f"probing: error: {spoilt}: "), err
     assert needle in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+REPLAY_FILES = ["bounds.parquet", "monitor.parquet", "probing.parquet"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay_s", [-1.0, 0.0, 0.1, 0.3, 0.6, 1.0, 1.5, 2.5])
+def test_an_interrupted_replay_leaves_nothing(flights, tmp_path, delay_s):
+    """Ctrl-C at any moment of a replay (``delay_s`` after its folder appears; -1: once a file
+    appears in it): exit 130 and no folder, or it had finished (0) with its three tables."""
+    from signal import SIGINT
+
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    out = tmp_path / "r"
+    cmd = [sys.executable, "-m", "probing", "monitor", "--replay", str(log), "--out", str(out)]
+    folder = out / "gtm-monitored"
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if folder.exists() and (delay_s >= 0 or any(folder.iterdir())):
+            break
+        time.sleep(0.001)
+    time.sleep(max(delay_s, 0.0))
+    proc.send_signal(SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err, err
+    if proc.returncode == 130:
+        assert err.splitlines()[-1] == "probing: error: interrupted"
+        assert not out.exists(), sorted(p.name for p in out.rglob("*"))
+    else:
+        assert proc.returncode == 0, err
+        assert sorted(p.name for p in folder.iterdir()) == REPLAY_FILES
