@@ -283,3 +283,68 @@ def test_an_interrupt_at_any_moment_leaves_nothing(tmp_path: Path, delay_s: floa
     else:
         assert res.returncode == 0, res.stderr
         assert sorted(p.name for p in out.iterdir()) == list(ANALYZE_FILES)
+
+
+def _analyze_with_time(path: Path, out: Path, time_col: str, bit_s: float) -> int:
+    return cli_main(
+        ["analyze", str(path), "--input", "u_deg", "--output", "y", "--time", time_col,
+         "--order", str(ORDER), "--bit-duration-s", str(bit_s), "--out", str(out)]
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("column", "values", "needle"),
+    [
+        ("time_ms", lambda t: t * 1000.0, "time_ms looks like milliseconds"),
+        ("t_us", lambda t: t * 1e6, "t_us looks like microseconds"),
+        ("unix_s", lambda t: 1.7e9 + t, "looks like Unix time"),
+    ],
+)
+def test_a_time_column_not_in_seconds_from_the_start_is_refused_with_what_to_do(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], column, values, needle
+) -> None:
+    """A time column in milliseconds labelled 5040 "seconds"; Unix time failed on the float
+    jitter of its step (2e-7 s at 1.7e9 s): one line saying what to do, exit 2."""
+    frame = make_record()
+    frame[column] = values(frame.pop("t_s"))
+    path = write(frame, tmp_path / "rec.csv")
+    capsys.readouterr()
+    assert _analyze_with_time(path, tmp_path / "out", column, DT_S * 1000) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and needle in err[0], err
+    assert "--dt-s" in err[0] and "seconds from the record's start" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_uniform_datetime_column_is_seconds_from_the_first_sample(
+    tmp_path: Path, suffix: str
+) -> None:
+    """Date-times (a Parquet timestamp, ISO text in a CSV) at a uniform step are read as
+    seconds from the first sample: the same estimate as the seconds column."""
+    frame = make_record()
+    assert analyze(write(frame, tmp_path / "s.csv"), tmp_path / "seconds") == 0
+    start = pd.Timestamp("2024-05-01T12:00:00")
+    frame["when"] = start + pd.to_timedelta(np.round(frame.pop("t_s") * 1e3), unit="ms")
+    path = write(frame, tmp_path / f"d{suffix}")
+    assert _analyze_with_time(path, tmp_path / "dates", "when", DT_S) == 0
+    np.testing.assert_array_equal(
+        bounds(tmp_path / "dates").h_est.to_numpy(), bounds(tmp_path / "seconds").h_est.to_numpy()
+    )
+    meta = json.loads(pq.read_metadata(tmp_path / "dates" / "probing.parquet").metadata[
+        b"probing.analysis"
+    ])  # fmt: skip
+    assert meta["dt_s"] == pytest.approx(DT_S, rel=1e-12)
+
+
+def test_a_datetime_column_with_a_gap_is_refused_in_seconds(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    frame = make_record().drop(index=300).reset_index(drop=True)
+    start = pd.Timestamp("2024-05-01T12:00:00")
+    frame["when"] = start + pd.to_timedelta(np.round(frame.pop("t_s") * 1e3), unit="ms")
+    path = write(frame, tmp_path / "d.parquet")
+    capsys.readouterr()
+    assert _analyze_with_time(path, tmp_path / "out", "when", DT_S) == 2
+    err = capsys.readouterr().err
+    assert "not uniform at row 300 (0.1 s, elsewhere 0.05 s)" in err, err
