@@ -510,7 +510,8 @@ def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]
     command's last act: an interrupt at any moment leaves nothing of it.
 
     The staging folder (``path/.staged.<writer>.tmp``, made with ``path`` and its missing
-    parents) is yielded; the command writes every file there (through
+    parents; a dead writer's, left by a command killed outright, is removed first) is
+    yielded; the command writes every file there (through
     :func:`output_folder`, a figure, ...).  On success Ctrl-C and SIGTERM are held to the
     end of the process (:meth:`probing.core.forked.Interrupts.hold_to_the_end`: one noted
     before is raised first), the files an earlier run left in ``path`` that are not written
@@ -522,6 +523,8 @@ def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]
     path = Path(path)
     created = [p for p in (*reversed(path.parents), path) if not p.exists()]
     staging = path / f".staged.{writer_tag()}.tmp"
+    if not created:
+        remove_dead_writers_files(path, ".tmp", folders=True)  # a killed command's staging
     try:
         path.mkdir(parents=True, exist_ok=True)
         staging.mkdir()
