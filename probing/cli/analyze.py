@@ -54,7 +54,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     except RecordError as exc:
         raise UsageError(str(exc)) from None
     from analysis.analyze_plots import draw_bounds
-    from probing.experiment.storage import staged_output
+    from probing.experiment.staging import staged_output
 
     with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing
         written = write_analysis(result, staging)

@@ -172,7 +172,7 @@ def _replay(args: argparse.Namespace) -> int:
     _run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.experiment.storage import staged_output
+        from probing.experiment.staging import staged_output
 
         folder = args.out / scn.name
         with staged_output(folder) as staging:  # an interrupt at any moment leaves nothing

@@ -18,7 +18,6 @@ import os
 import platform
 import shutil
 import subprocess
-import sys
 import uuid
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -55,6 +54,8 @@ from probing.experiment.output_paths import (
     check_output_file,
     check_output_folder,
 )
+from probing.experiment.pandas_keys import from_pandas_attrs, to_pandas_attrs
+from probing.experiment.staging import DIGEST_KEY, earlier_files, report_removed
 
 __all__ = [
     "CHANNEL_UNIT",
@@ -87,7 +88,6 @@ __all__ = [
     "read_schema",
     "read_settled",
     "read_table",
-    "staged_output",
     "strict_json",
     "timeseries_schema",
     "units",
@@ -242,18 +242,6 @@ def write_text_atomic(path: Path, text: str) -> None:
         tmp.unlink(missing_ok=True)
 
 
-#: The schema key under which pandas keeps a DataFrame's ``attrs`` (``read_parquet`` fills
-#: them from it, ``to_parquet`` writes them back).
-PANDAS_ATTRS = b"PANDAS_ATTRS"
-
-
-def pandas_attrs(meta: dict[bytes, bytes]) -> dict[bytes, bytes]:
-    """The ``probing.*`` keys of ``meta`` as pandas' ``attrs`` (:data:`PANDAS_ATTRS`), so a
-    file read and written again by pandas keeps them (:func:`read_footer` reads them back)."""
-    attrs = {k.decode(): v.decode() for k, v in meta.items() if k.startswith(b"probing.")}
-    return {PANDAS_ATTRS: json.dumps(attrs, sort_keys=True).encode()}
-
-
 class AtomicParquetWriter:
     """Write a Parquet file under a temporary name in large row groups; rename on :meth:`close`.
 
@@ -269,7 +257,7 @@ class AtomicParquetWriter:
         Rows buffered before they are written as one row group (the last group of the file
         holds the rest).  Memory stays bounded by this many rows whatever the file's length.
     pandas_attrs : bool
-        Also keep the ``probing.*`` keys in ``PANDAS_ATTRS`` (:func:`pandas_attrs`), so a
+        Also keep the ``probing.*`` keys in ``PANDAS_ATTRS`` (:mod:`~.pandas_keys`), so a
         file pandas reads and writes again keeps them (a log a user edits).
 
     Notes
@@ -310,7 +298,7 @@ class AtomicParquetWriter:
             schema = self.schema
             if self.pandas_attrs:
                 meta = schema.metadata or {}
-                schema = schema.with_metadata({**meta, **pandas_attrs(meta)})
+                schema = schema.with_metadata({**meta, **to_pandas_attrs(meta)})
             strings = [f.name for f in schema if pa.types.is_string(f.type)]
             floats = [f.name for f in schema if pa.types.is_floating(f.type)]
             self._writer = pq.ParquetWriter(
@@ -420,44 +408,6 @@ class OutputFolder:
         return w
 
 
-_DIGEST_KEY = b"probing.scenario_digest"
-
-
-def _scenario_digest(path: Path) -> bytes | None:
-    """The scenario digest a Parquet file of the project carries (None: none, unreadable)."""
-    try:
-        return (pq.read_schema(path).metadata or {}).get(_DIGEST_KEY)
-    except (OSError, pa.ArrowException):
-        return None
-
-
-def _earlier_files(
-    folder: Path, written: set[str], digest: bytes | None = None, adds: bool = False
-) -> list[Path]:
-    """The files of an earlier run in ``folder`` that the files being written replace:
-    those of :data:`RUN_FILES` not among ``written`` (with ``adds``, only those of another
-    scenario than ``digest``)."""
-    earlier = []
-    for name in RUN_FILES:
-        path = folder / name
-        if name in written or not path.is_file():
-            continue
-        if adds and digest is not None and _scenario_digest(path) == digest:
-            continue  # the run these files are added to
-        earlier.append(path)
-    return earlier
-
-
-def _report_removed(path: Path, earlier: list[Path], stream: TextIO | None) -> None:
-    if earlier:
-        names = ", ".join(p.name for p in earlier)
-        print(
-            f"{path}: removed the files of an earlier run: {names}",
-            file=stream or sys.stderr,
-            flush=True,
-        )
-
-
 @contextmanager
 def output_folder(
     path: Path,
@@ -490,7 +440,7 @@ def output_folder(
         for w in folder.writers:
             w.finish()
         written = {w.path.name for w in folder.writers}
-        earlier = _earlier_files(path, written, folder.metadata.get(_DIGEST_KEY), adds)
+        earlier = earlier_files(path, written, folder.metadata.get(DIGEST_KEY), adds)
         for stale in earlier:
             stale.unlink(missing_ok=True)
         for w in folder.writers:
@@ -501,48 +451,7 @@ def output_folder(
         for p in reversed(created):
             shutil.rmtree(p, ignore_errors=True)
         raise
-    _report_removed(path, earlier, stream)
-
-
-@contextmanager
-def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]:
-    """A command's whole output, made in a staging folder and moved into ``path`` as the
-    command's last act: an interrupt at any moment leaves nothing of it.
-
-    The staging folder (``path/.staged.<writer>.tmp``, made with ``path`` and its missing
-    parents; a dead writer's, left by a command killed outright, is removed first) is
-    yielded; the command writes every file there (through
-    :func:`output_folder`, a figure, ...).  On success Ctrl-C and SIGTERM are held to the
-    end of the process (:meth:`probing.core.forked.Interrupts.hold_to_the_end`: one noted
-    before is raised first), the files an earlier run left in ``path`` that are not written
-    now are removed (as :func:`output_folder` does), and the staged files moved into place.
-    On any exception the staging folder and the folders this call created are removed.
-    """
-    from probing.core.forked import INTERRUPTS
-
-    path = Path(path)
-    created = [p for p in (*reversed(path.parents), path) if not p.exists()]
-    staging = path / f".staged.{writer_tag()}.tmp"
-    if not created:
-        remove_dead_writers_files(path, ".tmp", folders=True)  # a killed command's staging
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        staging.mkdir()
-        yield staging
-        INTERRUPTS.hold_to_the_end()
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        for p in reversed(created):
-            shutil.rmtree(p, ignore_errors=True)
-        raise
-    staged = sorted(p for p in staging.iterdir() if not p.name.startswith("."))
-    earlier = _earlier_files(path, {p.name for p in staged})
-    for stale in earlier:
-        stale.unlink(missing_ok=True)
-    for p in staged:
-        os.replace(p, path / p.name)
-    shutil.rmtree(staging, ignore_errors=True)
-    _report_removed(path, earlier, stream)
+    report_removed(path, earlier, stream)
 
 
 # ------------------------------------------------------------------ reading
@@ -601,22 +510,7 @@ def read_footer(path: Path) -> dict[bytes, bytes]:
     """
     with _reading(path):
         meta = dict(pq.read_metadata(path).metadata or {})
-    return {**_from_pandas_attrs(meta), **meta}
-
-
-def _from_pandas_attrs(meta: dict[bytes, bytes]) -> dict[bytes, bytes]:
-    """The ``probing.*`` keys pandas kept in :data:`PANDAS_ATTRS` (none if it holds none)."""
-    try:
-        attrs = json.loads(meta.get(PANDAS_ATTRS, b"{}"))
-    except ValueError:
-        return {}
-    if not isinstance(attrs, dict):
-        return {}
-    return {
-        k.encode(): v.encode()
-        for k, v in attrs.items()
-        if isinstance(k, str) and k.startswith("probing.") and isinstance(v, str)
-    }
+    return {**from_pandas_attrs(meta), **meta}
 
 
 @dataclass(frozen=True)
