@@ -290,6 +290,7 @@ class AtomicParquetWriter:
         self._pending: list[pa.Table] = []
         self._pending_rows = 0
         self._writer: pq.ParquetWriter | None = None  # opened with the first row group
+        self._late = False  # keys added to a log's schema after its rows began
 
     def _opened(self) -> pq.ParquetWriter:
         """The Parquet writer, opened on first use with the schema's metadata as it is then
@@ -336,10 +337,12 @@ class AtomicParquetWriter:
         Before the first row group is written (a log's trim reading) the items join the
         schema's metadata, which a reader's table keeps (``pq.read_table``, a read and
         write again); after it (a monitor's verdict, known at the end) they go to the
-        file's footer only (:func:`read_footer`).
+        file's footer only (:func:`read_footer`), except in a log (``pandas_attrs``),
+        which is then copied once under the new schema (:meth:`finish`).
         """
-        if self._writer is None:
+        if self._writer is None or self.pandas_attrs:  # a log: in its schema, at the end
             self.schema = self.schema.with_metadata({**(self.schema.metadata or {}), **items})
+            self._late = self._writer is not None
         else:
             self._writer.add_key_value_metadata(items)
 
@@ -352,6 +355,25 @@ class AtomicParquetWriter:
         """Write the buffered rows and finish the file, still under its temporary name."""
         self._flush()
         self._opened().close()  # a file without rows still has its schema
+        if self._late:  # keys known after rows were written: copied into a new schema
+            self._rewrite()
+
+    def _rewrite(self) -> None:
+        """Copy the finished temporary file, row group by row group, under the schema as it
+        is now (its keys added late included), and put the copy in its place."""
+        self._writer, self._late = None, False
+        copy = self.tmp.with_name(f"{self.tmp.name}.copy")
+        final, self.tmp = self.tmp, copy
+        try:
+            source = pq.ParquetFile(final)
+            for i in range(source.num_row_groups):
+                table = source.read_row_group(i).replace_schema_metadata(self.schema.metadata)
+                self._opened().write_table(table, row_group_size=max(table.num_rows, 1))
+            self._opened().close()
+            os.replace(copy, final)
+        finally:
+            self.tmp = final
+            copy.unlink(missing_ok=True)
 
     def commit(self) -> None:
         """Move the finished file to its final name."""
