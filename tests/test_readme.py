@@ -26,3 +26,18 @@ def test_readme_example_runs() -> None:
     got = compensate(namespace["est"].z[-1], namespace["nl"], a)
     np.testing.assert_allclose(got, expected_z, rtol=1e-9, atol=1e-12)
     assert sigma.size == m
+
+
+def test_documented_commands_write_under_the_ignored_results_folder() -> None:
+    """A command copied from the README or docs/ leaves `git status` clean: every lower-case
+    `--out` folder it names is under `results/`, which .gitignore ignores (a placeholder in
+    capitals, DIR or TMP, is the reader's own)."""
+    root = README.parent
+    assert "/results/" in (root / ".gitignore").read_text().split()
+    outside = []
+    for page in (README, *sorted((root / "docs").glob("*.md"))):
+        for number, line in enumerate(page.read_text().splitlines(), 1):
+            for folder in re.findall(r"--out ([a-z][^\s`]*)", line):
+                if not folder.startswith("results/") and folder != "results":
+                    outside.append(f"{page.name}:{number}: --out {folder}")
+    assert not outside, outside

@@ -8,7 +8,8 @@ own errors too) and nothing written: every output folder and file is checked bef
 (:func:`probing.experiment.storage.check_output_folder` and
 :func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
 divergence), a sweep with failed points or a sweep folder in use by another process; 130
-interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up.
+interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up; 141 its output went
+into a pipe the reader had closed (``probing examples | head``), nothing on stderr.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ DESCRIPTION = (
 EPILOG = """\
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
 failed (trim failure, divergence) or a sweep folder in use; 130 interrupted; 143
-terminated (SIGTERM).
+terminated (SIGTERM); 141 output into a closed pipe.
 See README.md and docs/ for the formats and the method."""
 
 
@@ -96,12 +97,40 @@ def _end_interrupted(code: int) -> NoReturn:
     os._exit(code)
 
 
+#: The exit code when stdout's reader has closed the pipe: 128 + SIGPIPE, what a shell reports
+#: for a program that SIGPIPE ended (``yes | head``), so ``set -o pipefail`` sees the same.
+PIPE_CLOSED = 128 + 13
+
+
+def _stdout_closed() -> int:
+    """stdout's reader is gone: point stdout at the null device, so the interpreter's last
+    flush raises nothing, and return :data:`PIPE_CLOSED`."""
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        os.close(null)
+    except (OSError, ValueError):  # no file descriptor behind stdout (a test's capture)
+        pass
+    return PIPE_CLOSED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``probing`` console script.
 
     ``argv`` None: this process's own command line, which exits with the returned code; once
-    interrupted it ends here (:func:`_end_interrupted`).
+    interrupted it ends here (:func:`_end_interrupted`).  Output into a pipe the reader has
+    closed ends the command quietly with :data:`PIPE_CLOSED`.
     """
+    try:
+        try:
+            return _main(argv)
+        finally:
+            sys.stdout.flush()  # what print buffered goes now, where a closed pipe is caught
+    except BrokenPipeError:
+        return _stdout_closed()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     in_main = threading.current_thread() is threading.main_thread()
@@ -122,8 +151,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _error(str(exc), 2)
     except ValueError as exc:  # a stored file that cannot be read, wherever it is read
         from probing.experiment.storage import StoredFileError
+        from probing.sim.errors import CacheFolderError
 
-        if isinstance(exc, StoredFileError):
+        # a cache folder that is not one, wherever the cache is resolved (probing.sim.aircraft)
+        if isinstance(exc, (StoredFileError, CacheFolderError)):
             return _error(str(exc), 2)
         raise
     except Terminated:
@@ -135,5 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if stopping and argv is None:  # the process's own command line: it ends here
             _end_interrupted(stopping)
+        if argv is not None:  # in-process: the outputs' hold ends with the command
+            INTERRUPTS.release()
         if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+            INTERRUPTS.restore(signal.SIGTERM, previous)

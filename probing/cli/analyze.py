@@ -14,6 +14,22 @@ def _positive(text: str) -> float:
     return value
 
 
+def _order(text: str) -> int:
+    """An m-sequence order the project supports (:data:`probing.core.prbs.MIN_ORDER` to
+    :data:`~probing.core.prbs.MAX_ORDER`)."""
+    from probing.core.prbs import MAX_ORDER, MIN_ORDER
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or not MIN_ORDER <= value <= MAX_ORDER:
+        raise argparse.ArgumentTypeError(
+            f"must be an integer from {MIN_ORDER} to {MAX_ORDER}, got {text}"
+        )
+    return value
+
+
 def _cmd_analyze(args: argparse.Namespace) -> int:
     from probing.experiment.analyze import (
         AnalysisRequest,
@@ -44,11 +60,13 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     except RecordError as exc:
         raise UsageError(str(exc)) from None
     from analysis.analyze_plots import draw_bounds
+    from probing.experiment.staging import staged_output
 
-    written = write_analysis(result, args.out)
-    figure = draw_bounds(
-        args.out / "bounds.parquet", args.out / "pulse_response", max_lag_s=args.max_lag_s
-    )
+    with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing
+        written = write_analysis(result, staging)
+        figure = draw_bounds(
+            staging / "bounds.parquet", staging / "pulse_response", max_lag_s=args.max_lag_s
+        )
     f = result.found
     print(
         f"{args.file.name}: sequence shift {f['sequence_shift_bits']} bits, bit boundary at "
@@ -59,7 +77,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     for line in convention_lines(result):
         print(line)
     for path in (*written, figure):
-        print(f"-> {path}")
+        print(f"-> {args.out / path.name}")
     return 0
 
 
@@ -79,7 +97,7 @@ def register(sub: Subcommands) -> None:
     base = p.add_mutually_exclusive_group(required=True)
     base.add_argument("--time", metavar="COL", help="time column (s), uniform step")
     base.add_argument("--dt-s", type=_positive, help="sample step (s)")
-    p.add_argument("--order", type=int, required=True, help="m-sequence order n (M = 2^n - 1)")
+    p.add_argument("--order", type=_order, required=True, help="m-sequence order n (M = 2^n - 1)")
     p.add_argument("--bit-duration-s", type=_positive, required=True, help="bit duration t0 (s)")
     p.add_argument(
         "--amplitude",

@@ -17,13 +17,14 @@ def _kinds(clear: bool) -> list:
 
 
 def _cmd_cache(args: argparse.Namespace) -> int:
-    from probing.sim.aircraft import cache_dir
+    from probing.sim.aircraft import cache_dir  # a cache variable naming a file: exit 2 (main)
 
     if args.action == "clear" and not args.yes:
         raise UsageError("cache clear removes every cached entry: confirm with --yes")
+    root = cache_dir()
     kinds = _kinds(args.action == "clear")
     verb = "removed" if args.action == "clear" else "holds"
-    print(f"cache root {cache_dir()} ($PROBING_CACHE)")
+    print(f"cache root {root} ($PROBING_CACHE)")
     for kind in kinds:
         print(
             f"{kind.name:<9} {verb} {kind.entries} entries, {kind.size_bytes} bytes: {kind.folder}"

@@ -141,9 +141,20 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     return _simulating(job, str(args.scenario), scn.model)
 
 
+#: What a log that is not a flight's own needs (``probing monitor --replay`` without a map).
+NEEDS_MAP = (
+    "a log recorded elsewhere (CSV or Parquet) needs its scenario and --map MAP (docs/formats.md)"
+)
+
+
 def _replay(args: argparse.Namespace) -> int:
     """``probing monitor --replay LOG``: the monitor recomputed from a flight's log."""
-    from probing.experiment.monitor import ReplayError, logged_scenario, replay_monitor
+    from probing.experiment.monitor import (
+        NotAFlightLog,
+        ReplayError,
+        logged_scenario,
+        replay_monitor,
+    )
     from probing.experiment.storage import StoredFileError, read_footer
 
     if args.timeseries:
@@ -151,14 +162,22 @@ def _replay(args: argparse.Namespace) -> int:
     table = None if args.map is None else _foreign(args)
     try:
         meta = read_footer(args.replay) if table is None else table.schema.metadata
-        scn, _ = logged_scenario(args.replay, meta, None if table is None else table.column_names)
+        scn, _ = logged_scenario(args.replay, meta, table)
     except (ReplayError, StoredFileError) as exc:
-        raise UsageError(str(exc)) from None
+        foreign = isinstance(exc, NotAFlightLog) or (
+            isinstance(exc, StoredFileError) and args.replay.is_file()
+        )
+        hint = f"; {NEEDS_MAP}" if foreign and args.map is None else ""
+        raise UsageError(f"{exc}{hint}") from None
     _run_folder(args.out, scn)
 
     def job() -> int:
-        result = replay_monitor(args.replay, args.out, table=table)
-        print(f"{scn.name} (replayed): {result.line()} -> {result.out_dir / 'monitor.parquet'}")
+        from probing.experiment.staging import staged_output
+
+        folder = args.out / scn.name
+        with staged_output(folder) as staging:  # an interrupt at any moment leaves nothing
+            result = replay_monitor(args.replay, args.out, table=table, folder=staging)
+        print(f"{scn.name} (replayed): {result.line()} -> {folder / 'monitor.parquet'}")
         return 0
 
     return _simulating(job, str(args.replay))

@@ -111,6 +111,9 @@ class Interrupts:
         #: subclass for SIGTERM), None without one.
         self.noted: type[KeyboardInterrupt] | None = None
         self.previous: Any = None
+        #: The handlers before :meth:`hold_to_the_end` (signal -> handler), None when not
+        #: holding.
+        self.held: dict[int, Any] | None = None
 
     def __enter__(self) -> Interrupts:
         if self.depth == 0:
@@ -125,7 +128,7 @@ class Interrupts:
         self.depth -= 1
         if self.depth == 0 and self.previous is not None:
             if threading.current_thread() is threading.main_thread():
-                signal.signal(signal.SIGINT, self.previous)
+                self.restore(signal.SIGINT, self.previous)
             self.previous = None
 
     def _handler(self, signum: int, frame: Any) -> None:
@@ -147,6 +150,32 @@ class Interrupts:
         lost where it landed."""
         if self.noted:
             raise self.noted
+
+    def hold_to_the_end(self) -> None:
+        """From here to the end of the process, Ctrl-C and SIGTERM are ignored: a command
+        that moves its outputs into place calls this first, so that an interrupt either
+        comes before (nothing written, exit 130) or is not acted on (the outputs whole, the
+        command's own exit code).  One noted before is raised here.  Ignored, not blocked:
+        a signal to the process may land in any of its threads.  :meth:`restore` keeps a
+        handler put back meanwhile for :meth:`release`, which ends the hold (a command run
+        in-process, a test's).  In the main thread only (elsewhere nothing is held)."""
+        if self.held is None and threading.current_thread() is threading.main_thread():
+            self.held = {s: signal.signal(s, signal.SIG_IGN) for s in sorted(STOPS)}
+        self.check()
+
+    def restore(self, signum: int, handler: Any) -> None:
+        """Put ``handler`` back for ``signum``; while held, once the hold is released."""
+        if self.held is not None:
+            self.held[signum] = handler
+        else:
+            signal.signal(signum, handler)
+
+    def release(self) -> None:
+        """End :meth:`hold_to_the_end`'s hold: the handlers before it (or put back since)."""
+        if self.held is not None:
+            held, self.held = self.held, None
+            for signum, handler in held.items():
+                signal.signal(signum, handler)
 
     @contextlib.contextmanager
     def forked(self) -> Iterator[None]:

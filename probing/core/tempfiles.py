@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import socket
 from pathlib import Path
 
@@ -57,7 +58,7 @@ def _writer(name: str) -> tuple[int, str | None] | None:
     return None
 
 
-def remove_dead_writers_files(folder: Path, suffix: str) -> list[Path]:
+def remove_dead_writers_files(folder: Path, suffix: str, folders: bool = False) -> list[Path]:
     """Remove the temporaries in ``folder`` whose writer is dead.
 
     Parameters
@@ -67,6 +68,9 @@ def remove_dead_writers_files(folder: Path, suffix: str) -> list[Path]:
     suffix : str
         How the temporaries' names end (``".tmp"``, ``".tmp.npy"``); only hidden files
         (a leading dot) with a writer's tag are considered.
+    folders : bool
+        Also remove such folders, with what they hold (a command's staging folder,
+        :func:`probing.experiment.staging.staged_output`).
 
     Returns
     -------
@@ -92,6 +96,9 @@ def remove_dead_writers_files(folder: Path, suffix: str) -> list[Path]:
         try:
             if entry.is_file(follow_symlinks=False):
                 os.unlink(entry.path)
+                removed.append(Path(entry.path))
+            elif folders and entry.is_dir(follow_symlinks=False):
+                shutil.rmtree(entry.path)
                 removed.append(Path(entry.path))
         except OSError:
             pass  # gone already (another process cleaned up), or not ours to remove

@@ -130,7 +130,7 @@ def _tail(req: AnalysisRequest, m: int) -> int:
 def _columns(req: AnalysisRequest) -> dict[str, np.ndarray]:
     names = [req.input, *req.outputs]
     names += [n for n in (req.time, req.reference) if n is not None]
-    return read_columns(req.path, list(dict.fromkeys(names)))
+    return read_columns(req.path, list(dict.fromkeys(names)), time=req.time)
 
 
 def _deviations(req: AnalysisRequest, cols: dict[str, np.ndarray], m: int) -> np.ndarray:

@@ -225,11 +225,15 @@ class OutputFile:
     schema : pyarrow.Schema or None
         Its columns with their units; None for a file laid out per run (its writer builds
         the schema: ``timeseries.parquet``'s columns are the run's channels).
+    pandas_attrs : bool
+        Its ``probing.*`` keys are also kept where pandas keeps a DataFrame's ``attrs``, so
+        a file a user reads and writes again with pandas keeps them (``sensors.parquet``).
     """
 
     name: str
     description: str
     schema: pa.Schema | None
+    pandas_attrs: bool = False
 
 
 #: Every file a run writes into its folder: the one place a file's name, layout and
@@ -263,6 +267,7 @@ OUTPUT_FILES: dict[str, OutputFile] = {
             "autopilot's commands and every sensor's measurement; probing monitor --replay "
             "recomputes the monitor from it alone",
             None,
+            pandas_attrs=True,
         ),
         OutputFile(
             "truth.parquet",

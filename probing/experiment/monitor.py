@@ -28,7 +28,12 @@ import pyarrow.parquet as pq
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.trajectory import TrajectoryDetector
 from probing.experiment.bounds import EstimatesFile
-from probing.experiment.onboard import Onboard, open_reference_twin, reference_source
+from probing.experiment.onboard import (
+    Onboard,
+    log_columns,
+    open_reference_twin,
+    reference_source,
+)
 from probing.experiment.progress import progress_bar
 from probing.experiment.run import CHUNK_STEPS, RunResult, run_scenario
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
@@ -105,11 +110,12 @@ class MonitorResult:
 
     def line(self) -> str:
         """The two facts on one line, as the command prints them."""
-        when = "none" if self.first_alarm_s is None else f"{self.first_alarm_s:.2f} s"
-        by = "" if self.alarm_detector is None else f", {self.alarm_detector}"
-        line = (
-            f"first alarm: {when} (period {self.first_alarm_period}{by}); verdict: {self.verdict}"
-        )
+        if self.first_alarm_s is None:
+            when = "none"
+        else:
+            by = "" if self.alarm_detector is None else f", {self.alarm_detector}"
+            when = f"{self.first_alarm_s:.2f} s (period {self.first_alarm_period}{by})"
+        line = f"first alarm: {when}; verdict: {self.verdict}"
         return line if self.ended is None else f"{line}; the flight ended: {self.ended}"
 
 
@@ -327,6 +333,15 @@ class ReplayError(ValueError):
     """A log that cannot be replayed; the message names it and why."""
 
 
+class NotAFlightLog(ReplayError):
+    """A file without the metadata of a monitored flight's log: the message names the first
+    key it lacks (a log recorded elsewhere needs a map: ``docs/formats.md``)."""
+
+
+#: The metadata keys a replay needs in a log (the scenario, its digest, the trim reading).
+LOG_KEYS = (b"probing.scenario", b"probing.scenario_digest", b"probing.trim_measured")
+
+
 #: The metadata of a log that belongs to the log alone, not to what is computed from it.
 _LOG_ONLY = (
     b"probing.description",
@@ -379,7 +394,7 @@ def replay_monitor(
     """
     log = Path(log)
     meta = read_footer(log) if table is None else dict(table.schema.metadata or {})
-    scn, baseline = logged_scenario(log, meta, None if table is None else table.schema.names)
+    scn, baseline = logged_scenario(log, meta, table)
     settings = scn.monitor_settings()
     monitor = _Monitor(scn, settings)
     probe = scn.probe
@@ -389,7 +404,7 @@ def replay_monitor(
     folder = Path(folder) if folder is not None else Path(out) / scn.name
     lag_s = np.arange(m) * probe.bit_duration_s
     ended = meta.get(b"probing.ended")
-    kept = {k: v for k, v in meta.items() if k not in _LOG_ONLY}
+    kept = {k: v for k, v in meta.items() if k.startswith(b"probing.") and k not in _LOG_ONLY}
     twin = open_reference_twin(scn, nominal=True, use_cache=twin_cache)
     with twin or nullcontext():
         onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)
@@ -424,16 +439,51 @@ def _batches(log: Path, table: pa.Table | None, rows: int) -> Iterator[pa.Record
     return iter(table.combine_chunks().to_batches(max_chunksize=rows))
 
 
+def _check_values(log: Path, table: pa.Table | None, names: Sequence[str]) -> None:
+    """Every row of the columns ``names`` holds a finite number (ReplayError: the first
+    that does not, by column and row)."""
+    batches = (
+        pq.ParquetFile(log).iter_batches(columns=list(names))
+        if table is None
+        else table.select(list(names)).to_batches()
+    )
+    first = 0
+    for batch in batches:
+        for name in names:
+            column = batch.column(name)
+            if column.null_count:
+                row = first + int(np.flatnonzero(column.is_null().to_numpy(False))[0])
+                raise ReplayError(f"{log}: column {name} has no value at row {row}")
+            try:
+                values = column.to_numpy(zero_copy_only=False).astype(float)
+            except (TypeError, ValueError):
+                raise ReplayError(f"{log}: column {name} does not hold numbers") from None
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                what = "NaN" if np.isnan(values[bad[0]]) else "an infinity"
+                raise ReplayError(f"{log}: column {name} has {what} at row {first + bad[0]}")
+        first += batch.num_rows
+
+
 def logged_scenario(
-    log: Path, meta: dict[bytes, bytes], names: Sequence[str] | None = None
+    log: Path, meta: dict[bytes, bytes], table: pa.Table | None = None
 ) -> tuple[Scenario, np.ndarray]:
-    """The scenario a log was flown with and the sensors' reading of the trim (``names``:
-    the log's columns, read from the file if None)."""
-    resolved = meta.get(b"probing.scenario")
-    trim = meta.get(b"probing.trim_measured")
-    digest = meta.get(b"probing.scenario_digest")
-    if resolved is None or trim is None or digest is None:
-        raise ReplayError(f"{log}: not the sensors.parquet of a monitored flight")
+    """The scenario a log was flown with and the sensors' reading of the trim, once the log
+    holds every column the replay reads (:func:`probing.experiment.onboard.log_columns`)
+    with a number in every row (``table``: the log in memory, else read from the file).
+
+    Raises
+    ------
+    ReplayError
+        A key, a column or a value missing (naming the file, the column and the row).
+    """
+    lacking = [k.decode() for k in LOG_KEYS if k not in meta]
+    if lacking:
+        raise NotAFlightLog(
+            f"{log}: not the sensors.parquet of a monitored flight (no metadata "
+            f"{', '.join(lacking)})"
+        )
+    resolved, digest, trim = (meta[k] for k in LOG_KEYS)
     try:
         scn = parse_scenario(json.loads(resolved), source=str(log))
     except (ScenarioError, ValueError) as exc:
@@ -444,9 +494,11 @@ def logged_scenario(
         raise ReplayError(
             f"{log}: drift follow flew its twin alongside the aircraft; it cannot be replayed"
         )
-    names = set(read_schema(log).names if names is None else names)
-    missing = [c for c in scn.channels if c not in names]
+    names = set(read_schema(log).names if table is None else table.schema.names)
+    needed = log_columns(scn)
+    missing = [c for c in needed if c not in names]
     if missing:
         raise ReplayError(f"{log}: no column {', '.join(missing)}")
+    _check_values(log, table, needed)
     measured = json.loads(trim)
     return scn, np.array([measured[c] for c in scn.channels], dtype=float)

@@ -27,6 +27,18 @@ FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
 #: Relative tolerance of a uniform time step.
 STEP_TOLERANCE = 1e-6
 
+#: A time column whose name ends so is in another unit than seconds: (unit, per second).
+TIME_SUFFIXES = {
+    "_ms": ("milliseconds", 1e3),
+    "_us": ("microseconds", 1e6),
+    "_ns": ("nanoseconds", 1e9),
+}
+
+#: A numeric time column starting at or after this many seconds is Unix time (1e8 s is
+#: 1973; no record lasts three years), whose float step jitters by ~1e-7 s at today's
+#: values, more than :data:`STEP_TOLERANCE` of any sampling step shorter than 0.1 s.
+EPOCH_LIKE_S = 1e8
+
 
 #: A column name's unit suffix -> the unit, longest first (``q_rad_s`` is rad/s, not s).
 UNIT_SUFFIXES = (
@@ -92,7 +104,7 @@ def _available(path: Path, kind: str) -> dict[str, np.ndarray] | list[str]:
     return {k: v for k, v in loadmat(path).items() if not k.startswith("__")}
 
 
-def read_columns(path: Path, names: list[str]) -> dict[str, np.ndarray]:
+def read_columns(path: Path, names: list[str], time: str | None = None) -> dict[str, np.ndarray]:
     """The named columns of a CSV, Parquet or ``.mat`` file as float arrays.
 
     Parameters
@@ -101,6 +113,11 @@ def read_columns(path: Path, names: list[str]) -> dict[str, np.ndarray]:
         The file; its suffix says the format (:data:`FORMATS`).
     names : list of str
         Column (or ``.mat`` variable) names.
+    time : str or None
+        The time column among ``names``, read as seconds (:func:`_seconds`): date-times
+        (a Parquet timestamp, ISO text in a CSV) become seconds from the first sample; a
+        column named in another unit (:data:`TIME_SUFFIXES`) or holding Unix time
+        (:data:`EPOCH_LIKE_S`) is refused, saying what to give instead.
 
     Returns
     -------
@@ -127,13 +144,56 @@ def read_columns(path: Path, names: list[str]) -> dict[str, np.ndarray]:
 
             table = pq.read_table(path, columns=names)
             found = {n: table.column(n).to_numpy() for n in names}
-        out = {n: np.asarray(found[n], dtype=float) for n in names}
+        out = {
+            n: _seconds(path, n, found[n]) if n == time else np.asarray(found[n], dtype=float)
+            for n in names
+        }
     except RecordError:
         raise
     except (OSError, ValueError, TypeError, NotImplementedError) as exc:
         reason = " ".join(str(exc).split()) or exc.__class__.__name__
         raise RecordError(f"{path}: cannot read it as {kind} ({reason})") from None
     return _checked(path, out)
+
+
+def _seconds(path: Path, name: str, values: object) -> np.ndarray:
+    """A time column as seconds (see :func:`read_columns`'s ``time``); RecordError when it
+    is not, with what to give instead."""
+    raw = np.asarray(values)
+    if raw.dtype.kind in "OSU":  # text: date-times, as a CSV holds them
+        import pandas as pd
+
+        try:
+            raw = pd.DatetimeIndex(pd.to_datetime(pd.Series(raw), format="ISO8601")).as_unit("ns")
+        except (ValueError, TypeError):
+            raise RecordError(
+                f"{path}: time column {name} holds neither numbers nor date-times"
+            ) from None
+        if raw.tz is not None:
+            raw = raw.tz_convert(None)
+        raw = raw.to_numpy()
+    if raw.dtype.kind == "M":  # date-times: seconds from the first sample
+        stamps = raw.astype("datetime64[ns]").reshape(-1)
+        missing = np.flatnonzero(np.isnat(stamps))
+        if missing.size:
+            raise RecordError(f"{path}: time column {name} has no value at row {missing[0]}")
+        ns = stamps.view(np.int64)
+        return (ns - ns[0]).astype(float) * 1e-9 if ns.size else ns.astype(float)
+    seconds = np.asarray(raw, dtype=float)
+    instead = "give it in seconds from the record's start, or the sample step with --dt-s"
+    for suffix, (unit, per_s) in TIME_SUFFIXES.items():
+        if name.endswith(suffix):
+            raise RecordError(
+                f"{path}: time column {name} looks like {unit} (its name ends in {suffix}): "
+                f"{instead} (seconds = {unit} / {per_s:g})"
+            )
+    first = seconds.reshape(-1)[:1]
+    if first.size and np.isfinite(first[0]) and abs(first[0]) >= EPOCH_LIKE_S:
+        raise RecordError(
+            f"{path}: time column {name} looks like Unix time ({first[0]:.10g} s at the first "
+            f"sample; a float's step jitters at that size): {instead}"
+        )
+    return seconds
 
 
 def _checked(path: Path, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

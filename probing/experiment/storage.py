@@ -18,7 +18,6 @@ import os
 import platform
 import shutil
 import subprocess
-import sys
 import uuid
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -55,6 +54,8 @@ from probing.experiment.output_paths import (
     check_output_file,
     check_output_folder,
 )
+from probing.experiment.pandas_keys import from_pandas_attrs, to_pandas_attrs
+from probing.experiment.staging import DIGEST_KEY, earlier_files, report_removed
 
 __all__ = [
     "CHANNEL_UNIT",
@@ -255,6 +256,9 @@ class AtomicParquetWriter:
     row_group_rows : int
         Rows buffered before they are written as one row group (the last group of the file
         holds the rest).  Memory stays bounded by this many rows whatever the file's length.
+    pandas_attrs : bool
+        Also keep the ``probing.*`` keys in ``PANDAS_ATTRS`` (:mod:`~.pandas_keys`), so a
+        file pandas reads and writes again keeps them (a log a user edits).
 
     Notes
     -----
@@ -270,6 +274,7 @@ class AtomicParquetWriter:
         schema: pa.Schema,
         metadata: dict[bytes, bytes],
         row_group_rows: int = ROW_GROUP_ROWS,
+        pandas_attrs: bool = False,
     ) -> None:
         if row_group_rows < 1:
             raise ValueError("row_group_rows must be >= 1")
@@ -280,18 +285,31 @@ class AtomicParquetWriter:
         self.path = Path(path)
         self.tmp = self.path.with_name(f".{self.path.name}.{writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
+        self.pandas_attrs = pandas_attrs
         self.row_group_rows = int(row_group_rows)
         self._pending: list[pa.Table] = []
         self._pending_rows = 0
-        strings = [f.name for f in schema if pa.types.is_string(f.type)]
-        floats = [f.name for f in schema if pa.types.is_floating(f.type)]
-        self._writer = pq.ParquetWriter(
-            self.tmp,
-            self.schema,
-            compression="zstd",
-            use_dictionary=strings or False,
-            use_byte_stream_split=floats or False,
-        )
+        self._writer: pq.ParquetWriter | None = None  # opened with the first row group
+        self._late = False  # keys added to a log's schema after its rows began
+
+    def _opened(self) -> pq.ParquetWriter:
+        """The Parquet writer, opened on first use with the schema's metadata as it is then
+        (and, with ``pandas_attrs``, the same keys in ``PANDAS_ATTRS``)."""
+        if self._writer is None:
+            schema = self.schema
+            if self.pandas_attrs:
+                meta = schema.metadata or {}
+                schema = schema.with_metadata({**meta, **to_pandas_attrs(meta)})
+            strings = [f.name for f in schema if pa.types.is_string(f.type)]
+            floats = [f.name for f in schema if pa.types.is_floating(f.type)]
+            self._writer = pq.ParquetWriter(
+                self.tmp,
+                schema,
+                compression="zstd",
+                use_dictionary=strings or False,
+                use_byte_stream_split=floats or False,
+            )
+        return self._writer
 
     def write(self, columns: dict[str, Any]) -> None:
         """Append rows (columns of equal length); written out once a row group is full.
@@ -311,12 +329,22 @@ class AtomicParquetWriter:
             return
         table = pa.concat_tables(self._pending)
         self._pending, self._pending_rows = [], 0
-        self._writer.write_table(table, row_group_size=max(table.num_rows, 1))
+        self._opened().write_table(table, row_group_size=max(table.num_rows, 1))
 
     def add_metadata(self, items: dict[bytes, bytes]) -> None:
-        """Key-value metadata known only at the end (a monitor's verdict), added to the
-        file's footer before it is closed."""
-        self._writer.add_key_value_metadata(items)
+        """Key-value metadata known after the writer was made.
+
+        Before the first row group is written (a log's trim reading) the items join the
+        schema's metadata, which a reader's table keeps (``pq.read_table``, a read and
+        write again); after it (a monitor's verdict, known at the end) they go to the
+        file's footer only (:func:`read_footer`), except in a log (``pandas_attrs``),
+        which is then copied once under the new schema (:meth:`finish`).
+        """
+        if self._writer is None or self.pandas_attrs:  # a log: in its schema, at the end
+            self.schema = self.schema.with_metadata({**(self.schema.metadata or {}), **items})
+            self._late = self._writer is not None
+        else:
+            self._writer.add_key_value_metadata(items)
 
     def close(self) -> None:
         """Write the buffered rows, finish the file and move it to its final name."""
@@ -326,7 +354,26 @@ class AtomicParquetWriter:
     def finish(self) -> None:
         """Write the buffered rows and finish the file, still under its temporary name."""
         self._flush()
-        self._writer.close()
+        self._opened().close()  # a file without rows still has its schema
+        if self._late:  # keys known after rows were written: copied into a new schema
+            self._rewrite()
+
+    def _rewrite(self) -> None:
+        """Copy the finished temporary file, row group by row group, under the schema as it
+        is now (its keys added late included), and put the copy in its place."""
+        self._writer, self._late = None, False
+        copy = self.tmp.with_name(f"{self.tmp.name}.copy")
+        final, self.tmp = self.tmp, copy
+        try:
+            source = pq.ParquetFile(final)
+            for i in range(source.num_row_groups):
+                table = source.read_row_group(i).replace_schema_metadata(self.schema.metadata)
+                self._opened().write_table(table, row_group_size=max(table.num_rows, 1))
+            self._opened().close()
+            os.replace(copy, final)
+        finally:
+            self.tmp = final
+            copy.unlink(missing_ok=True)
 
     def commit(self) -> None:
         """Move the finished file to its final name."""
@@ -336,7 +383,8 @@ class AtomicParquetWriter:
         """Drop the partial file."""
         self._pending, self._pending_rows = [], 0
         try:
-            self._writer.close()
+            if self._writer is not None:
+                self._writer.close()
         finally:
             self.tmp.unlink(missing_ok=True)
 
@@ -376,37 +424,10 @@ class OutputFolder:
             raise ValueError(f"{name}: not in OUTPUT_FILES, or laid out per run: give schema")
         found = {**units(schema, channels, per), **(own_units or {})}
         meta = {**self.metadata, **metadata(description=description, units=found), **(extra or {})}
-        w = AtomicParquetWriter(self.path / name, schema, meta)
+        keep = spec is not None and spec.pandas_attrs
+        w = AtomicParquetWriter(self.path / name, schema, meta, pandas_attrs=keep)
         self.writers.append(w)
         return w
-
-
-_DIGEST_KEY = b"probing.scenario_digest"
-
-
-def _scenario_digest(path: Path) -> bytes | None:
-    """The scenario digest a Parquet file of the project carries (None: none, unreadable)."""
-    try:
-        return (pq.read_schema(path).metadata or {}).get(_DIGEST_KEY)
-    except (OSError, pa.ArrowException):
-        return None
-
-
-def _earlier_files(folder: OutputFolder, adds: bool) -> list[Path]:
-    """The files of an earlier run in ``folder`` that the files being written replace:
-    those of :data:`RUN_FILES` not written now (with ``adds``, only those of another
-    scenario than the folder's metadata names)."""
-    written = {w.path.name for w in folder.writers}
-    digest = folder.metadata.get(_DIGEST_KEY)
-    earlier = []
-    for name in RUN_FILES:
-        path = folder.path / name
-        if name in written or not path.is_file():
-            continue
-        if adds and digest is not None and _scenario_digest(path) == digest:
-            continue  # the run these files are added to
-        earlier.append(path)
-    return earlier
 
 
 @contextmanager
@@ -440,7 +461,8 @@ def output_folder(
         yield folder
         for w in folder.writers:
             w.finish()
-        earlier = _earlier_files(folder, adds)
+        written = {w.path.name for w in folder.writers}
+        earlier = earlier_files(path, written, folder.metadata.get(DIGEST_KEY), adds)
         for stale in earlier:
             stale.unlink(missing_ok=True)
         for w in folder.writers:
@@ -451,13 +473,7 @@ def output_folder(
         for p in reversed(created):
             shutil.rmtree(p, ignore_errors=True)
         raise
-    if earlier:
-        names = ", ".join(p.name for p in earlier)
-        print(
-            f"{path}: removed the files of an earlier run: {names}",
-            file=stream or sys.stderr,
-            flush=True,
-        )
+    report_removed(path, earlier, stream)
 
 
 # ------------------------------------------------------------------ reading
@@ -506,7 +522,8 @@ def read_schema(path: Path) -> pa.Schema:
 
 def read_footer(path: Path) -> dict[bytes, bytes]:
     """The key-value metadata of a stored Parquet file's footer, with what its writer added
-    at the end (a monitor's verdict, a log's trim reading).
+    at the end (a monitor's verdict), and the ``probing.*`` keys pandas kept in
+    ``PANDAS_ATTRS`` after a read and write of the file (the footer's own win).
 
     Raises
     ------
@@ -514,7 +531,8 @@ def read_footer(path: Path) -> dict[bytes, bytes]:
         When ``path`` is missing, unreadable or not a Parquet file.
     """
     with _reading(path):
-        return dict(pq.read_metadata(path).metadata or {})
+        meta = dict(pq.read_metadata(path).metadata or {})
+    return {**from_pandas_attrs(meta), **meta}
 
 
 @dataclass(frozen=True)

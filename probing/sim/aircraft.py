@@ -21,7 +21,7 @@ from importlib import metadata
 from pathlib import Path
 
 from probing.data import AIRCRAFT
-from probing.sim.errors import AircraftNotFoundError
+from probing.sim.errors import AircraftNotFoundError, CacheFolderError
 
 __all__ = [
     "GUST_AXES",
@@ -40,6 +40,7 @@ __all__ = [
     "not_loaded",
     "sanitised_root",
     "stock_root",
+    "usable_folder",
 ]
 
 PROJECT_AIRCRAFT = AIRCRAFT
@@ -139,8 +140,31 @@ def cache_dir() -> Path:
     """
     env = os.environ.get("PROBING_CACHE")
     if env:
-        return Path(env)
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "probing"
+        return usable_folder(Path(env), "$PROBING_CACHE")
+    root = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "probing"
+    return usable_folder(root, "cache folder")
+
+
+def usable_folder(path: Path, source: str) -> Path:
+    """``path``, a cache folder that is a folder or can be made one: neither it nor the
+    nearest of its parents that exists is anything but a folder.
+
+    The one check of where a cache lives (:func:`cache_dir`,
+    :func:`probing.sim.twins.twin_cache_dir`); ``source`` names where the path came from
+    (``$PROBING_CACHE``, say) for the message.
+
+    Raises
+    ------
+    CacheFolderError
+        If ``path``, or the part of it that exists, is a file (or anything but a folder).
+    """
+    for there in (path, *path.parents):
+        if there.exists() or there.is_symlink():
+            if there.is_dir():
+                return path
+            what = "" if there == path else f" ({there} is not a folder)"
+            raise CacheFolderError(f"{source} {path} is not a folder{what}")
+    return path
 
 
 def _sanitise(xml_path: Path, out_path: Path) -> None:

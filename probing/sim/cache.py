@@ -13,13 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from probing.sim.aircraft import cache_dir
+from probing.sim.errors import CacheFolderError
 from probing.sim.twins import twin_cache_dir
 
 __all__ = ["CacheFolderError", "CacheKind", "cache_kinds", "clear_cache"]
-
-
-class CacheFolderError(ValueError):
-    """A cache folder that is not a folder, or cannot be read or removed."""
 
 
 @dataclass(frozen=True)

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
-__all__ = ["AircraftNotFoundError", "DivergenceError", "TrimError"]
+__all__ = ["AircraftNotFoundError", "CacheFolderError", "DivergenceError", "TrimError"]
 
 
 class AircraftNotFoundError(ValueError):
     """The aircraft is neither in the project's ``aircraft/`` nor among JSBSim's."""
+
+
+class CacheFolderError(ValueError):
+    """A cache folder that is not a folder, or cannot be read or removed (bad input)."""
 
 
 class TrimError(RuntimeError):

@@ -41,7 +41,7 @@ from probing.sim import control as _control_module
 from probing.sim import drive as _drive_module
 from probing.sim import plant as _plant_module
 from probing.sim import turn_trim as _turn_trim_module
-from probing.sim.aircraft import cache_dir
+from probing.sim.aircraft import cache_dir, usable_folder
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import trim_spec
@@ -70,7 +70,9 @@ def twin_cache_dir() -> Path:
     ``~/.cache/probing``).
     """
     env = os.environ.get("PROBING_TWIN_CACHE")
-    return Path(env) if env else cache_dir() / "twins"
+    if env:
+        return usable_folder(Path(env), "$PROBING_TWIN_CACHE")
+    return usable_folder(cache_dir() / "twins", "cache folder")
 
 
 @functools.cache

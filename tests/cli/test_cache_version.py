@@ -71,3 +71,50 @@ def test_cache_folder_that_is_a_file_is_one_line(tmp_path: Path, monkeypatch, ca
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "is not a folder" in err
     assert (root / "twins").read_text() == "a file"
+
+
+@pytest.mark.parametrize(
+    ("variable", "inside"),
+    [("PROBING_CACHE", ""), ("PROBING_CACHE", "sub"), ("PROBING_TWIN_CACHE", "")],
+)
+def test_cache_variable_naming_a_file_is_one_line_exit_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys, variable: str, inside: str
+) -> None:
+    """A cache variable naming a regular file (or a folder inside one): every command that
+    resolves the cache says so in one line naming the variable and the path, exit 2, and
+    writes nothing; ``cache info`` reported 0 entries with exit 0."""
+    blocker = tmp_path / "cache-file"
+    blocker.write_text("not a folder")
+    value = blocker / inside if inside else blocker
+    monkeypatch.delenv("PROBING_CACHE", raising=False)
+    monkeypatch.delenv("PROBING_TWIN_CACHE", raising=False)
+    monkeypatch.setenv(variable, str(value))
+    if variable == "PROBING_TWIN_CACHE":
+        monkeypatch.setenv("PROBING_CACHE", str(tmp_path / "root"))
+    out = tmp_path / "out"
+    scenario = ROOT / "scenarios" / "fig4" / "a_deadband.toml"
+    for argv in (
+        ["cache", "info"],
+        ["cache", "clear", "--yes"],
+        *([["run", str(scenario), "--out", str(out)]] if variable == "PROBING_CACHE" else []),
+    ):
+        capsys.readouterr()
+        assert cli_main(argv) == 2, argv
+        captured = capsys.readouterr()
+        err = captured.err.splitlines()
+        assert len(err) == 1 and err[0].startswith("probing: error: "), (argv, err)
+        assert f"${variable} {value}" in err[0] and "not a folder" in err[0], err
+        assert captured.out == ""
+    assert blocker.read_text() == "not a folder"
+    assert not out.exists()
+    assert not (tmp_path / "root").exists()
+
+
+def test_cache_variable_naming_a_folder_to_be_made_is_used(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """The other side: a cache folder that does not exist yet is fine (made when needed)."""
+    monkeypatch.setenv("PROBING_CACHE", str(tmp_path / "new" / "cache"))
+    monkeypatch.delenv("PROBING_TWIN_CACHE", raising=False)
+    assert cli_main(["cache", "info"]) == 0
+    assert "aircraft  holds 0 entries" in capsys.readouterr().out

@@ -66,3 +66,18 @@ def test_twin_temporaries_by_their_suffix(tmp_path: Path) -> None:
 
 def test_a_live_pid_is_alive() -> None:
     assert pid_alive(os.getpid()) and not pid_alive(0)
+
+
+def test_a_dead_writers_staging_folder_goes_with_folders(tmp_path: Path) -> None:
+    """A command killed outright (kill -9) leaves its staging folder: removed with
+    ``folders=True`` when its writer is dead, never a live writer's; files as before."""
+    host = writer_tag().split("@")[1]
+    dead = dead_pid()
+    stale = tmp_path / f".staged.{dead}@{host}.tmp"
+    (stale / "inner").mkdir(parents=True)
+    (stale / "inner" / "probing.parquet").write_bytes(b"x")
+    mine = tmp_path / f".staged.{writer_tag()}.tmp"
+    mine.mkdir()
+    assert remove_dead_writers_files(tmp_path, ".tmp") == []  # folders only when asked
+    assert remove_dead_writers_files(tmp_path, ".tmp", folders=True) == [stale]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [mine.name]

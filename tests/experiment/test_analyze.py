@@ -9,10 +9,15 @@ records), and the 95 % bounds must hold the known response on at least 85 % of t
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
+import subprocess
+import sys
+import time
 from pathlib import Path
+from signal import SIGINT
 
 import numpy as np
 import pandas as pd
@@ -23,7 +28,7 @@ import scipy.io
 from scipy import signal
 
 from probing.cli import main as cli_main
-from probing.core.prbs import mls
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, mls
 from probing.experiment.analyze import AnalysisRequest, _deviations
 
 ORDER, M, AMPLITUDE, SIGMA, DT_S = 8, 255, 0.5, 0.01, 0.05
@@ -235,3 +240,133 @@ def test_each_output_loses_a_constant_of_its_own(drift: str) -> None:
             removed = cols[name] - both[:, j]
             np.testing.assert_allclose(removed, removed[0], rtol=0, atol=1e-9)
             assert abs(both[:, j].mean()) < 1e-9  # its own mean: no level left
+
+
+@pytest.mark.parametrize(
+    ("order", "code"),
+    [("-3", 2), ("0", 2), (str(MIN_ORDER - 1), 2), (str(MIN_ORDER), None),
+     (str(MAX_ORDER), None), (str(MAX_ORDER + 1), 2), ("eight", 2)],
+)  # fmt: skip
+def test_order_outside_the_supported_range_is_refused_by_the_parser(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], order: str, code: int | None
+) -> None:
+    """The orders of probing.core.prbs (MIN_ORDER to MAX_ORDER) pass the parser: a record that
+    is not that m-sequence is then refused by the analysis, with its own message."""
+    path = write(make_record(), tmp_path / "rec.csv")
+    out = tmp_path / "out"
+    capsys.readouterr()
+    argv = ["analyze", str(path), "--input", "u_deg", "--output", "y", "--time", "t_s",
+            "--order", order, "--bit-duration-s", str(DT_S), "--out", str(out)]  # fmt: skip
+    with pytest.raises(SystemExit) if code is not None else contextlib.nullcontext() as stop:
+        got = cli_main(argv)
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("probing: error: "), err
+    if code is not None:
+        assert stop.value.code == 2
+        assert f"--order: must be an integer from {MIN_ORDER} to {MAX_ORDER}" in err[0], err
+    else:
+        assert got == 2 and "not an m-sequence" in err[0], err
+    assert not out.exists()
+
+
+ANALYZE_FILES = ("bounds.parquet", "probing.parquet", "pulse_response.png")
+
+
+def _interrupt_when(cmd: list[str], out: Path, delay_s: float) -> subprocess.CompletedProcess:
+    """Run ``cmd``; ``delay_s`` after ``out`` appears (-1: after any output appears, the
+    files' moment), send it Ctrl-C (SIGINT); its return code and streams."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and (delay_s >= 0 or any(out.iterdir())):
+            break
+        time.sleep(0.001)
+    time.sleep(max(delay_s, 0.0))
+    proc.send_signal(SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay_s", [-1.0, 0.0, 0.05, 0.15, 0.3, 0.6, 1.0, 1.5])
+def test_an_interrupt_at_any_moment_leaves_nothing(tmp_path: Path, delay_s: float) -> None:
+    """Ctrl-C while the estimates, the bounds or the figure are written (or after): exit 130
+    with no output folder, or the command had finished (exit 0) with all three files."""
+    path = write(make_record(spb=40), tmp_path / "rec.csv")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "probing", "analyze", str(path), "--input", "u_deg",
+           "--output", "y", "--time", "t_s", "--order", str(ORDER), "--bit-duration-s",
+           str(40 * DT_S), "--out", str(out)]  # fmt: skip
+    res = _interrupt_when(cmd, out, delay_s)
+    assert "Traceback" not in res.stderr, res.stderr
+    if res.returncode == 130:
+        assert res.stderr.splitlines()[-1] == "probing: error: interrupted"
+        assert not out.exists(), sorted(p.name for p in out.iterdir())
+    else:
+        assert res.returncode == 0, res.stderr
+        assert sorted(p.name for p in out.iterdir()) == list(ANALYZE_FILES)
+
+
+def _analyze_with_time(path: Path, out: Path, time_col: str, bit_s: float) -> int:
+    return cli_main(
+        ["analyze", str(path), "--input", "u_deg", "--output", "y", "--time", time_col,
+         "--order", str(ORDER), "--bit-duration-s", str(bit_s), "--out", str(out)]
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("column", "values", "needle"),
+    [
+        ("time_ms", lambda t: t * 1000.0, "time_ms looks like milliseconds"),
+        ("t_us", lambda t: t * 1e6, "t_us looks like microseconds"),
+        ("unix_s", lambda t: 1.7e9 + t, "looks like Unix time"),
+    ],
+)
+def test_a_time_column_not_in_seconds_from_the_start_is_refused_with_what_to_do(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], column, values, needle
+) -> None:
+    """A time column in milliseconds labelled 5040 "seconds"; Unix time failed on the float
+    jitter of its step (2e-7 s at 1.7e9 s): one line saying what to do, exit 2."""
+    frame = make_record()
+    frame[column] = values(frame.pop("t_s"))
+    path = write(frame, tmp_path / "rec.csv")
+    capsys.readouterr()
+    assert _analyze_with_time(path, tmp_path / "out", column, DT_S * 1000) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and needle in err[0], err
+    assert "--dt-s" in err[0] and "seconds from the record's start" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_uniform_datetime_column_is_seconds_from_the_first_sample(
+    tmp_path: Path, suffix: str
+) -> None:
+    """Date-times (a Parquet timestamp, ISO text in a CSV) at a uniform step are read as
+    seconds from the first sample: the same estimate as the seconds column."""
+    frame = make_record()
+    assert analyze(write(frame, tmp_path / "s.csv"), tmp_path / "seconds") == 0
+    start = pd.Timestamp("2024-05-01T12:00:00")
+    frame["when"] = start + pd.to_timedelta(np.round(frame.pop("t_s") * 1e3), unit="ms")
+    path = write(frame, tmp_path / f"d{suffix}")
+    assert _analyze_with_time(path, tmp_path / "dates", "when", DT_S) == 0
+    np.testing.assert_array_equal(
+        bounds(tmp_path / "dates").h_est.to_numpy(), bounds(tmp_path / "seconds").h_est.to_numpy()
+    )
+    meta = json.loads(pq.read_metadata(tmp_path / "dates" / "probing.parquet").metadata[
+        b"probing.analysis"
+    ])  # fmt: skip
+    assert meta["dt_s"] == pytest.approx(DT_S, rel=1e-12)
+
+
+def test_a_datetime_column_with_a_gap_is_refused_in_seconds(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    frame = make_record().drop(index=300).reset_index(drop=True)
+    start = pd.Timestamp("2024-05-01T12:00:00")
+    frame["when"] = start + pd.to_timedelta(np.round(frame.pop("t_s") * 1e3), unit="ms")
+    path = write(frame, tmp_path / "d.parquet")
+    capsys.readouterr()
+    assert _analyze_with_time(path, tmp_path / "out", "when", DT_S) == 2
+    err = capsys.readouterr().err
+    assert "not uniform at row 300 (0.1 s, elsewhere 0.05 s)" in err, err

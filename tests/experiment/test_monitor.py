@@ -433,3 +433,19 @@ def test_the_first_alarms_row_ends_at_the_reported_first_alarm(flights):
     meta = pq.read_metadata(folder / "monitor.parquet").metadata
     assert json.loads(meta[b"probing.first_alarm_s"]) == pytest.approx(first.time_s, rel=1e-12)
     assert not mon[mon.time_s <= 25.0].alarm.any()
+
+
+@pytest.mark.parametrize(
+    ("alarm_s", "period", "detector", "ended", "expected"),
+    [
+        (None, None, None, None, "first alarm: none; verdict: none"),
+        (None, None, None, "x", "first alarm: none; verdict: none; the flight ended: x"),
+        (46.0, 22, "probing", None, "first alarm: 46.00 s (period 22, probing); verdict: none"),
+    ],
+)  # fmt: skip
+def test_the_result_line_says_none_without_a_period(alarm_s, period, detector, ended, expected):
+    """No alarm: "first alarm: none", not "(period None)"; an alarm keeps its period."""
+    from probing.experiment.monitor import MonitorResult
+
+    result = MonitorResult(None, alarm_s, period, "none", 0.01, ended, alarm_detector=detector)
+    assert result.line() == expected

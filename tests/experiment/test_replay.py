@@ -4,8 +4,10 @@ and never sees the simulated atmosphere."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -140,3 +142,134 @@ def test_the_command_replays_and_refuses_in_one_line(flights, tmp_path):
         assert bad.returncode == 2, (args, bad.stderr)
         assert len(bad.stderr.strip().splitlines()) == 1, (args, bad.stderr)
         assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_foreign_log_without_map_is_told_to_give_one(tmp_path, capsys, suffix):
+    """A log recorded elsewhere (a CSV, or a Parquet file without a flight's metadata),
+    replayed without --map: one line that names --map, exit 2, nothing written."""
+    from probing.cli import main as cli_main
+
+    log = tmp_path / f"flight{suffix}"
+    if suffix == ".csv":
+        log.write_text("t,q\n0,0.1\n0.01,0.2\n")
+    else:
+        pq.write_table(pa.table({"t": [0.0, 0.01], "q": [0.1, 0.2]}), log)
+    capsys.readouterr()
+    assert cli_main(["monitor", "--replay", str(log), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"probing: error: {log}"), err
+    assert "--map" in err[0] and "docs/formats.md" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+def _pyarrow_round_trip(log: Path, to: Path) -> None:
+    pq.write_table(pq.read_table(log), to)
+
+
+def _pandas_round_trip(log: Path, to: Path) -> None:
+    import pandas as pd
+
+    pd.read_parquet(log).to_parquet(to)
+
+
+@pytest.mark.parametrize("round_trip", [_pyarrow_round_trip, _pandas_round_trip])
+def test_a_log_read_and_written_again_replays_the_same(flights, tmp_path, round_trip):
+    """A user's edit reads the log and writes it again (pyarrow's read_table/write_table,
+    pandas' read_parquet/to_parquet): every key the replay needs survives, and the replay's
+    tables equal the flight's."""
+    live = flights["nominal"]
+    copy = tmp_path / "edited.parquet"
+    round_trip(live.out_dir / "sensors.parquet", copy)
+    again = replay_monitor(copy, tmp_path / "out", progress=False)
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
+        a, b = _tables(live.out_dir, name)[0], _tables(again.out_dir, name)[0]
+        assert len(a) > 0 and a.equals(b), name
+    assert (again.first_alarm_s, again.verdict) == (live.first_alarm_s, live.verdict)
+
+
+@pytest.mark.parametrize(
+    "key", [b"probing.scenario", b"probing.scenario_digest", b"probing.trim_measured"]
+)
+def test_a_log_without_a_key_names_it(flights, tmp_path, key):
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    table = pq.read_table(log)
+    meta = {k: v for k, v in (table.schema.metadata or {}).items() if k != key}
+    attrs = json.loads(meta.pop(b"PANDAS_ATTRS"))  # the copy pandas keeps: without it too
+    del attrs[key.decode()]
+    meta[b"PANDAS_ATTRS"] = json.dumps(attrs).encode()
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "cut.parquet")
+    with pytest.raises(ReplayError, match=f"no metadata {key.decode()}"):
+        replay_monitor(tmp_path / "cut.parquet", tmp_path / "out", progress=False)
+
+
+def _null_at(table: pa.Table, column: str, row: int) -> pa.Table:
+    values = table.column(column).to_pylist()
+    values[row] = None
+    return table.set_column(table.schema.get_field_index(column), column, pa.array(values))
+
+
+def _nan_at(table: pa.Table, column: str, row: int) -> pa.Table:
+    values = table.column(column).to_numpy().copy()
+    values[row] = np.nan
+    return table.set_column(table.schema.get_field_index(column), column, pa.array(values))
+
+
+@pytest.mark.parametrize(
+    ("drift", "spoil", "needle"),
+    [
+        ("nominal", lambda t: _null_at(t, "theta_rad", 100), "theta_rad has no value at row 100"),
+        ("gust", lambda t: _nan_at(t, "alpha_rad", 200), "column alpha_rad has NaN at row 200"),
+        ("nominal", lambda t: _nan_at(t, "time_s", 0), "column time_s has NaN at row 0"),
+        ("gust", lambda t: t.drop_columns(["alpha_rad"]), "no column alpha_rad"),
+    ],
+)  # fmt: skip
+def test_a_spoilt_log_is_one_line_exit_2_nothing_written(
+    flights, tmp_path, capsys, drift, spoil, needle
+):
+    """A value missing (null, NaN) or a column dropped: one line naming the file, the column
+    (and the row), exit 2, nothing written; was ArrowInvalid, IndexError or KeyError."""
+    from probing.cli import main as cli_main
+
+    log = flights[drift].out_dir / "sensors.parquet"
+    table = pq.read_table(log)
+    spoilt = tmp_path / "spoilt.parquet"
+    pq.write_table(spoil(table).replace_schema_metadata(table.schema.metadata), spoilt)
+    capsys.readouterr()
+    assert cli_main(["monitor", "--replay", str(spoilt), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"probing: error: {spoilt}: "), err
+    assert needle in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+REPLAY_FILES = ["bounds.parquet", "monitor.parquet", "probing.parquet"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay_s", [-1.0, 0.0, 0.1, 0.3, 0.6, 1.0, 1.5, 2.5])
+def test_an_interrupted_replay_leaves_nothing(flights, tmp_path, delay_s):
+    """Ctrl-C at any moment of a replay (``delay_s`` after its folder appears; -1: once a file
+    appears in it): exit 130 and no folder, or it had finished (0) with its three tables."""
+    from signal import SIGINT
+
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    out = tmp_path / "r"
+    cmd = [sys.executable, "-m", "probing", "monitor", "--replay", str(log), "--out", str(out)]
+    folder = out / "gtm-monitored"
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if folder.exists() and (delay_s >= 0 or any(folder.iterdir())):
+            break
+        time.sleep(0.001)
+    time.sleep(max(delay_s, 0.0))
+    proc.send_signal(SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err, err
+    if proc.returncode == 130:
+        assert err.splitlines()[-1] == "probing: error: interrupted"
+        assert not out.exists(), sorted(p.name for p in out.rglob("*"))
+    else:
+        assert proc.returncode == 0, err
+        assert sorted(p.name for p in folder.iterdir()) == REPLAY_FILES

@@ -248,3 +248,34 @@ def test_a_file_outside_the_registry_needs_its_schema_and_description(tmp_path: 
             with pytest.raises(ValueError, match="give schema"):
                 folder.writer(name, ["theta_rad"])
     assert not (tmp_path / "run").exists() or list((tmp_path / "run").iterdir()) == []
+
+
+@pytest.mark.parametrize("rows", [3, 5000])
+def test_a_logs_keys_added_early_or_late_survive_a_read_and_write(tmp_path: Path, rows) -> None:
+    """sensors.parquet's keys, added before its rows (the trim reading) or after them (the
+    flight ended: known at its end, after row groups were written), are in the schema's
+    metadata: pyarrow's read_table/write_table and pandas' read_parquet/to_parquet keep
+    them, and read_footer reads them back."""
+    import pandas as pd
+    import pyarrow as pa
+
+    from probing.experiment.layouts import sensors_schema
+    from probing.experiment.storage import output_folder, read_footer
+
+    schema = sensors_schema(["theta_rad"], False)
+    with output_folder(tmp_path / "run", {b"probing.scenario": b"{}"}) as folder:
+        w = folder.writer("sensors.parquet", ["theta_rad"], schema=schema)
+        w.row_group_rows = 1000
+        w.add_metadata({b"probing.trim_measured": b'{"theta_rad": 0.1}'})
+        w.write({n: [float(i) for i in range(rows)] for n in schema.names})
+        w.add_metadata({b"probing.ended": b"diverged"})
+    log = tmp_path / "run" / "sensors.parquet"
+    pq.write_table(pq.read_table(log), tmp_path / "arrow.parquet")
+    pd.read_parquet(log).to_parquet(tmp_path / "pandas.parquet")
+    for path in (log, tmp_path / "arrow.parquet", tmp_path / "pandas.parquet"):
+        meta = read_footer(path)
+        assert meta[b"probing.trim_measured"] == b'{"theta_rad": 0.1}', path
+        assert meta[b"probing.ended"] == b"diverged", path
+        assert meta[b"probing.scenario"] == b"{}", path
+    assert pq.read_table(log).num_rows == rows
+    assert pq.read_table(log).equals(pa.Table.from_pandas(pd.read_parquet(log)).cast(schema))
