@@ -3,7 +3,7 @@
 The package is layered; imports run one way only (checked by import-linter, ``make lint``):
 
 ``probing.core`` (numpy/scipy) <- ``probing.sim`` (the only place that imports jsbsim) <-
-``probing.experiment`` <- ``probing.sweep`` <- ``analysis`` <- ``probing.cli``.
+``probing.experiment`` <- ``probing.sweep`` <- ``probing.analysis`` <- ``probing.cli``.
 
 The numerical core is re-exported here; ``import probing`` loads neither JSBSim, matplotlib
 nor pandas.

@@ -101,13 +101,13 @@ MUTATIONS = [
         "tests/sweep/test_sweep.py::test_a_retry_that_succeeds_removes_the_old_failure_record",
     ),
     (
-        "analysis/monitoring.py",
+        "probing/analysis/monitoring.py",
         "healthy = periods[periods.time_s <= onset]",
         "healthy = periods[periods.time_s < onset]",
         "tests/analysis/test_monitoring.py::test_a_period_ending_at_the_onset_is_healthy",
     ),
     (
-        "analysis/monitoring.py",
+        "probing/analysis/monitoring.py",
         "first_alarm is not None and first_alarm > onset",
         "first_alarm is not None and first_alarm >= onset",
         "tests/analysis/test_monitoring.py::test_a_first_alarm_at_the_onset_gives_no_verdict_for_the_fault",
@@ -143,13 +143,13 @@ MUTATIONS = [
         "tests/experiment/test_design_window.py::test_the_per_period_gain_scatter_is_that_of_the_settled_periods_alone",
     ),
     (
-        "analysis/excitations.py",
+        "probing/analysis/excitations.py",
         "float(gains.std(ddof=1))",
         "float(gains.std(ddof=0))",
         "tests/analysis/test_excitations.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
     ),
     (
-        "analysis/monitoring.py",
+        "probing/analysis/monitoring.py",
         "CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)",
         "CHECK_RATE_PER_HOUR * f.period_s / 3600.0)",
         "tests/analysis/test_monitoring.py::test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels",

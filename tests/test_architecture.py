@@ -59,13 +59,13 @@ def test_one_version_string() -> None:
 
 
 def test_analysis_loads_no_simulator() -> None:
-    """Every ``analysis`` module draws from stored files: importing them all loads neither
+    """Every ``probing.analysis`` module draws from stored files: importing them all loads neither
     JSBSim, the plant nor the runner (the constants they share live in light modules)."""
     simulator = ("jsbsim", "probing.sim.plant", "probing.experiment.run")
     code = (
         "import importlib, json, pkgutil, sys\n"
-        "import analysis\n"
-        "names = [m.name for m in pkgutil.walk_packages(analysis.__path__, 'analysis.')]\n"
+        "import probing.analysis as analysis\n"
+        "names = [m.name for m in pkgutil.walk_packages(analysis.__path__, 'probing.analysis.')]\n"
         "for name in names:\n"
         "    importlib.import_module(name)\n"
         f"print(json.dumps([len(names), [m for m in {simulator!r} if m in sys.modules]]))"
@@ -85,7 +85,7 @@ def test_no_code_assigns_to_another_objects_private_attribute() -> None:
 
     root = Path(__file__).resolve().parents[1]
     found = []
-    for path in sorted([*root.glob("probing/**/*.py"), *root.glob("analysis/*.py")]):
+    for path in sorted(root.glob("probing/**/*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             targets = (
                 node.targets
@@ -149,7 +149,7 @@ def _functions(path: Path) -> Iterator[tuple[str, ast.AST, list[str]]]:
 
 
 def _sources() -> list[Path]:
-    return sorted(p for top in ("probing", "analysis") for p in (ROOT / top).rglob("*.py"))
+    return sorted((ROOT / "probing").rglob("*.py"))
 
 
 def test_no_module_is_over_600_lines() -> None:

@@ -18,7 +18,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 VERSION = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
 #: What a wheel is built from (the rest of the repository is not the package's).
-SOURCES = ("pyproject.toml", "README.md", "LICENSE", "probing", "analysis", "aircraft", "scenarios")
+SOURCES = ("pyproject.toml", "README.md", "LICENSE", "probing", "aircraft", "scenarios")
 SOURCES += ("examples",)
 #: Messages of pip that say no package index could be reached.
 OFFLINE = ("NewConnectionError", "Temporary failure in name resolution", "No matching distribution")
@@ -70,6 +70,9 @@ def test_the_wheel_ships_the_gtm_the_scenarios_and_the_examples(tmp_path: Path) 
         missing = [n for n in shipped(folder) if n not in names]
         assert missing == [], missing
     assert not [n for n in names if "__pycache__" in n or n.endswith(".pyc")]
+    # one top-level package, the project's own: no "analysis" to shadow a user's analysis.py
+    assert {n.split("/")[0] for n in names if ".dist-info" not in n} == {"probing"}
+    assert "probing/analysis/fig4.py" in names
 
 
 def short(path: Path, periods: int = 3) -> None:

@@ -59,7 +59,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         result = analyze(req)
     except RecordError as exc:
         raise UsageError(str(exc)) from None
-    from analysis.analyze_plots import draw_bounds
+    from probing.analysis.analyze_plots import draw_bounds
     from probing.experiment.staging import staged_output
 
     with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing

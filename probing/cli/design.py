@@ -127,7 +127,7 @@ def _modes_dict(modes: Any) -> dict[str, float]:
 
 
 def _design_table(d: Any) -> str:
-    from analysis.tables import fmt
+    from probing.analysis.tables import fmt
     from probing.sim.channels import unit_of
 
     unit = unit_of(d.channel)

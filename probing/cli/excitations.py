@@ -49,13 +49,13 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
 
 
 def _finish(args: argparse.Namespace, t_start: float) -> int:
-    from analysis import excitations, excitations_plots
+    from probing.analysis import excitations, excitations_plots
     from probing.experiment.storage import StoredFileError
 
     study = excitations.collect(args.out)
     monitor = None
     if args.monitor is not None:
-        from analysis.excitation_monitor import monitor_table
+        from probing.analysis.excitation_monitor import monitor_table
 
         try:
             monitor = monitor_table(args.monitor)

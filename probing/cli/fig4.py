@@ -77,7 +77,7 @@ def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
 
 
 def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
-    from analysis import fig4, fig4_plots
+    from probing.analysis import fig4, fig4_plots
     from probing.experiment.storage import StoredFileError
 
     try:

@@ -13,7 +13,7 @@ def _cmd_modes(args: argparse.Namespace) -> int:
     _out_file(args.figure.with_name(f"{args.figure.name}.png"), "--figure")
 
     def job() -> int:
-        from analysis import gtm_modes
+        from probing.analysis import gtm_modes
         from probing.experiment.modes import damage_table, mode_table
 
         points = mode_table()
@@ -38,7 +38,7 @@ def _cmd_gtm_damage(args: argparse.Namespace) -> int:
     _out_folder(args.figures, "--figures")
 
     def job() -> int:
-        from analysis import gtm_damage
+        from probing.analysis import gtm_damage
         from probing.experiment.gtm_damage import run_example6
 
         run_example6(args.out)

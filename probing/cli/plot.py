@@ -54,29 +54,29 @@ def _plot_sweep(args: argparse.Namespace) -> int:
 
 def _plot_monitor(args: argparse.Namespace) -> int:
     """The monitor study's tables and figures from its stored flights."""
-    from analysis.monitoring import evaluate, load_study, summary_markdown
-    from analysis.monitoring_plots import draw_all
+    from probing.analysis.monitoring import evaluate, load_study, summary_markdown
+    from probing.analysis.monitoring_plots import draw_all
 
     return _plot_study(args, lambda path: evaluate(load_study(path)), summary_markdown, draw_all)
 
 
 def _plot_simultaneous(args: argparse.Namespace) -> int:
     """The simultaneous designs' cross-talk tables and figures from their stored runs."""
-    from analysis.simultaneous import draw, load_runs, summary_markdown
+    from probing.analysis.simultaneous import draw, load_runs, summary_markdown
 
     return _plot_study(args, load_runs, summary_markdown, draw)
 
 
 def _plot_manoeuvres(args: argparse.Namespace) -> int:
     """The manoeuvre study's table and figures from its stored runs."""
-    from analysis.manoeuvres import draw, load_runs, summary_markdown
+    from probing.analysis.manoeuvres import draw, load_runs, summary_markdown
 
     return _plot_study(args, load_runs, summary_markdown, draw)
 
 
 def _plot_references(args: argparse.Namespace) -> int:
     """The references study's table and figure from its stored flights."""
-    from analysis.references import draw, load_runs, summary_markdown
+    from probing.analysis.references import draw, load_runs, summary_markdown
 
     return _plot_study(args, load_runs, summary_markdown, draw)
 

@@ -53,7 +53,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return _error(str(exc), 1)
     for message in result.messages:
         print(f"  {message}", file=sys.stderr)
-    from analysis.tables import sweep_table
+    from probing.analysis.tables import sweep_table
     from probing.sweep import read_summary
 
     print(sweep_table(read_summary(result.folder), sweep.fields))
@@ -65,8 +65,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 def _plot_sweep_folder(folder: Path, figures: Path) -> None:
     """Draw a sweep's figure; for a sweep over seeds also print its measured/predicted table."""
-    from analysis.seeds import has_seeds, seed_statistics, seed_table
-    from analysis.sweep_plots import NotASweepError, load_sweep_data, plot_sweep
+    from probing.analysis.seeds import has_seeds, seed_statistics, seed_table
+    from probing.analysis.sweep_plots import NotASweepError, load_sweep_data, plot_sweep
 
     try:
         paths = plot_sweep(folder, figures)

@@ -9,7 +9,7 @@ the same calm air and the same unprobed twin as the reference; each baseline get
 truth (``truth.parquet``, ``prediction.parquet``).  The baselines are flown again over
 :data:`NOISE_SEEDS` seeds with white sensor noise (:data:`SENSOR_NOISE`) for the gain's
 scatter over seeds.  Runs already stored with the same scenario digest are skipped; the
-runs and their roles go to ``manifest.json``.  :mod:`analysis.excitations` reads them.
+runs and their roles go to ``manifest.json``.  :mod:`probing.analysis.excitations` reads them.
 """
 
 from __future__ import annotations

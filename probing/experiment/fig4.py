@@ -6,7 +6,7 @@ the set, a constant-offset twin for the saturation panel (:func:`offset_twin`) a
 rate-limit sweep (:func:`sweep_scenarios`), skipping runs whose ``probing.parquet`` already
 holds the same scenario digest (Parquet metadata key ``probing.scenario_digest``), and writes
 ``manifest.json`` (which run folder belongs to which panel).  The figures and the summary are
-drawn from the stored Parquet by :mod:`analysis.fig4`; see ``docs/fig4.md``.
+drawn from the stored Parquet by :mod:`probing.analysis.fig4`; see ``docs/fig4.md``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 baseline's and the offset twin's keys, the channel read, and the rate-limit sweep's ratios
 and bit durations.
 
-:mod:`probing.experiment.fig4` runs a set on JSBSim; :mod:`analysis.fig4` reads the runs
+:mod:`probing.experiment.fig4` runs a set on JSBSim; :mod:`probing.analysis.fig4` reads the runs
 back, loading no JSBSim.
 """
 

@@ -8,7 +8,7 @@ case on at 10 s and simulates to 15 s.  :func:`fly_case` does the same on ``gtm_
 :meth:`~probing.sim.plant.Plant.schedule`); :func:`run_example6` flies the undamaged aircraft
 and the six cases and writes one Parquet time history per case, with the trim (JSBSim's turn
 trim it started from and the zero-sideslip one) in its metadata.  ``probing gtm-damage`` draws
-them and writes the summary (:mod:`analysis.gtm_damage`).
+them and writes the summary (:mod:`probing.analysis.gtm_damage`).
 """
 
 from __future__ import annotations

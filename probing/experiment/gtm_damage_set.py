@@ -2,7 +2,7 @@
 (:class:`Example6`), the recorded signals (:data:`SIGNALS`), the Parquet layout and where
 each case's file lies (:func:`case_file`).
 
-:mod:`probing.experiment.gtm_damage` flies the cases on JSBSim; :mod:`analysis.gtm_damage`
+:mod:`probing.experiment.gtm_damage` flies the cases on JSBSim; :mod:`probing.analysis.gtm_damage`
 reads them back, loading no JSBSim.
 """
 

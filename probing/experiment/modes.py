@@ -4,7 +4,7 @@ For each equivalent airspeed the aircraft is trimmed straight and level with the
 one trim path (:meth:`probing.sim.plant.Plant.trim`, JSBSim's full trim, gear up), then
 linearised with ``FGLinearization``; the longitudinal block (Vt, alpha, theta, q) gives the
 short period and the phugoid.  ``probing modes`` writes the table and figure
-(:mod:`analysis.gtm_modes`).
+(:mod:`probing.analysis.gtm_modes`).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 the damage table and the points (:class:`ModePoint`, :class:`DamagePoint`).
 
 :mod:`probing.experiment.modes` computes the points (trim, linearisation, pulses on JSBSim);
-:mod:`analysis.gtm_modes` writes them out, loading no JSBSim.
+:mod:`probing.analysis.gtm_modes` writes them out, loading no JSBSim.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Short period and phugoid as numbers, from the longitudinal eigenvalues.
 
-No JSBSim: what the figures and tables read (:mod:`analysis.gtm_modes`) is light;
+No JSBSim: what the figures and tables read (:mod:`probing.analysis.gtm_modes`) is light;
 :func:`probing.sim.linear.longitudinal_modes` linearises a trimmed plant to get them.
 """
 

@@ -17,9 +17,9 @@ the per-period gain scatter and false alarms), ``monitor-<signal>-effectiveness.
 elevator's effectiveness scaled to 0.8) and ``monitor-<signal>-damage5.toml`` (NASA's case 5,
 left elevator off), each with the monitor study's seeds and random onsets
 (``scenarios/monitor-realisable/generate.py``, imported: one rule).  A sweep is named
-``monitor-<fault>-<signal>`` (``monitor-effectiveness-chirp``): ``analysis.monitoring``
+``monitor-<fault>-<signal>`` (``monitor-effectiveness-chirp``): ``probing.analysis.monitoring``
 reads the fault from the part after ``monitor-`` and takes the rest as what tells sweeps of
-one fault apart.  Scored by ``analysis/excitation_monitor.py``.  The files are committed;
+one fault apart.  Scored by ``probing/analysis/excitation_monitor.py``.  The files are committed;
 running this again gives the same bytes.
 """
 
@@ -59,7 +59,7 @@ SIGNALS: dict[str, dict[str, Any]] = {
 }
 #: The faults: file part -> (its type in probing.core.faults.FAULTS, its fields without
 #: onset_s, the grid's fields, the monitor study's fault whose onsets it flies).  The scale
-#: is in the grid: ``analysis.monitoring`` reads it from the summary.
+#: is in the grid: ``probing.analysis.monitoring`` reads it from the summary.
 FAULTS: dict[str, tuple[str, dict[str, Any], dict[str, list[Any]], str]] = {
     "effectiveness": ("effectiveness", {}, {"fault.scale": [0.8]}, "effectiveness"),
     "damage5": ("gtm_damage", {"case": 5}, {}, "damage5"),

@@ -12,9 +12,9 @@ import pytest
 
 matplotlib.use("Agg")
 
-from analysis import analyze_plots
-from analysis.analyze_plots import ZOOM_WHEN, auto_max_lag_s, draw_bounds
-from analysis.figures import legends_over_data
+from probing.analysis import analyze_plots
+from probing.analysis.analyze_plots import ZOOM_WHEN, auto_max_lag_s, draw_bounds
+from probing.analysis.figures import legends_over_data
 
 
 def _capture(monkeypatch: pytest.MonkeyPatch) -> dict:

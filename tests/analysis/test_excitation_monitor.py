@@ -12,7 +12,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from analysis.excitation_monitor import gain_changes, monitor_table
+from probing.analysis.excitation_monitor import gain_changes, monitor_table
 
 T = 2.0  # period, s
 N = 40  # periods 2..39, tested from 12 on

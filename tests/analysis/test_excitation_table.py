@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.excitations import CHANNELS, Run, Study, accuracy_rows
+from probing.analysis.excitations import CHANNELS, Run, Study, accuracy_rows
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

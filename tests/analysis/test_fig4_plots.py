@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 from matplotlib.collections import PolyCollection
 
-from analysis import fig4, fig4_plots
+from probing.analysis import fig4, fig4_plots
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import compensate
 from probing.core.recorded import tap_bounds

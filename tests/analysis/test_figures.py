@@ -1,4 +1,4 @@
-"""The readability checks of :mod:`analysis.figures` on hand-made figures."""
+"""The readability checks of :mod:`probing.analysis.figures` on hand-made figures."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.transforms import Bbox
 
-from analysis.figures import (
+from probing.analysis.figures import (
     clipped_texts,
     covers_data,
     legends_over_data,

@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from analysis import gtm_modes
+from probing.analysis import gtm_modes
 from probing.experiment.modes import ModePoint
 from probing.sim.linear import LongitudinalModes
 

@@ -7,8 +7,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis import manoeuvres
-from analysis.figures import clipped_texts, legends_over_data
+from probing.analysis import manoeuvres
+from probing.analysis.figures import clipped_texts, legends_over_data
 
 CHANNELS = ("q_rad_s", "nz_g")
 SETTLE = 2

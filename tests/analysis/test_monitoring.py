@@ -12,8 +12,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from analysis.monitoring import evaluate, false_alarm_rate, fault_table, load_study, roc
-from analysis.monitoring_plots import detection_figure, verdict_figure
+from probing.analysis.monitoring import evaluate, false_alarm_rate, fault_table, load_study, roc
+from probing.analysis.monitoring_plots import detection_figure, verdict_figure
 
 T = 2.0  # period, s
 
@@ -188,7 +188,7 @@ def test_figures_show_the_scored_flights(study):
 def test_the_fault_figure_draws_the_monitored_channel_only(tmp_path):
     """probing.parquet holds the monitored output and the surface (an instrument): the
     before/after curves are the output's mean h_est over the four periods each side."""
-    from analysis.monitoring_plots import fault_figure
+    from probing.analysis.monitoring_plots import fault_figure
 
     flight = _flight(tmp_path, "monitor-deadband", "f1", 41.0, {22: "actuator"}, "actuator")
     folder = tmp_path / "monitor-deadband" / "points" / "point_id=f1"
@@ -220,7 +220,7 @@ def test_the_fault_figure_draws_the_monitored_channel_only(tmp_path):
 def test_a_lateral_study_is_scored_per_probed_surface(tmp_path: Path):
     """Sweeps named after their probed surface (monitor-rudder-damage1) are scored per
     surface: the same flights under two probes give two rows, and the tables say which."""
-    from analysis.monitoring import summary_markdown
+    from probing.analysis.monitoring import summary_markdown
 
     for probe, detected in (("rudder", {24: "airframe"}), ("aileron", {})):
         sweep = f"monitor-{probe}-damage1"
@@ -332,7 +332,7 @@ def test_a_damaged_flight_file_is_one_line_naming_it_and_nothing_written(study, 
 
 
 def test_each_study_faults_right_verdict_is_its_types_class_in_the_registry():
-    from analysis.monitoring import FAULTS
+    from probing.analysis.monitoring import FAULTS
     from probing.core.faults import FAULTS as REGISTRY
 
     truths = {key: fault.truth for key, fault in FAULTS.items()}
@@ -440,7 +440,7 @@ def test_the_amplitude_figure_plots_each_amplitudes_detection_within_the_goal(tm
     line has those values, the right one the median delays, and the goal's star sits at the
     first amplitude that reaches 0.9; in moderate turbulence nothing is detected: no star,
     the median drawn at the top (three times the goal)."""
-    from analysis.monitoring_plots import amplitude_figure
+    from probing.analysis.monitoring_plots import amplitude_figure
 
     rows = []
     cases = {
@@ -475,7 +475,7 @@ def test_the_threshold_law_counts_periods_over_the_check_rates_threshold(tmp_pat
     """Flights without a fault: each tested period whose statistic is strictly over
     -log10 of the check rate's probability per period counts (one on the edge does not),
     against the tested periods times that probability; the table says so per detector."""
-    from analysis.monitoring import CHECK_RATE_PER_HOUR, summary_markdown
+    from probing.analysis.monitoring import CHECK_RATE_PER_HOUR, summary_markdown
 
     row = _flight(tmp_path, "monitor-none", "h1", math.nan, {})
     path = tmp_path / "monitor-none" / "points" / "point_id=h1" / "monitor.parquet"
@@ -505,7 +505,7 @@ def test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channe
     one-channel probability, so its threshold is log10(2) higher.  Statistics between the
     one-channel and the two-channel thresholds are not over; those above both are; the
     promise over the 2 x 28 tested rows is that of 28 periods at the one-channel rate."""
-    from analysis.monitoring import CHECK_RATE_PER_HOUR
+    from probing.analysis.monitoring import CHECK_RATE_PER_HOUR
 
     row = _flight(tmp_path, "monitor-none", "h1", math.nan, {})
     path = tmp_path / "monitor-none" / "points" / "point_id=h1" / "monitor.parquet"
@@ -531,7 +531,7 @@ def test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channe
 def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
     """The monitor has no sensor verdict: for a biased sensor every verdict but airframe is
     right; for the others only their own class."""
-    from analysis.monitoring import _right
+    from probing.analysis.monitoring import _right
 
     verdicts = pd.Series(["actuator", "airframe", "none"])
     assert list(_right(verdicts, "sensor")) == [True, False, True]
@@ -552,14 +552,14 @@ def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
     ],
 )
 def test_a_sweep_names_its_fault_with_a_suffix_telling_sweeps_apart(sweep, fault):
-    from analysis.monitoring import _fault_key
+    from probing.analysis.monitoring import _fault_key
 
     assert _fault_key(sweep, pd.Series(dtype=object)) == fault
 
 
 @pytest.mark.parametrize("sweep", ["monitor-effectiveness", "monitor-effectiveness-chirp"])
 def test_effectiveness_is_told_by_its_scale_with_or_without_a_suffix(sweep):
-    from analysis.monitoring import _fault_key
+    from probing.analysis.monitoring import _fault_key
 
     assert _fault_key(sweep, pd.Series({"fault.scale": 0.8})) == "effectiveness-0.8"
 

@@ -12,7 +12,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from analysis.references import draw, gain_scatter, load_runs, summary_markdown
+from probing.analysis.references import draw, gain_scatter, load_runs, summary_markdown
 
 M, PERIODS, SETTLE = 16, 30, 2
 H0 = np.exp(-np.arange(M) / 4.0)

@@ -7,8 +7,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis import simultaneous
-from analysis.figures import clipped_texts, legends_over_data
+from probing.analysis import simultaneous
+from probing.analysis.figures import clipped_texts, legends_over_data
 
 
 def _table() -> pd.DataFrame:

@@ -17,8 +17,8 @@ import pandas as pd
 import pytest
 from conftest import base_scenario
 
-from analysis import sweep_plots
-from analysis.sweep_plots import (
+from probing.analysis import sweep_plots
+from probing.analysis.sweep_plots import (
     classify,
     load_sweep_data,
     plot_sweep,

@@ -331,7 +331,7 @@ MONITORED = ROOT / "scenarios" / "monitor" / "base.toml"  # name gtm-monitored, 
 @pytest.fixture
 def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every command's work fails the test: a refusal must come before any of it."""
-    import analysis.fig4
+    import probing.analysis.fig4
     import probing.experiment.design
     import probing.experiment.fig4
     import probing.experiment.gtm_damage
@@ -353,7 +353,7 @@ def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
         (probing.experiment.modes, "mode_table"),
         (probing.experiment.gtm_damage, "run_example6"),
         (probing.sweep, "run_sweep"),
-        (analysis.fig4, "collect"),
+        (probing.analysis.fig4, "collect"),
     ]:
         monkeypatch.setattr(module, name, work)
 
@@ -837,7 +837,7 @@ def test_plot_fig4_hands_bounds_to_the_figures(
 ) -> None:
     """``probing plot fig4 RESULTS --bounds`` draws the figures with their bands; without it,
     without them.  Another plot target refuses ``--bounds`` (exit 2)."""
-    from analysis import fig4, fig4_plots
+    from probing.analysis import fig4, fig4_plots
 
     class Data:
         set_name = "fig4"

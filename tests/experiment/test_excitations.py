@@ -104,7 +104,7 @@ def test_the_study_measures_what_the_paper_predicts(study: Path) -> None:
     """Through a dead band, a relay and backlash the PRBS keeps its shape and the others do
     not; every estimate agrees with the periodic theory; the 737's calm estimates are within
     3 % of the linearised truth in their band; the figures are drawn."""
-    from analysis.excitations import accuracy_rows, collect, nonlinearity_rows
+    from probing.analysis.excitations import accuracy_rows, collect, nonlinearity_rows
 
     data = collect(study / "results")
     nl = nonlinearity_rows(data).set_index(["aircraft", "panel", "signal"])
@@ -153,8 +153,8 @@ def test_bounds_shade_each_estimate_in_the_nonlinearity_figures(study: Path) -> 
     95 % bounds of its settled periods; none without it."""
     from matplotlib.collections import PolyCollection
 
-    from analysis.excitations import ac, collect
-    from analysis.excitations_plots import CHANNEL, SHOWN_S, _panel_figure
+    from probing.analysis.excitations import ac, collect
+    from probing.analysis.excitations_plots import CHANNEL, SHOWN_S, _panel_figure
     from probing.core.recorded import tap_bounds
 
     data = collect(study / "results")

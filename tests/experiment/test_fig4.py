@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis import fig4
+from probing.analysis import fig4
 from probing.cli import main as cli_main
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import RateLimit
@@ -181,7 +181,7 @@ def _line(ax, label):
 def test_figures_show_the_probing_outputs_and_eq_11(results):
     """The panels plot the settled mean z of each run over the baseline's, and eq. (11)
     computed here from the apparent input; the compensated figure plots eq. (11) undone."""
-    from analysis import fig4_plots
+    from probing.analysis import fig4_plots
 
     data = fig4.collect(results["737"])
     z0 = data.baseline.z.mean(axis=0)
@@ -213,8 +213,8 @@ def test_figures_are_readable(results, which):
     """No title or label runs off a figure's edge (the (b') title of the compensated figure
     did), and the note on the offset in panel (b) hides neither a curve nor the legend (on
     the 737 it lay across the curve with the nonlinearity)."""
-    from analysis import fig4_plots
-    from analysis.figures import clipped_texts, covers_data, legends_over_data
+    from probing.analysis import fig4_plots
+    from probing.analysis.figures import clipped_texts, covers_data, legends_over_data
 
     figs = fig4_plots.figures(fig4.collect(results[which]))
     for suffix, fig in figs.items():

@@ -11,7 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import BLAS_KERNELS, run_with_blas_kernel
 
-from analysis import gtm_damage
+from probing.analysis import gtm_damage
 from probing.cli import main as cli_main
 from probing.experiment.gtm_damage import EXAMPLE6, fly_case, run_example6
 from probing.sim.flight import Flight

@@ -1,5 +1,5 @@
 """A sweep over seeds and estimators: every point carries the noise model's predictions, and
-the seed-to-seed statistics (:mod:`analysis.seeds`) agree with the model and with a direct
+the seed-to-seed statistics (:mod:`probing.analysis.seeds`) agree with the model and with a direct
 computation from the points' files."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.seeds import seed_statistics, seed_table
-from analysis.sweep_plots import classify, load_sweep_data, sweep_figure
+from probing.analysis.seeds import seed_statistics, seed_table
+from probing.analysis.sweep_plots import classify, load_sweep_data, sweep_figure
 from probing.core.noise import noise_model, white
 from probing.core.prbs import mls
 from probing.sweep import load_sweep, read_summary, run_sweep

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.seeds import has_seeds
+from probing.analysis.seeds import has_seeds
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
 from probing.sim.flight import SPEED_KINDS
 
@@ -190,9 +190,9 @@ def classify(data: SweepData) -> str:
 
     ``flight_grid`` when exactly the altitude and one speed vary; ``noise`` when a sensor
     noise level varies; ``seeds`` when the points repeat over 3 or more seeds
-    (:mod:`analysis.seeds`); ``rate_limit`` when every point has a rate limit and its rate (or
-    r / (2a/t0)) varies; ``nonlinearity`` when only numeric parameters of one nonlinearity
-    type vary; ``other`` otherwise.
+    (:mod:`probing.analysis.seeds`); ``rate_limit`` when every point has a rate limit and its
+    rate (or r / (2a/t0)) varies; ``nonlinearity`` when only numeric parameters of one
+    nonlinearity type vary; ``other`` otherwise.
     """
     varying = set(data.varying)
     speeds = varying & set(SPEED_FIELDS)

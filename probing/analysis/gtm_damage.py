@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, save_figure
 from probing.experiment.gtm_damage_set import case_file
 from probing.experiment.storage import read_table
 from probing.sim.flight import DAMAGE_CASES

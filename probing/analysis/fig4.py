@@ -2,7 +2,7 @@
 
 ``probing fig4`` runs a set (:mod:`probing.experiment.fig4`), then this module reads the runs'
 Parquet files and ``manifest.json`` (:func:`collect`) and writes the summary
-(:func:`write_summary`); :mod:`analysis.fig4_plots` draws the figures from the same data.
+(:func:`write_summary`); :mod:`probing.analysis.fig4_plots` draws the figures from the same data.
 ``probing plot fig4 RESULTS_DIR`` does the last two alone.
 
 Figures (``<stem>`` is ``fig4`` for the GTM set ``scenarios/fig4`` and the set folder's name

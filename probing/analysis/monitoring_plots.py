@@ -9,8 +9,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis.figures import RC, save_figure
-from analysis.monitoring import FAULTS, roc
+from probing.analysis.figures import RC, save_figure
+from probing.analysis.monitoring import FAULTS, roc
 from probing.experiment.storage import read_table
 
 __all__ = [

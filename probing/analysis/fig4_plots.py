@@ -1,7 +1,8 @@
-"""Figures of the Fig. 4 reproduction, drawn from :class:`analysis.fig4.Fig4Data` (no simulation).
+"""Figures of the Fig. 4 reproduction, drawn from :class:`probing.analysis.fig4.Fig4Data`
+(no simulation).
 
-Kept apart from :mod:`analysis.fig4` so that computing the numbers never imports matplotlib;
-this module imports that one, never the other way round.  :func:`figures` builds the
+Kept apart from :mod:`probing.analysis.fig4` so that computing the numbers never imports
+matplotlib; this module imports that one, never the other way round.  :func:`figures` builds the
 figures (inspectable: tests read the plotted data back), :func:`draw` saves them.
 
 With ``bounds`` the panel and compensated figures shade each estimate's 95 % confidence
@@ -19,8 +20,8 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 
-from analysis.fig4 import Fig4Data, PanelResult
-from analysis.figures import RC, place_clear_of_data, save_figure
+from probing.analysis.fig4 import Fig4Data, PanelResult
+from probing.analysis.figures import RC, place_clear_of_data, save_figure
 from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
 from probing.core.recorded import tap_bounds

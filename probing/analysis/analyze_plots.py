@@ -11,7 +11,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, save_figure
 from probing.experiment.storage import read_footer, read_table
 
 __all__ = ["auto_max_lag_s", "draw_bounds", "per_label"]

@@ -16,8 +16,8 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 
-from analysis.excitations import Study, ac, predicted_estimate
-from analysis.figures import RC, save_figure
+from probing.analysis.excitations import Study, ac, predicted_estimate
+from probing.analysis.figures import RC, save_figure
 from probing.core.metrics import gain_and_shape, harmonic_ratio
 from probing.core.recorded import tap_bounds
 from probing.experiment.fig4_set import PANELS

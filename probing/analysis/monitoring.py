@@ -401,7 +401,7 @@ def summary_markdown(flights: pd.DataFrame) -> str:
     lines = ["# Health-monitoring study: results", ""]
     lines.append(
         "Written by `probing plot monitor` (`make monitor`, `make monitor-oracle`, "
-        "`make monitor-lateral`; `analysis.monitoring`); the set-up and the reading are in "
+        "`make monitor-lateral`; `probing.analysis.monitoring`); the set-up and the reading are in "
         "[monitoring.md](monitoring.md)."
     )
     lines += ["", "## False alarms", ""]

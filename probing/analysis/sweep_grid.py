@@ -11,14 +11,14 @@ import matplotlib.ticker
 import numpy as np
 from matplotlib.colors import LogNorm, TwoSlopeNorm
 
-from analysis.sweep_axes import (
+from probing.analysis.sweep_axes import (
     C_FAIL,
     SHAPE_FLOOR,
     short_key,
     sweep_context,
     sweep_title,
 )
-from analysis.sweep_data import FAILED_STATUSES, SPEED_FIELDS, SweepData
+from probing.analysis.sweep_data import FAILED_STATUSES, SPEED_FIELDS, SweepData
 from probing.sim.flight import SPEED_KINDS
 
 __all__ = ["plot_flight_grid"]

@@ -13,7 +13,7 @@ import matplotlib.transforms as mtransforms
 import numpy as np
 import pandas as pd
 
-from analysis.sweep_axes import (
+from probing.analysis.sweep_axes import (
     C_MEAS,
     C_THEORY,
     fmt_value,
@@ -27,7 +27,7 @@ from analysis.sweep_axes import (
     sweep_context,
     sweep_title,
 )
-from analysis.sweep_data import SweepData, is_number
+from probing.analysis.sweep_data import SweepData, is_number
 from probing.core.metrics import predicted_apparent
 from probing.core.nonlinearities import NONLINEARITIES
 from probing.experiment.scenario import Scenario

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, save_figure
 from probing.experiment.storage import read_schema, read_table
 
 __all__ = ["draw", "figure", "load_runs", "summary_markdown"]

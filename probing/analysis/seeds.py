@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from analysis.tables import fmt
+from probing.analysis.tables import fmt
 from probing.core.noise import noise_model, white
 from probing.experiment.storage import read_settled
 
@@ -69,7 +69,7 @@ def has_seeds(data: Any) -> bool:
 
 
 def seed_statistics(data: Any) -> list[GroupStats]:
-    """The groups of a seed sweep (:class:`analysis.sweep_plots.SweepData`), every channel.
+    """The groups of a seed sweep (:class:`probing.analysis.sweep_plots.SweepData`), every channel.
 
     Groups whose points are not all done, or hold fewer than 3 seeds, are left out.
     """

@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis.figures import save_figure
+from probing.analysis.figures import save_figure
 from probing.experiment.storage import read_footer, read_table
 
 __all__ = [

@@ -22,10 +22,10 @@ No simulation is run; the scenarios of the points are rebuilt from ``sweep.json`
 scenario, the sweep file's ``[fixed]`` table, then the point's values) only to evaluate the
 theory between the points.
 
-The figures are drawn by family: :mod:`analysis.sweep_gain` (nonlinearity, rate limit,
-other), :mod:`analysis.sweep_noise` (noise, seeds) and :mod:`analysis.sweep_grid`
-(flight grid), on the data of :mod:`analysis.sweep_data` and the panels of
-:mod:`analysis.sweep_axes`.
+The figures are drawn by family: :mod:`probing.analysis.sweep_gain` (nonlinearity, rate limit,
+other), :mod:`probing.analysis.sweep_noise` (noise, seeds) and :mod:`probing.analysis.sweep_grid`
+(flight grid), on the data of :mod:`probing.analysis.sweep_data` and the panels of
+:mod:`probing.analysis.sweep_axes`.
 """
 
 from __future__ import annotations
@@ -35,11 +35,11 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 
-from analysis.figures import RC, save_figure
-from analysis.sweep_data import KINDS, NotASweepError, SweepData, classify, load_sweep_data
-from analysis.sweep_gain import plot_nonlinearity, plot_other, plot_rate_limit, theory_curve
-from analysis.sweep_grid import plot_flight_grid
-from analysis.sweep_noise import plot_noise, plot_seeds
+from probing.analysis.figures import RC, save_figure
+from probing.analysis.sweep_data import KINDS, NotASweepError, SweepData, classify, load_sweep_data
+from probing.analysis.sweep_gain import plot_nonlinearity, plot_other, plot_rate_limit, theory_curve
+from probing.analysis.sweep_grid import plot_flight_grid
+from probing.analysis.sweep_noise import plot_noise, plot_seeds
 
 __all__ = [
     "KINDS",

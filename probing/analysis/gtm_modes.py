@@ -16,7 +16,7 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 
-from analysis.figures import save_figure
+from probing.analysis.figures import save_figure
 from probing.experiment.modes_set import DamagePoint, ModePoint
 
 __all__ = ["figure", "mode_table", "save", "write_doc"]

@@ -6,7 +6,7 @@ monitor study's flight (GTM, NASA's T2 sensors, light turbulence, the ``gust`` r
 a sliding baseline) with its elevator probed by a PRBS, a multisine or a chirp of the same
 RMS (0.2 deg), each without a fault, with the elevator's effectiveness scaled to 0.8 and with
 NASA's damage case 5.  Runs no simulation: each flight's ``monitor.parquet`` and
-``point.json`` (its scenario: the signal), scored by :mod:`analysis.monitoring`.
+``point.json`` (its scenario: the signal), scored by :mod:`probing.analysis.monitoring`.
 """
 
 from __future__ import annotations
@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.monitoring import FAULTS, evaluate, fault_table, load_study
+from probing.analysis.monitoring import FAULTS, evaluate, fault_table, load_study
 from probing.experiment.storage import read_table
 
 __all__ = ["CASES", "SIGNALS", "gain_changes", "monitor_table", "signal_of"]
 
 #: The probe signals, in the table's order (``probe.signal``; a scenario without one: PRBS).
 SIGNALS = ("prbs", "multisine", "chirp")
-#: The cases, in the table's order: keys of :data:`analysis.monitoring.FAULTS`.
+#: The cases, in the table's order: keys of :data:`probing.analysis.monitoring.FAULTS`.
 CASES = ("none", "effectiveness-0.8", "damage5")
 #: The channel whose gain scatter the table gives.
 CHANNEL = "theta_rad"
@@ -65,7 +65,7 @@ def monitor_table(results: Path) -> pd.DataFrame:
     results : Path
         The folder the sweeps were flown into (``<results>/monitor-<case>-<signal>/``).
         Every ``monitor-*`` sweep in it is read: flights are told apart by their scenario's
-        signal and their sweep's fault (:func:`analysis.monitoring.load_study`).
+        signal and their sweep's fault (:func:`probing.analysis.monitoring.load_study`).
 
     Returns
     -------
@@ -82,7 +82,7 @@ def monitor_table(results: Path) -> pd.DataFrame:
         tested period of the signal's flights pooled; a test's window holds up to 4
         overlapping periods, so one period's own scatter is larger), ``gain_mean`` (1),
         ``tested`` (periods), and the threshold law at
-        :data:`analysis.monitoring.CHECK_RATE_PER_HOUR`: ``check_over`` (tested periods of
+        :data:`probing.analysis.monitoring.CHECK_RATE_PER_HOUR`: ``check_over`` (tested periods of
         the probing detector over that rate's threshold, up to each flight's first alarm)
         against ``check_expected`` (those periods times its false-alarm probability).
 

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, save_figure
 from probing.experiment.storage import read_table
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis import fig4
+from probing.analysis import fig4
 from probing.core.excitation import band_limited, crest_factor
 from probing.core.metrics import gain_and_shape, harmonic_ratio, through_nonlinearity
 from probing.core.nonlinearities import NoApparentFormError, compensate
@@ -66,7 +66,7 @@ class Run:
 
 def read_run(folder: Path) -> Run:
     """A run folder's scenario and settled estimates of :data:`CHANNELS`
-    (:func:`analysis.fig4.read_run`, channel by channel)."""
+    (:func:`probing.analysis.fig4.read_run`, channel by channel)."""
     runs = {channel: fig4.read_run(folder, channel) for channel in CHANNELS}
     h = {channel: run.h for channel, run in runs.items()}
     z = {channel: run.z for channel, run in runs.items()}

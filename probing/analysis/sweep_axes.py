@@ -11,7 +11,7 @@ import matplotlib.transforms as mtransforms
 import numpy as np
 import pandas as pd
 
-from analysis.sweep_data import FAILED_STATUSES, SPEED_FIELDS, SweepData, is_number
+from probing.analysis.sweep_data import FAILED_STATUSES, SPEED_FIELDS, SweepData, is_number
 from probing.sim.flight import SPEED_KINDS
 
 __all__ = [

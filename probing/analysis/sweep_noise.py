@@ -12,8 +12,8 @@ import matplotlib.ticker
 import numpy as np
 import pandas as pd
 
-from analysis.seeds import QUANTITIES, has_seeds, seed_statistics
-from analysis.sweep_axes import (
+from probing.analysis.seeds import QUANTITIES, has_seeds, seed_statistics
+from probing.analysis.sweep_axes import (
     C_FAIL,
     C_MEAS,
     C_THEORY,
@@ -23,7 +23,7 @@ from analysis.sweep_axes import (
     sweep_context,
     sweep_title,
 )
-from analysis.sweep_data import SweepData
+from probing.analysis.sweep_data import SweepData
 from probing.sim.channels import CHANNELS
 
 __all__ = ["SEED_TITLES", "plot_noise", "plot_seeds"]
