@@ -10,6 +10,9 @@ from __future__ import annotations
 import copy
 import os
 import re
+import signal
+import subprocess
+import time
 from collections.abc import Callable, Iterator
 from importlib import metadata
 from pathlib import Path
@@ -187,3 +190,18 @@ def stepped() -> Callable[..., Any]:
         return out
 
     return step
+
+
+def interrupt_when(cmd: list[str], out: Path, delay_s: float) -> subprocess.CompletedProcess:
+    """Run ``cmd``; ``delay_s`` after the folder ``out`` appears (-1: once anything appears
+    in it, the files' moment), send it Ctrl-C (SIGINT); its return code and streams."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and (delay_s >= 0 or any(out.iterdir())):
+            break
+        time.sleep(0.001)
+    time.sleep(max(delay_s, 0.0))
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)

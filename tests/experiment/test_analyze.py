@@ -13,11 +13,8 @@ import contextlib
 import dataclasses
 import hashlib
 import json
-import subprocess
 import sys
-import time
 from pathlib import Path
-from signal import SIGINT
 
 import numpy as np
 import pandas as pd
@@ -25,6 +22,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 import scipy.io
+from conftest import interrupt_when
 from scipy import signal
 
 from probing.cli import main as cli_main
@@ -272,21 +270,6 @@ def test_order_outside_the_supported_range_is_refused_by_the_parser(
 ANALYZE_FILES = ("bounds.parquet", "probing.parquet", "pulse_response.png")
 
 
-def _interrupt_when(cmd: list[str], out: Path, delay_s: float) -> subprocess.CompletedProcess:
-    """Run ``cmd``; ``delay_s`` after ``out`` appears (-1: after any output appears, the
-    files' moment), send it Ctrl-C (SIGINT); its return code and streams."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if out.exists() and (delay_s >= 0 or any(out.iterdir())):
-            break
-        time.sleep(0.001)
-    time.sleep(max(delay_s, 0.0))
-    proc.send_signal(SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
-    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("delay_s", [-1.0, 0.0, 0.05, 0.15, 0.3, 0.6, 1.0, 1.5])
 def test_an_interrupt_at_any_moment_leaves_nothing(tmp_path: Path, delay_s: float) -> None:
@@ -297,7 +280,7 @@ def test_an_interrupt_at_any_moment_leaves_nothing(tmp_path: Path, delay_s: floa
     cmd = [sys.executable, "-m", "probing", "analyze", str(path), "--input", "u_deg",
            "--output", "y", "--time", "t_s", "--order", str(ORDER), "--bit-duration-s",
            str(40 * DT_S), "--out", str(out)]  # fmt: skip
-    res = _interrupt_when(cmd, out, delay_s)
+    res = interrupt_when(cmd, out, delay_s)
     assert "Traceback" not in res.stderr, res.stderr
     if res.returncode == 130:
         assert res.stderr.splitlines()[-1] == "probing: error: interrupted"

@@ -7,13 +7,13 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from conftest import interrupt_when
 
 from probing.core.sensors import SENSOR_SUITES
 from probing.experiment.layouts import AUTOPILOT_COLUMNS
@@ -251,21 +251,12 @@ REPLAY_FILES = ["bounds.parquet", "monitor.parquet", "probing.parquet"]
 def test_an_interrupted_replay_leaves_nothing(flights, tmp_path, delay_s):
     """Ctrl-C at any moment of a replay (``delay_s`` after its folder appears; -1: once a file
     appears in it): exit 130 and no folder, or it had finished (0) with its three tables."""
-    from signal import SIGINT
-
     log = flights["nominal"].out_dir / "sensors.parquet"
     out = tmp_path / "r"
     cmd = [sys.executable, "-m", "probing", "monitor", "--replay", str(log), "--out", str(out)]
     folder = out / "gtm-monitored"
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if folder.exists() and (delay_s >= 0 or any(folder.iterdir())):
-            break
-        time.sleep(0.001)
-    time.sleep(max(delay_s, 0.0))
-    proc.send_signal(SIGINT)
-    _, err = proc.communicate(timeout=120)
+    proc = interrupt_when(cmd, folder, delay_s)
+    err = proc.stderr
     assert "Traceback" not in err, err
     if proc.returncode == 130:
         assert err.splitlines()[-1] == "probing: error: interrupted"
