@@ -5,7 +5,7 @@ driven by ``scipy.signal.max_len_seq`` through ``scipy.signal.dlsim``, with and 
 slow drift, and small white noise.  The goal is a relative L2 error within 1 %; the noise
 alone contributes sqrt(2 / P) sigma / a / ||h|| (the cyclic estimator's tap noise summed over
 M taps, docs/noise.md), at most 0.1 % here, so 1 % is the estimate's bias, not its noise.
-The zero-mean convention (h - sum(h) / M) misses it by 10-60 % on each of them."""
+The zero-mean convention (h - sum(h) / M) misses it by 12-23 % on each of them."""
 
 from __future__ import annotations
 
