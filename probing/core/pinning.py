@@ -20,9 +20,14 @@ over the N - 1 free taps a tail less its mean holds),
     F = sum_k m_k^2 / (N - 1) / (s^2 / P),
 
 which for a flat tail and white noise follows the F distribution with N - 1 and
-(N - 1)(P - 1) degrees of freedom; the tail is taken as settled where F is at most its
-``level`` quantile.  A tail that still decays or rings beyond the noise fails it: the record
-cannot tell the constant, and the estimate keeps the zero-mean convention.  A tail that is
+(N - 1)(P - 1) degrees of freedom.  F spreads its power over every shape a tail can take; a
+slow decay is a ramp, which one number tests better: each period's least-squares slope over
+the tail, b_p, whose mean over the P periods must be zero within its Student-t interval,
+t = mean(b) / (std(b) / sqrt(P)) with P - 1 degrees of freedom.  The tail is taken as
+settled where both hold, each at half the false-unsettled budget 1 - ``level`` (F at most
+its 1 - (1 - level) / 2 quantile, |t| at most its two-sided one).  A tail that still decays
+or rings beyond the noise fails: the record cannot tell the constant, and the estimate
+keeps the zero-mean convention.  A tail that is
 flat at a value other than zero (a response that never returns, an integrator) cannot be
 told from a settled one; the rule's premise is that the response returns to zero within T.
 Without noise (a simulation's noise-free run) s^2 is zero and F says nothing: a tail whose
@@ -92,6 +97,8 @@ class TailPin:
         Shape (C,), bool: the tail is flat within noise (module docstring).
     statistic, threshold : numpy.ndarray, float
         Shape (C,): F of each channel's tail, and the quantile it is held to.
+    slope_t, slope_threshold : numpy.ndarray, float
+        Shape (C,): t of each channel's tail slope, and the bound of its absolute value.
     constant : numpy.ndarray
         Shape (C,): the constant removed (the mean over periods of the tail means; 0 where
         not settled; unit of h).
@@ -105,6 +112,8 @@ class TailPin:
     threshold: float
     constant: np.ndarray
     tail_taps: int
+    slope_t: np.ndarray
+    slope_threshold: float
 
     def conventions(self, channels: list[str]) -> dict[str, str]:
         """Channel -> :data:`SETTLED_TAIL` or :data:`ZERO_MEAN`."""
@@ -123,7 +132,8 @@ def pin_settled_tail(h: np.ndarray, n_tail: int, level: float = TAIL_LEVEL) -> T
     n_tail : int
         Taps in the tail (:func:`tail_taps`), 3 <= n_tail < M.
     level : float
-        Quantile of the F distribution a flat tail's statistic stays below.
+        One less the false-unsettled probability of a flat tail in white noise, shared by
+        the F and the slope's t test (module docstring).
 
     Returns
     -------
@@ -154,10 +164,19 @@ def pin_settled_tail(h: np.ndarray, n_tail: int, level: float = TAIL_LEVEL) -> T
     with np.errstate(divide="ignore", invalid="ignore"):
         stat = (mk**2).sum(axis=1) / dfn / (s2 / periods)
     stat = np.where(s2 > 0, stat, np.where((mk**2).sum(axis=1) > 0, np.inf, 0.0))
-    threshold = float(stats.f.ppf(level, dfn, dfd))
+    miss = (1.0 - level) / 2.0  # each test's share of the false-unsettled budget
+    threshold = float(stats.f.ppf(1.0 - miss, dfn, dfd))
+    k = np.arange(n_tail) - (n_tail - 1) / 2.0
+    slopes = flat @ k / (k @ k)  # (P, C): each period's least-squares slope over the tail
+    sd = slopes.std(axis=0, ddof=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = slopes.mean(axis=0) / (sd / np.sqrt(periods))
+    t = np.where(sd > 0, t, np.where(slopes.mean(axis=0) != 0, np.inf, 0.0))
+    t_threshold = float(stats.t.ppf(1.0 - miss / 2.0, periods - 1))
     peak = np.abs(h.mean(axis=0)).max(axis=1)  # (C,)
     rms = np.sqrt((mk**2).mean(axis=1))
-    settled = (stat <= threshold) | (rms <= TAIL_FLOOR * peak)
+    flat_enough = (stat <= threshold) & (np.abs(t) <= t_threshold)
+    settled = flat_enough | (rms <= TAIL_FLOOR * peak)
     pinned = np.where(settled[None, :, None], h - own, h)
     constant = np.where(settled, own[:, :, 0].mean(axis=0), 0.0)
-    return TailPin(pinned, settled, stat, threshold, constant, n_tail)
+    return TailPin(pinned, settled, stat, threshold, constant, n_tail, t, t_threshold)

@@ -204,7 +204,10 @@ def convention_lines(result: Analysis) -> list[str]:
         pin = result.pin
         assert pin is not None
         start = (m - pin.tail_taps) * req.bit_duration_s
-        test = f"F {pin.statistic[j]:.3g} against {pin.threshold:.3g}"
+        test = (
+            f"F {pin.statistic[j]:.3g} against {pin.threshold:.3g}, slope t "
+            f"{pin.slope_t[j]:.3g} against +-{pin.slope_threshold:.3g}"
+        )
         if conv == SETTLED_TAIL:
             lines.append(
                 f"{out}: h_est is the response: the tail from lag {start:g} s is settled "
@@ -230,6 +233,8 @@ def convention_record(result: Analysis) -> dict[str, object]:
             "taps": pin.tail_taps,
             "f_statistic": dict(zip(result.request.outputs, pin.statistic.tolist(), strict=True)),
             "f_threshold": pin.threshold,
+            "slope_t": dict(zip(result.request.outputs, pin.slope_t.tolist(), strict=True)),
+            "slope_t_threshold": pin.slope_threshold,
             "constant_removed": dict(
                 zip(result.request.outputs, pin.constant.tolist(), strict=True)
             ),

@@ -136,9 +136,9 @@ def _pinned(
     ``probing.convention`` metadata (channels with fewer than 2 periods: NaN, zero mean)."""
     assert settled.all is not None
     out = np.full((4, len(settled.channels), m), np.nan)
-    conventions, stats, constants = {}, {}, {}
+    conventions, stats, constants, slopes = {}, {}, {}, {}
     n_tail = tail_taps(m)
-    threshold = None
+    threshold = t_threshold = None
     for j, (c, rows) in enumerate(zip(settled.channels, settled.all, strict=True)):
         conventions[c] = "zero mean"
         if len(rows) < 2:
@@ -147,12 +147,15 @@ def _pinned(
         out[:, j] = tap_bounds(pin.h[:, 0], BOUNDS_LEVEL)
         conventions[c] = pin.conventions([c])[c]
         stats[c], constants[c] = float(pin.statistic[0]), float(pin.constant[0])
-        threshold = pin.threshold
+        slopes[c] = float(pin.slope_t[0])
+        threshold, t_threshold = pin.threshold, pin.slope_threshold
     tail = {
         "from_tap": m - n_tail,
         "taps": n_tail,
         "f_statistic": stats,
         "f_threshold": threshold,
+        "slope_t": slopes,
+        "slope_t_threshold": t_threshold,
         "constant_removed": constants,
     }
     return (out[0], out[1], out[2], out[3]), {"h_est": conventions, "tail": tail}

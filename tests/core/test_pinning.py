@@ -68,7 +68,7 @@ def test_a_tail_still_decaying_is_not_settled_and_left_as_it_is() -> None:
 
 
 def test_false_unsettled_rate_is_the_level() -> None:
-    """White noise on a settled tail: F exceeds its 0.99 quantile in 1 % of records
+    """White noise on a settled tail: F or the slope's t exceeds its bound in 1 % of records
     (2000 records: binomial sd 0.22 %, so 0.2-2.0 % holds with 3.6 sd to spare).  The noise
     is well above TAIL_FLOOR of the peak, so the floor does not decide."""
     rng = np.random.default_rng(3)
@@ -78,19 +78,20 @@ def test_false_unsettled_rate_is_the_level() -> None:
 
 
 def test_threshold_is_inclusive_and_the_level_quantile() -> None:
-    """A tail whose F equals the threshold is settled; a hair above it is not."""
+    """A tail whose F equals the threshold is settled; a hair above it is not (a tail
+    without slope, so that F decides)."""
     n, periods = 16, 4
     rng = np.random.default_rng(4)
     noise = rng.standard_normal((periods, 1, M))
     noise -= noise.mean(axis=0)  # a zero mean over periods: F = 0, before the offset
     base = zero_mean(response())
     dev = np.zeros(M)
-    dev[M - n :: 2], dev[M - n + 1 :: 2] = 1.0, -1.0  # a tail that is not flat: F grows as c^2
+    dev[M - n :] = np.tile([1.0, -1.0, -1.0, 1.0], n // 4)  # not flat, but no slope: F alone
 
     def f_of(c: float) -> float:
         return float(pin_settled_tail(base + noise + c * dev, n).statistic[0])
 
-    threshold = stats.f.ppf(TAIL_LEVEL, n - 1, (n - 1) * (periods - 1))
+    threshold = stats.f.ppf(1 - (1 - TAIL_LEVEL) / 2, n - 1, (n - 1) * (periods - 1))
     c_at = np.sqrt(threshold / f_of(1.0))
     pin_at = pin_settled_tail(base + noise + c_at * dev * (1 - 1e-12), n)
     pin_over = pin_settled_tail(base + noise + c_at * dev * (1 + 1e-9), n)
@@ -122,3 +123,48 @@ def test_tail_taps(after: int | None, taps: int) -> None:
 def test_tail_taps_refused(after: int) -> None:
     with pytest.raises(ValueError):
         tail_taps(M, after)
+
+
+def test_a_slow_ramp_the_f_test_passes_is_caught_by_the_slope() -> None:
+    """A tail still returning by a ramp just over the slope's bound: F, which spreads its
+    power over every shape a tail can take (F ~ t^2 / (N - 1) for a ramp), passes it; the
+    slope's t does not.  The noise's mean over the periods is removed, so the ramp alone
+    departs from flat."""
+    rng = np.random.default_rng(5)
+    n, periods = 16, 20
+    noise = rng.standard_normal((periods, 1, M))
+    noise -= noise.mean(axis=0)
+    base = zero_mean(response()) + noise
+    k = np.zeros(M)
+    k[M - n :] = np.arange(n) - (n - 1) / 2
+    unit = pin_settled_tail(base + k, n).slope_t[0]  # t is linear in the ramp's height
+    flat = pin_settled_tail(base, n)
+    assert flat.settled[0] and abs(flat.slope_t[0]) < 1e-6 and flat.statistic[0] < 1e-12
+    pin = pin_settled_tail(base + 1.1 * flat.slope_threshold / unit * k, n)
+    assert pin.statistic[0] <= pin.threshold
+    assert abs(pin.slope_t[0]) > pin.slope_threshold
+    assert not pin.settled[0]
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_the_slope_bound_both_sides(sign: float) -> None:
+    """A pure ramp (no other departure) whose t equals the bound is settled; a hair more
+    is not, either sign."""
+    n, periods = 16, 4
+    rng = np.random.default_rng(6)
+    noise = rng.standard_normal((periods, 1, M))
+    base = zero_mean(response()) + noise
+    k = np.zeros(M)
+    k[M - n :] = np.arange(n) - (n - 1) / 2
+
+    def t_of(c: float) -> float:
+        return float(pin_settled_tail(base + sign * c * k, n).slope_t[0])
+
+    t0, t1 = t_of(0.0), t_of(1.0)
+    bound = pin_settled_tail(base, n).slope_threshold
+    c_at = (bound - sign * t0) / (sign * (t1 - t0))  # t is linear in c: sign * t reaches bound
+    assert c_at > 0
+    at = pin_settled_tail(base + sign * c_at * (1 - 1e-9) * k, n)
+    over = pin_settled_tail(base + sign * c_at * (1 + 1e-6) * k, n)
+    assert at.statistic[0] <= at.threshold and over.statistic[0] <= over.threshold
+    assert at.settled[0] and not over.settled[0]
