@@ -121,6 +121,25 @@ class TailPin:
             c: SETTLED_TAIL if s else ZERO_MEAN for c, s in zip(channels, self.settled, strict=True)
         }
 
+    def record(self, channels: list[str]) -> dict[str, object]:
+        """The tail's test as a file records it: the tail's first tap and length, and per
+        channel F, the slope's t, their thresholds (they depend on the periods P) and the
+        constant removed."""
+        n = len(channels)
+
+        def per(values: object) -> dict[str, float]:
+            return dict(zip(channels, np.broadcast_to(values, n).tolist(), strict=True))
+
+        return {
+            "from_tap": self.h.shape[2] - self.tail_taps,
+            "taps": self.tail_taps,
+            "f_statistic": per(self.statistic),
+            "f_threshold": per(self.threshold),
+            "slope_t": per(self.slope_t),
+            "slope_t_threshold": per(self.slope_threshold),
+            "constant_removed": per(self.constant),
+        }
+
 
 def pin_settled_tail(h: np.ndarray, n_tail: int, level: float = TAIL_LEVEL) -> TailPin:
     """Pin the constant of zero-mean estimates with their settled tail (module docstring).

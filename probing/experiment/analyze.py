@@ -226,19 +226,9 @@ def convention_record(result: Analysis) -> dict[str, object]:
     """The ``probing.convention`` metadata: per output what h_est is, and the tail's test."""
     out: dict[str, object] = {"h_est": result.conventions}
     if result.pin is not None:
-        pin, m = result.pin, result.h.shape[2]
-        out["tail"] = {
-            "from_tap": m - pin.tail_taps,
-            "from_lag_s": (m - pin.tail_taps) * result.request.bit_duration_s,
-            "taps": pin.tail_taps,
-            "f_statistic": dict(zip(result.request.outputs, pin.statistic.tolist(), strict=True)),
-            "f_threshold": pin.threshold,
-            "slope_t": dict(zip(result.request.outputs, pin.slope_t.tolist(), strict=True)),
-            "slope_t_threshold": pin.slope_threshold,
-            "constant_removed": dict(
-                zip(result.request.outputs, pin.constant.tolist(), strict=True)
-            ),
-        }
+        pin = result.pin
+        start_s = (result.h.shape[2] - pin.tail_taps) * result.request.bit_duration_s
+        out["tail"] = {"from_lag_s": start_s, **pin.record(list(result.request.outputs))}
     return out
 
 

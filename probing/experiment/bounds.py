@@ -13,8 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from probing.core.pinning import pin_settled_tail, tail_taps
-from probing.core.recorded import tap_bounds
+from probing.core.pinning import ZERO_MEAN, pin_settled_tail, tail_taps
 from probing.experiment.layouts import BOUNDS_LEVEL, bounds_block
 from probing.experiment.scatter import settled_model_sd
 from probing.experiment.scenario import Scenario
@@ -125,40 +124,29 @@ def run_convention(scn: Scenario) -> str:
     if scn.estimator == "ac":
         return "ac"
     if scn.detrends:
-        return "zero mean"
+        return ZERO_MEAN
     return "baseline" if scn.drift == "none" else "reference"
 
 
-def _pinned(
-    settled: SettledMean, m: int
-) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], dict[str, Any]]:
-    """Each channel's bounds over its settled periods pinned by their tail, and the
-    ``probing.convention`` metadata (channels with fewer than 2 periods: NaN, zero mean)."""
-    assert settled.all is not None
-    out = np.full((4, len(settled.channels), m), np.nan)
-    conventions, stats, constants, slopes = {}, {}, {}, {}
-    n_tail = tail_taps(m)
-    threshold = t_threshold = None
-    for j, (c, rows) in enumerate(zip(settled.channels, settled.all, strict=True)):
-        conventions[c] = "zero mean"
-        if len(rows) < 2:
-            continue
-        pin = pin_settled_tail(np.array(rows)[:, None, :], n_tail)
-        out[:, j] = tap_bounds(pin.h[:, 0], BOUNDS_LEVEL)
-        conventions[c] = pin.conventions([c])[c]
-        stats[c], constants[c] = float(pin.statistic[0]), float(pin.constant[0])
-        slopes[c] = float(pin.slope_t[0])
-        threshold, t_threshold = pin.threshold, pin.slope_threshold
-    tail = {
-        "from_tap": m - n_tail,
-        "taps": n_tail,
-        "f_statistic": stats,
-        "f_threshold": threshold,
-        "slope_t": slopes,
-        "slope_t_threshold": t_threshold,
-        "constant_removed": constants,
-    }
-    return (out[0], out[1], out[2], out[3]), {"h_est": conventions, "tail": tail}
+class _TailPins:
+    """Pins each channel's settled periods by their tail (a :meth:`SettledMean.bounds`
+    transform) and keeps what it found, for the ``probing.convention`` metadata."""
+
+    def __init__(self, channels: list[str], m: int) -> None:
+        self.n_tail = tail_taps(m)
+        self.conventions = dict.fromkeys(channels, ZERO_MEAN)  # fewer than 2 periods: left so
+        self.tail: dict[str, Any] = {"from_tap": m - self.n_tail, "taps": self.n_tail}
+
+    def __call__(self, channel: str, rows: np.ndarray) -> np.ndarray:
+        pin = pin_settled_tail(rows[:, None, :], self.n_tail)
+        self.conventions.update(pin.conventions([channel]))
+        for key, value in pin.record([channel]).items():
+            if isinstance(value, dict):
+                self.tail.setdefault(key, {}).update(value)
+        return pin.h[:, 0]
+
+    def metadata(self) -> dict[str, Any]:
+        return {"h_est": self.conventions, "tail": self.tail}
 
 
 def write_settled_bounds(
@@ -191,7 +179,8 @@ def write_settled_bounds(
     pathlib.Path or None
         The file's final path, None when it is not written.
     """
-    found = settled.bounds()
+    pins = _TailPins(list(scn.channels), lag_s.size) if pins_tail(scn) else None
+    found = settled.bounds(pins)
     if found is None:
         return None
     bounds, dof = found
@@ -199,8 +188,8 @@ def write_settled_bounds(
     dof_all = same.pop() if len(same) == 1 else dof
     model_sd = settled_model_sd(scn)
     per = scn.surface_unit
-    if pins_tail(scn):
-        bounds, convention = _pinned(settled, lag_s.size)
+    if pins is not None:
+        convention = pins.metadata()
     else:
         convention = {"h_est": dict.fromkeys(scn.channels, run_convention(scn))}
     return write_bounds(

@@ -5,6 +5,8 @@ them back with; with ``keep_all`` the settled periods themselves, for their per-
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from probing.core.recorded import tap_bounds
@@ -86,9 +88,11 @@ class SettledMean:
         }
 
     def bounds(
-        self,
+        self, transform: Callable[[str, np.ndarray], np.ndarray] | None = None
     ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], dict[str, int]] | None:
-        """With ``keep_all``: each channel's per-tap bounds over its settled periods.
+        """With ``keep_all``: each channel's per-tap bounds over its settled periods
+        (``transform(channel, rows)``: the rows, shape (P, M), that the bounds are taken of,
+        for each channel with at least 2; default the settled h itself).
 
         :func:`probing.core.recorded.tap_bounds` at
         :data:`~probing.experiment.layouts.BOUNDS_LEVEL` of each channel's settled h,
@@ -108,6 +112,8 @@ class SettledMean:
         out = np.full((4, len(self.channels), self.m), np.nan)
         for j, rows in enumerate(self.all):
             if len(rows) >= 2:
-                out[:, j] = tap_bounds(np.array(rows), BOUNDS_LEVEL)
+                h = np.array(rows)
+                h = h if transform is None else transform(self.channels[j], h)
+                out[:, j] = tap_bounds(h, BOUNDS_LEVEL)
         dof = {c: int(self.count[j]) - 1 for j, c in enumerate(self.channels)}
         return (out[0], out[1], out[2], out[3]), dof

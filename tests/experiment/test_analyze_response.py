@@ -105,7 +105,7 @@ def test_a_response_that_has_not_settled_keeps_the_zero_mean_and_says_so(
     for name in ("probing.parquet", "bounds.parquet"):
         conv = json.loads(pq.read_metadata(tmp_path / "out" / name).metadata[b"probing.convention"])
         assert conv["h_est"] == {"q_rad_s": "zero mean"}
-        assert conv["tail"]["f_statistic"]["q_rad_s"] > conv["tail"]["f_threshold"]
+        assert conv["tail"]["f_statistic"]["q_rad_s"] > conv["tail"]["f_threshold"]["q_rad_s"]
 
 
 def test_settled_after_moves_the_tail_and_is_checked(
