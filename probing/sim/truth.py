@@ -25,7 +25,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from probing.core.prbs import steps_per_bit
-from probing.sim.channels import CHANNELS
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.linear import linear_response
@@ -107,7 +106,8 @@ def linear_pulse_response(
     flight : Flight
         Aircraft and trim condition.
     channels : sequence of str
-        Output channels; those without a linearised output (:data:`CHANNELS`) are left out.
+        Output channels; those without a linearised output
+        (:data:`probing.sim.channels.CHANNELS`) are left out.
     bit_duration_s : float
         Bit duration t0, s (a whole number of simulation steps).
     n_bits : int
@@ -123,8 +123,7 @@ def linear_pulse_response(
     if flight.closed_loop:
         return {}
     spb = steps_per_bit(bit_duration_s, flight.dt_s)
-    covered = [c for c in channels if CHANNELS[c].linear_output is not None]
-    lin = linear_response(make_plant(flight), covered, flight.surface, full=True)
+    lin = linear_response(make_plant(flight), channels, flight.surface, full=True)
     asked = np.zeros(n_bits * spb)
     asked[:spb] = 1.0
     h = lin.respond(asked)[spb - 1 :: spb]

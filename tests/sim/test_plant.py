@@ -101,20 +101,9 @@ def test_a_straight_trim_is_jsbsims_own_full_trim_to_the_bit(
     plant.damage(case)
     plant.trim(800.0, speed_keas=75.0, gamma_deg=gamma_deg)
     assert plant.turn_trim is None
-    bare = new_plant("gtm_t2", 1.0 / 200.0).fdm
-    bare["damage/case"] = case
-    for prop, value in (
-        ("ic/h-sl-ft", 800.0),
-        ("ic/ve-kts", 75.0),
-        ("ic/gamma-deg", gamma_deg),
-        ("ic/beta-deg", 0.0),
-        ("ic/phi-deg", 0.0),
-        ("gear/gear-cmd-norm", 0.0),
-        ("propulsion/set-running", -1),
-    ):
-        bare[prop] = value
-    assert bare.run_ic()
-    bare.do_trim(1)  # FGTrim's tFull
+    bare = fgtrim_alone(
+        new_plant("gtm_t2", 1.0 / 200.0).fdm, 800.0, ("ic/ve-kts", 75.0), gamma_deg, case
+    )
     for prop in TRIM_STATE:
         assert plant.fdm[prop] == bare[prop], prop
 
@@ -143,19 +132,7 @@ def test_the_first_step_is_the_trims_own(
     q = 5.6e-5 rad/s after it)."""
     plant = new_plant(model, dt_s)
     plant.trim(altitude_ft, speed_kcas=speed_kcas, surface="aileron")
-    bare = new_plant(model, dt_s).fdm
-    for prop, value in (
-        ("ic/h-sl-ft", altitude_ft),
-        ("ic/vc-kts", speed_kcas),
-        ("ic/gamma-deg", 0.0),
-        ("ic/beta-deg", 0.0),
-        ("ic/phi-deg", 0.0),
-        ("gear/gear-cmd-norm", 0.0),
-        ("propulsion/set-running", -1),
-    ):
-        bare[prop] = value
-    assert bare.run_ic()
-    bare.do_trim(1)  # FGTrim's tFull
+    bare = fgtrim_alone(new_plant(model, dt_s).fdm, altitude_ft, ("ic/vc-kts", speed_kcas))
     assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
     drive = plant.drive()
     out = np.empty((1, 0))
@@ -163,6 +140,33 @@ def test_the_first_step_is_the_trims_own(
     bare.run()
     assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
     assert abs(plant.fdm["velocities/q-rad_sec"]) < 1e-8
+
+
+def fgtrim_alone(
+    fdm,
+    altitude_ft: float,
+    speed: tuple[str, float],
+    gamma_deg: float = 0.0,
+    case: int | None = None,
+):
+    """``fdm`` (a fresh plant's JSBSim, untouched by the project) trimmed by JSBSim's FGTrim
+    alone at the condition (``speed``: its ``ic/`` property and value), gear up, engines
+    running, wings level; ``case``: NASA's damage case set first (the GTM's ``damage/case``)."""
+    if case is not None:
+        fdm["damage/case"] = case
+    for prop, value in (
+        ("ic/h-sl-ft", altitude_ft),
+        speed,
+        ("ic/gamma-deg", gamma_deg),
+        ("ic/beta-deg", 0.0),
+        ("ic/phi-deg", 0.0),
+        ("gear/gear-cmd-norm", 0.0),
+        ("propulsion/set-running", -1),
+    ):
+        fdm[prop] = value
+    assert fdm.run_ic()
+    fdm.do_trim(1)  # FGTrim's tFull
+    return fdm
 
 
 def _inet_sockets_of(code: str) -> list[tuple[str, str]]:
