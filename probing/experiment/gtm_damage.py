@@ -22,6 +22,7 @@ from probing.experiment.gtm_damage_set import EXAMPLE6, SCHEMA, SIGNALS, Example
 from probing.experiment.storage import AtomicParquetWriter, provenance
 from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, Flight
 from probing.sim.plant import TurnTrim, make_plant
+from probing.sim.world import JSBSimWorld
 
 __all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly", "fly_case", "run_example6"]
 
@@ -65,7 +66,7 @@ def fly(case: int, setup: Example6 = EXAMPLE6) -> tuple[dict[str, np.ndarray], T
     nodes = [manager.get_node(prop) for prop, _, _ in SIGNALS.values()]
     out = np.empty((round(setup.end_s / setup.dt_s) + 1, len(nodes)))
     out[0] = [node.get_double_value() for node in nodes]
-    plant.step(None, nodes, out[1:])  # open loop; the damage from the onset step on
+    JSBSimWorld(plant).fly(len(out) - 1, nodes, out[1:])  # open loop; damaged from the onset
     out *= [factor for _, factor, _ in SIGNALS.values()]
     columns = {"time_s": np.arange(out.shape[0]) * setup.dt_s}
     columns.update({c: out[:, j] for j, c in enumerate(SIGNALS)})

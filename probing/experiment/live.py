@@ -2,62 +2,77 @@
 
 The simulator is started separately (:func:`probing.sim.live_sim.write_sim` writes what it
 needs) and driven through its input socket (:class:`~probing.experiment.sim_socket.SimSocket`)
-in lock step: held, then per step the probed surface's command written (trim plus the
-probe after the scenario's nonlinearity, through the model's command-to-position map),
-one frame iterated, the channels read.  Each period (:data:`LIVE_CHUNK_PERIODS`) becomes
-the rows of ``sensors.parquet`` (:func:`probing.experiment.run._log`, sensor noise added as
-a flight adds it) and is fed to the same :class:`~probing.experiment.onboard.Onboard` and
-monitor (:class:`probing.experiment.monitor._Monitor`) as ``probing monitor``'s, and a line
-per period reports it; the log's footer records the chunk (``probing.chunk_periods``) and
-``probing monitor --replay`` of the log chunks it alike, so it gives the same tables bit for
-bit.
+in lock step, one message per frame, as ArduPilot's SITL flies JSBSim.  The simulator
+process is the world (:class:`SocketWorld`): the aircraft, its turbulence (switched on, and
+seeded as in this process, in the first frame) and a damage case (switched on in the frame of
+its onset); on this side of the socket the world also holds what a hardware-in-the-loop rig
+models beside the simulator: the probed surface's actuator fault and the sensors (the suite's,
+seeded as a flight in this process seeds them, with the sensor fault).  The flight computer is
+the same :class:`~probing.experiment.flight_computer.FlightComputer` as ``probing monitor``'s
+and ``--replay``'s: the probe path (with its fault), the autopilot on the measurements, the
+reference (``gust``, ``nominal``, ``follow``, ``detrend``, ``none``), the estimators and the
+monitor.
 
-With a ``[sensors]`` suite the values read are the true states: the suite's sensors
-(:class:`probing.sim.sensing.SensorBank`, seeded as a flight in this process seeds them) are
-applied on the flight computer's side before the rows are logged and estimated.
+Each message writes the frame's commands and reads the channels: the integrator's states
+(:data:`STATE_PREFIXES`) are the frame's own, what JSBSim computes after the commands (air
+data, load factors, the surfaces) is the frame before's and completes the row before.  So the
+autopilot sees the attitude and rates of the step before, as in this process, and the
+airspeed one step older; a stuck actuator holds the position measured two steps before its
+onset (docs/live.md, "What differs from a flight in this process").
 
-Supported: open loop (no ``[control]``), calm air, no ``[fault]``, ``output.drift``
-``none`` or ``detrend`` (:func:`check_live`).
+Each period (:data:`LIVE_CHUNK_PERIODS`) becomes the rows of ``sensors.parquet`` once its
+last row is complete, and a line reports it; the log's footer records the chunk
+(``probing.chunk_periods``) and ``probing monitor --replay`` of the log chunks it alike, so it
+gives the same tables bit for bit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 
-from probing.experiment.bounds import EstimatesFile
-from probing.experiment.layouts import sensors_schema
+from probing.core.faults import onset_step
+from probing.experiment.flight_computer import FlightComputer, folder_of
 from probing.experiment.monitor import MonitorResult, _Monitor
-from probing.experiment.onboard import Onboard
+from probing.experiment.onboard import open_reference_twin, reference_source
 from probing.experiment.progress import Progress, progress_bar
-from probing.experiment.run import _log, _measured, scenario_provenance
+from probing.experiment.run import scenario_provenance
+from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
 from probing.experiment.sim_socket import SimSocket
-from probing.experiment.storage import metadata, output_folder
+from probing.experiment.storage import output_folder
+from probing.sim.autopilot import LOOP_CHANNELS, Autopilot, Demand
 from probing.sim.channels import CHANNELS
+from probing.sim.control import control_power, trim_of
 from probing.sim.errors import DivergenceError
-from probing.sim.plant import Plant, make_plant
-from probing.sim.sensing import SensorBank
+from probing.sim.flight import Control, disturbance_properties
+from probing.sim.plant import DAMAGE_PROPERTY, Plant, make_plant
+from probing.sim.sensing import ChannelNoise, SensorBank
 from probing.sim.surfaces import SURFACES
+from probing.sim.world import JSBSimWorld
 
 __all__ = [
     "LIVE_CHUNK_PERIODS",
     "LIVE_DRIFTS",
     "LiveError",
     "LiveResult",
+    "SocketWorld",
     "at_trim_frame",
     "check_live",
     "live_monitor",
 ]
 
-#: The drift modes a live flight supports: no model of the aircraft flies beside it.
-LIVE_DRIFTS = ("none", "detrend")
+#: The drift modes a live flight supports: every realisable one (``oracle`` and
+#: ``reference`` fly a twin through the simulator's own turbulence, which no flight computer
+#: knows).
+LIVE_DRIFTS = ("gust", "nominal", "follow", "detrend", "none")
 
 #: The periods a live flight logs and estimates at a time: one, so each period's estimate and
 #: the monitor's state are known (and reported) as the period ends.  The log's footer records
@@ -66,8 +81,8 @@ LIVE_DRIFTS = ("none", "detrend")
 LIVE_CHUNK_PERIODS = 1
 
 SUPPORTED = (
-    "probing live supports open-loop scenarios (no [control]) in calm air, without [fault], "
-    "with output.drift none or detrend"
+    "probing live flies every scenario probing monitor flies with a realisable reference "
+    f"(output.drift {', '.join(LIVE_DRIFTS)}), trimmed without damage"
 )
 
 
@@ -84,18 +99,17 @@ class LiveError(ValueError):
 
 
 def check_live(scn: Scenario) -> None:
-    """Refuse (:class:`LiveError`, one line) what a live flight does not support."""
+    """Refuse (:class:`LiveError`, one line) what a live flight does not support: another
+    runner's scenario (:func:`probing.experiment.runners.runner_of`), a reference that knows
+    the simulator's turbulence, an aircraft trimmed damaged."""
+    refusal = runner_of(scn).refuses("live")
+    if refusal is not None:
+        raise LiveError(f"{scn.name}: {refusal}")
     reasons = []
-    if scn.control is not None or scn.stepped_one_by_one:
-        reasons.append("it flies closed loop")
     if scn.drift not in LIVE_DRIFTS:
         reasons.append(f"output.drift is {scn.drift}")
-    if scn.turbulence != "none":
-        reasons.append(f"turbulence is {scn.turbulence}")
-    if scn.fault_type != "none":
-        reasons.append(f"it has a [fault] ({scn.fault_type})")
-    if scn.simultaneous is not None or scn.manoeuvre is not None:
-        reasons.append("it has a [simultaneous] or [manoeuvre] section")
+    if scn.flight.trimmed_damage:
+        reasons.append(f"it is trimmed with damage case {scn.flight.trimmed_damage}")
     if reasons:
         raise LiveError(f"{scn.name}: {'; '.join(reasons)}: {SUPPORTED}")
 
@@ -144,26 +158,6 @@ class LiveResult:
         )
 
 
-class _Actuator:
-    """The probed surface's command per step: trim plus the probe after the scenario's
-    nonlinearity, through the model's command-to-position map (a trimmed copy of the
-    aircraft in this process knows the map, as the flight computer knows its actuator)."""
-
-    def __init__(self, scn: Scenario, plant: Plant) -> None:
-        self.scn, self.drive = scn, plant.drive(scn.surface)
-        self.names = SURFACES[scn.surface].command_properties(plant.engine_count())
-        self.nl = scn.build_nonlinearity()
-        self.nl_state = self.nl.initial_state() if self.nl else None
-        self.x_period = scn.probe.samples(scn.dt_s, 1)
-
-    def period(self) -> np.ndarray:
-        """The next period's normalised commands."""
-        q = self.x_period
-        if self.nl:
-            q, self.nl_state = self.nl.process(self.x_period, self.scn.dt_s, self.nl_state)
-        return self.drive.command(self.drive.trim_position + q)
-
-
 #: The properties JSBSim's integrator (``FGPropagate``) owns: in a frame of a blocking input
 #: socket they are already the frame's when the message is answered; every other (air data,
 #: load factors, surfaces) is still the frame before's, read with the next frame's message.
@@ -177,48 +171,205 @@ STATE_PREFIXES = (
 )
 
 
-class _Read:
-    """What the flight computer reads of the simulator, taken at the trim: the channels it
-    logs (the suite's, with ``[sensors]``, else the scenario's), their properties, the
-    sensors (None without a suite) and the trim as measured (the scenario's channels).
+class SocketWorld:
+    """JSBSim in a separate process, one message per frame, with the probed surface's
+    actuator fault and the sensors on this side of the socket (module docstring).
 
-    Without a suite the values read are what is measured; with one they are the true values,
-    and the suite's sensors, started in steady state at the trim's true values, measure them.
+    Parameters
+    ----------
+    scn : Scenario
+        The flight's scenario.
+    sim : SimSocket
+        The simulator, held at its trim.
+    plant : Plant
+        A trimmed copy of the aircraft in this process: the actuators' command-to-position
+        maps (what the rig knows of the aircraft's actuators).
+    realtime : bool
+        Pace the frames at the wall clock.
     """
 
-    def __init__(self, scn: Scenario, sim: SimSocket) -> None:
+    def __init__(self, scn: Scenario, sim: SimSocket, plant: Plant, realtime: bool) -> None:
+        self.scn, self.sim, self.realtime = scn, sim, realtime
         suite = scn.sensors
-        self.channels = list(suite.sensors) if suite is not None else list(scn.channels)
-        self.props = [CHANNELS[c].prop for c in self.channels]
-        true = sim.get(self.props)
-        self.sensors = None if suite is None else SensorBank(suite, scn.dt_s, scn.seed, true)
-        measured = self.sensors.current if self.sensors is not None else true
-        trim = dict(zip(self.channels, measured, strict=True))
-        self.y_trim = np.array([trim[c] for c in scn.channels])
-
-
-class _Lockstep:
-    """The simulator one frame per message: the surface's command written and the channels
-    read; the channels JSBSim computes after the command (not :data:`STATE_PREFIXES`) come
-    with the next frame's message, so each row is the frame's own, as after ``run()``
-    in this process."""
-
-    def __init__(self, sim: SimSocket, props: list[str], names: list[str]) -> None:
-        self.sim, self.props, self.names = sim, props, names
+        self.logged = list(suite.sensors) if suite is not None else list(scn.channels)
+        extra = [] if suite is not None else [c for c in LOOP_CHANNELS if c not in self.logged]
+        self.channels = [*self.logged, *extra]  # what is read: the logged, the loops' others
+        engines = plant.engine_count()
+        surface = SURFACES[scn.surface]
+        self.drive, self.elevator = plant.drive(scn.surface), plant.drive()
+        self.names = {
+            "probed": surface.command_properties(engines),
+            "elevator": SURFACES["elevator"].command_properties(engines),
+            "throttle": SURFACES["throttle"].command_properties(engines),
+        }
+        props = [CHANNELS[c].prop for c in self.channels] + [surface.position]
         self.state = [j for j, p in enumerate(props) if p.startswith(STATE_PREFIXES)]
         self.later = [j for j in range(len(props)) if j not in self.state]
         self.ask = [props[j] for j in (*self.state, *self.later)]
+        self.later_props = [props[j] for j in self.later]
+        true = sim.get(props)  # held: the trimmed aircraft
+        self.row = list(true)  # the latest row: its state this frame's, the rest the last's
+        n_log = len(self.logged)
+        self.bank = None if suite is None else SensorBank(suite, scn.dt_s, scn.seed, true[:n_log])
+        #: The latest measurement of each channel read (the loops' inputs).
+        self.current = list(self.bank.current) if self.bank is not None else true[:n_log]
+        self.current += true[n_log : len(self.channels)]
+        fault = scn.build_fault("sensor")
+        self.noise = None
+        if self.bank is None:
+            sigma = [scn.sensor_noise.get(c, 0.0) for c in self.logged]
+            self.noise = ChannelNoise(self.logged, sigma, scn.seed, fault, scn.dt_s)
+        self.bias = None  # (channel index, offset, onset step) of a sensor fault in the suite
+        if fault is not None and self.bank is not None:
+            self.bias = (
+                self.bank.index(fault.channel),
+                fault.bias,
+                onset_step(fault.onset_s, scn.dt_s),
+            )
+        self.fault = scn.actuator_fault
+        self.fault_onset = onset_step(self.fault.onset_s, scn.dt_s) if self.fault else -1
+        self.held: float | None = None
+        flight = scn.flight
+        self.damage = None
+        if flight.damage_onset_s is not None:
+            self.damage = (onset_step(flight.damage_onset_s, scn.dt_s), float(flight.damage_case))
+        self.first_frame = (
+            disturbance_properties(flight.turbulence, flight.seed)
+            if flight.turbulence != "none"
+            else {}
+        )
+        self.steps = 0  # frames flown
+        self.true_rows: list[list[float]] = []  # rows complete but for the last one's later
+        self.measured_rows: list[list[float]] = []
+        self.noise_rows: list[list[float]] = []
+        self.start = time.perf_counter()
+        self.slept_s = 0.0  # the pacing's sleeps (realtime), s
 
-    def frame(self, command: float) -> tuple[list[float], list[float]]:
-        """One frame with ``command``: (its state channels, the frame before's others)."""
-        values = self.sim.exchange(dict.fromkeys(self.names, command), self.ask)
-        return values[: len(self.state)], values[len(self.state) :]
+    def reader(self, channel: str) -> Callable[[], float]:
+        """A callable giving the latest measurement of ``channel`` (NaN if nothing measures
+        it: a loop flying on it is refused when the scenario is read)."""
+        if channel not in self.channels:
+            return lambda: math.nan
+        current, j = self.current, self.channels.index(channel)
+        return lambda: current[j]
 
-    def last(self) -> list[float]:
-        """The last frame's other channels (the simulator flies one more frame, then holds)."""
-        values = self.sim.get([self.props[j] for j in self.later])
-        self.sim.hold()
+    @property
+    def trim_measured(self) -> np.ndarray:
+        """The scenario's channels as measured at the trim (before the first frame)."""
+        return np.array([self.current[self.channels.index(c)] for c in self.scn.channels])
+
+    def fly(
+        self,
+        n: int,
+        law: Callable[[int], Demand] | None = None,
+        commands: np.ndarray | None = None,
+    ) -> None:
+        """Fly ``n`` frames: the flight computer's ``law`` step by step, or the probed
+        surface's normalised ``commands`` ``(n,)``."""
+        probed, elevator = self.names["probed"], self.names["elevator"]
+        cmds = commands.tolist() if commands is not None else None
+        for k in range(n):
+            values = self.first_frame if self.steps == 0 else {}
+            if cmds is not None:
+                values = {**values, **dict.fromkeys(probed, cmds[k])}
+            else:
+                assert law is not None
+                values = {**values, **self._demand(law(k), probed, elevator)}
+            if self.damage is not None and self.steps == self.damage[0]:
+                values[DAMAGE_PROPERTY] = self.damage[1]
+            self._frame(values)
+            if self.realtime:
+                due = self.start + self.steps * self.scn.dt_s
+                pause = max(0.0, due - time.perf_counter())
+                time.sleep(pause)
+                self.slept_s += pause
+
+    def _demand(self, demand: Demand, probed: list[str], elevator: list[str]) -> dict:
+        """The property writes of one step's demands, through the actuator and its fault."""
+        surface, elevator_deg, ail, thr = demand
+        if self.steps >= self.fault_onset >= 0:
+            if self.held is None:  # the last position measured before the onset
+                self.held = self.row[-1]
+            surface = self.fault.position(surface, self.drive.trim_position, self.held)
+        values = {}
+        if ail is not None:
+            values[SURFACES["aileron"].command] = ail
+        if thr is not None:
+            values.update(dict.fromkeys(self.names["throttle"], thr))
+        if elevator_deg is not None:
+            values.update(dict.fromkeys(elevator, self.elevator.command_clipped(elevator_deg)))
+        values.update(dict.fromkeys(probed, self.drive.command_clipped(surface)))
         return values
+
+    def _frame(self, values: dict[str, float]) -> None:
+        """One frame: ``values`` written, its row started and the row before completed."""
+        reply = self.sim.exchange(values, self.ask)
+        now, before = reply[: len(self.state)], reply[len(self.state) :]
+        if self.steps:
+            self._complete(before)
+        row = self.row
+        for j, v in zip(self.state, now, strict=True):
+            row[j] = v
+        if self.bank is not None:
+            draws = self.bank.noise(1)[0]
+            self.noise_rows.append(draws)
+            measured = [math.nan] * len(self.logged)
+            self._measure(measured, self.state, row, self.steps, draws)
+            self.measured_rows.append(measured)
+        else:
+            for j in self.state:
+                if j < len(self.current):
+                    self.current[j] = row[j]
+        self.true_rows.append(list(row))
+        self.steps += 1
+
+    def _complete(self, before: list[float]) -> None:
+        """The row before, completed with what JSBSim computed after its commands."""
+        last = self.true_rows[-1]
+        for j, v in zip(self.later, before, strict=True):
+            last[j] = self.row[j] = v
+        if self.bank is not None:
+            measured, draws = self.measured_rows[-1], self.noise_rows[-1]
+            self._measure(measured, self.later, last, self.steps - 1, draws)
+        else:
+            for j in self.later:
+                if j < len(self.current):
+                    self.current[j] = last[j]
+
+    def _measure(
+        self, out: list[float], columns: list[int], row: list[float], step: int, draws: list
+    ) -> None:
+        """The suite's sensors measure ``columns`` of ``row``, the row of frame ``step`` (the
+        sensor fault added), into ``out`` and :attr:`current`."""
+        assert self.bank is not None
+        for j in columns:
+            if j >= len(self.logged):
+                continue  # the probed surface's position: the actuator's, not logged
+            value = self.bank.sensors[j].step(row[j], draws[j])
+            if self.bias is not None and j == self.bias[0] and step >= self.bias[2]:
+                value += self.bias[1]
+            out[j] = self.current[j] = value
+
+    def finish(self) -> None:
+        """After the last frame: its row completed (the simulator holds)."""
+        before = self.sim.get(self.later_props)
+        self.sim.hold()
+        self._complete(before)
+
+    def take(self, rows: int, first_step: int) -> dict[str, np.ndarray]:
+        """The first ``rows`` complete rows, measured: what the sensors logged."""
+        true = np.array(self.true_rows[:rows], dtype=np.float64)
+        del self.true_rows[:rows]
+        if not np.all(np.isfinite(true)):
+            raise DivergenceError("the simulator's outputs are not finite")
+        n_log = len(self.logged)
+        if self.bank is not None:
+            measured = np.array(self.measured_rows[:rows], dtype=np.float64)
+            del self.measured_rows[:rows], self.noise_rows[:rows]
+        else:
+            assert self.noise is not None
+            measured = self.noise.measure(true[:, :n_log], first_step)
+        return dict(zip(self.logged, measured.T, strict=True))
 
 
 def live_monitor(
@@ -234,12 +385,13 @@ def live_monitor(
     timeout_s: float = 10.0,
 ) -> LiveResult:
     """Fly ``scn`` on the simulator at ``host:port`` with the monitor: ``out/<name>/``
-    gets ``sensors.parquet``, ``probing.parquet`` and ``monitor.parquet``.
+    gets ``sensors.parquet``, ``probing.parquet``, ``bounds.parquet`` and ``monitor.parquet``.
 
     Raises
     ------
     LiveError
-        For a scenario :func:`check_live` refuses.
+        For a scenario :func:`check_live` refuses, or a simulator at another step or past
+        its trim.
     probing.experiment.sim_socket.SimConnectionError
         If the simulator cannot be reached or answers something else (nothing written).
 
@@ -249,7 +401,9 @@ def live_monitor(
     check_live(scn)
     sim = SimSocket(host, port, timeout_s)
     try:
-        plant = make_plant(scn.flight)  # the actuator's map, as the flight computer knows it
+        plant = make_plant(
+            dataclasses.replace(scn.flight, turbulence="none", damage_case=0, damage_onset_s=None)
+        )
         sim.hold()
         dt_sim, time_sim = sim.get(["simulation/dt", "simulation/sim-time-sec"])
         if not math.isclose(dt_sim, scn.dt_s, rel_tol=1e-5):
@@ -259,122 +413,92 @@ def live_monitor(
                 f"{sim.where} has flown already (its time is {time_sim:g} s; one started with "
                 f"--suspend waits at {dt_sim:g} s, its trim's frame): start it again"
             )
-        read = _Read(scn, sim)  # held: the trimmed aircraft
+        world = SocketWorld(scn, sim, plant, realtime)  # held: the trimmed aircraft
         sim.resume()  # it runs the frame's rest at the trim, then waits in the next frame
-        target = Path(folder) if folder is not None else Path(out) / scn.name
-        return _fly(scn, plant, sim, read, target, realtime, progress, stream)
+        target = folder_of(out, scn.name, folder)
+        return _fly(scn, plant, world, target, progress, stream)
     finally:
         sim.close()
+
+
+def flight_computer(
+    scn: Scenario, plant: Plant, world: SocketWorld, monitor: _Monitor
+) -> FlightComputer:
+    """The flight computer of a live flight: the same as a flight in this process builds,
+    its autopilot flying on ``world``'s measurements, its actuator's maps and trim those of
+    ``plant`` (a trimmed copy in this process)."""
+    autopilot = None
+    if scn.stepped_one_by_one or scn.sensors is not None:
+        power = control_power(scn.flight) if scn.flight.closed_loop else None
+        reads = {c: world.reader(c) for c in LOOP_CHANNELS}
+        trim = trim_of(JSBSimWorld(plant, scn.surface))
+        autopilot = Autopilot(scn.control or Control(), power, trim, reads, scn.dt_s)
+    twin = open_reference_twin(scn, nominal=True)
+    source = reference_source(scn, twin)
+    return FlightComputer(scn, autopilot, world.trim_measured, source, LIVE_CHUNK_PERIODS, monitor)
 
 
 def _fly(
     scn: Scenario,
     plant: Plant,
-    sim: SimSocket,
-    read: _Read,
+    world: SocketWorld,
     folder: Path,
-    realtime: bool,
     progress: bool | None,
     stream: TextIO | None,
 ) -> LiveResult:
-    """The flight after the connection: chunks of whole periods stepped, logged, estimated."""
+    """The flight after the connection: chunks of whole periods flown, logged, estimated."""
     monitor = _Monitor(scn, scn.monitor_settings())
-    actuator = _Actuator(scn, plant)
-    lock = _Lockstep(sim, read.props, actuator.names)
-    flown = _Chunks(scn, actuator, lock, read.sensors, realtime)
-    m, channels = scn.bits_per_period, list(scn.channels)
-    onboard = Onboard(scn, None, read.y_trim, flown.chunk * m)
-    lag_s = np.arange(m) * scn.probe.bit_duration_s
-    wait0, start, chunk_s = sim.wait_s, time.perf_counter(), 0.0
-    meta = scenario_provenance(scn, plant.trim_result, drift=scn.drift, live=sim.where)
+    computer = flight_computer(scn, plant, world, monitor)
+    lag_s = np.arange(scn.bits_per_period) * scn.probe.bit_duration_s
+    wait0, start, chunk_s = world.sim.wait_s, time.perf_counter(), 0.0
+    meta = scenario_provenance(scn, plant.trim_result, drift=scn.drift, live=world.sim.where)
+    n_steps = computer.period_steps
     with output_folder(folder, meta) as outputs, _bar(scn, stream, progress) as bar:
-        schema = sensors_schema(read.channels, False, scn.surface)
-        w_log = outputs.writer("sensors.parquet", read.channels, scn.surface_unit, schema=schema)
-        trim = dict(zip(channels, read.y_trim.tolist(), strict=True))
-        w_log.add_metadata(metadata(trim_measured=trim, chunk_periods=flown.chunk))
-        estimates = EstimatesFile(outputs, scn, lag_s)
-        monitor.open(outputs)
-        for first, log in flown.logs():
+        computer.open(outputs, lag_s, log_channels=world.logged, chunk_periods=LIVE_CHUNK_PERIODS)
+        for first, log in _chunks(world, computer):
             begun = time.perf_counter()
-            w_log.write(log)
-            done = onboard.estimates(log, first)
-            est = done.estimates
-            estimates.write(est)
-            monitor.update(est.periods, est.h, est.z, done.trajectory)
-            _report(bar, monitor, est, first, len(log["time_s"]) // flown.n_steps)
+            est = computer.consume(log, first).estimates
+            _report(bar, monitor, est, first, len(log["time_s"]) // n_steps)
             chunk_s = max(chunk_s, time.perf_counter() - begun)
-        estimates.finish()
-        monitor.finish()
+        computer.finish(outputs)
     wall = time.perf_counter() - start
     result = monitor.result(None, folder, None)
-    steps = scn.periods * flown.n_steps
-    wait = sim.wait_s - wait0 + flown.slept_s
-    return LiveResult(result, steps, wall, wait, scn.period_s, flown.n_steps, chunk_s)
+    steps = scn.periods * n_steps
+    wait = world.sim.wait_s - wait0 + world.slept_s
+    return LiveResult(result, steps, wall, wait, scn.period_s, n_steps, chunk_s)
 
 
-class _Chunks:
-    """The flight in chunks of whole periods, as ``probing monitor`` and its replay chunk it:
-    each chunk's rows of ``sensors.parquet`` (the suite's sensors applied, or
-    ``disturbance.sensor_noise`` added, as a flight in this process does)."""
-
-    def __init__(
-        self,
-        scn: Scenario,
-        actuator: _Actuator,
-        lock: _Lockstep,
-        sensors: SensorBank | None,
-        realtime: bool,
-    ) -> None:
-        self.scn, self.actuator, self.lock, self.realtime = scn, actuator, lock, realtime
-        self.sensors = sensors
-        self.n_steps = scn.probe.length * scn.steps_per_bit
-        self.chunk = LIVE_CHUNK_PERIODS
-        self.sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
-        self.rng = np.random.default_rng(scn.seed)
-        self.slept_s = 0.0  # the pacing's sleeps (--realtime), s
-
-    def logs(self) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        """(first period, the chunk's log) for every chunk; a chunk is handed on once its
-        last row is complete (in the next chunk's first frame)."""
-        scn, n, lock = self.scn, self.n_steps, self.lock
-        state, later = lock.state, lock.later
-        done: tuple[int, np.ndarray] | None = None
-        start = time.perf_counter()
-        for first in range(0, scn.periods, self.chunk):
-            k = min(self.chunk, scn.periods - first)
-            out = np.full((k * n, len(lock.props)), np.nan)
-            for i in range(k):
-                for step, command in enumerate(self.actuator.period().tolist()):
-                    row = i * n + step
-                    now, before = lock.frame(command)
-                    out[row, state] = now
-                    if row:
-                        out[row - 1, later] = before
-                    elif done is not None:
-                        done[1][-1, later] = before
-                        yield done[0], self._log(*done)
-                    if self.realtime:
-                        due = start + ((first + i) * n + step + 1) * scn.dt_s
-                        pause = max(0.0, due - time.perf_counter())
-                        time.sleep(pause)
-                        self.slept_s += pause
-            done = (first, out)
+def _chunks(world: SocketWorld, computer: FlightComputer) -> Iterator[tuple[int, dict]]:
+    """(first period, the chunk's log) for every chunk of :data:`LIVE_CHUNK_PERIODS`; a chunk
+    is handed on once its last row is complete (after the next chunk's frames)."""
+    scn, n = world.scn, computer.period_steps
+    done: tuple[int, int, np.ndarray | None] | None = None  # (first, count, commands)
+    for first in range(0, scn.periods, LIVE_CHUNK_PERIODS):
+        count = min(LIVE_CHUNK_PERIODS, scn.periods - first)
+        commands = np.empty((count * n, 3)) if computer.autopilot is not None else None
+        for i in range(count):
+            q = computer.probe_path(first + i)
+            if computer.autopilot is None:
+                drive = world.drive
+                world.fly(n, commands=drive.command(drive.trim_position + q))
+            else:
+                world.fly(n, law=computer.law(world.steps, q, record_commands=True))
+                commands[i * n : (i + 1) * n] = computer.commands_record
         if done is not None:
-            done[1][-1, later] = lock.last()
-            yield done[0], self._log(*done)
+            yield done[0], _log(world, computer, *done)
+        done = (first, count, commands)
+    if done is not None:
+        world.finish()
+        yield done[0], _log(world, computer, *done)
 
-    def _log(self, first: int, out: np.ndarray) -> dict[str, np.ndarray]:
-        """The rows of ``sensors.parquet`` of the chunk from period ``first`` on."""
-        scn, n = self.scn, self.n_steps
-        if not np.all(np.isfinite(out)):
-            raise DivergenceError("the simulator's outputs are not finite")
-        if self.sensors is not None:  # the true values, measured by the suite's sensors
-            recorded = dict(zip(self.sensors.channels, self.sensors.measure(out).T, strict=True))
-        else:
-            measured = _measured(out, self.rng, self.sigma, None, scn, first * n)
-            recorded = dict(zip(scn.channels, measured.T, strict=True))
-        count = out.shape[0] // n
-        return _log(scn, first * n, self.actuator.x_period, count, None, recorded, len(out))
+
+def _log(
+    world: SocketWorld, computer: FlightComputer, first: int, count: int, commands: Any
+) -> dict[str, np.ndarray]:
+    """The rows of ``sensors.parquet`` of the chunk of ``count`` periods from ``first`` on."""
+    n = computer.period_steps
+    recorded = world.take(count * n, first * n)
+    return computer.log(first * n, count, commands, recorded)
 
 
 def _bar(scn: Scenario, stream: TextIO | None, progress: bool | None) -> Any:

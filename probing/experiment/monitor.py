@@ -27,9 +27,8 @@ import pyarrow.parquet as pq
 
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.trajectory import TrajectoryDetector
-from probing.experiment.bounds import EstimatesFile
+from probing.experiment.flight_computer import FlightComputer
 from probing.experiment.onboard import (
-    Onboard,
     log_columns,
     open_reference_twin,
     reference_source,
@@ -379,16 +378,17 @@ def replay_monitor(
     then only names it.
 
     The log's own metadata gives the scenario and the sensors' reading of the trim; its
-    rows go through the same :class:`~probing.experiment.onboard.Onboard` and detectors,
-    in the same chunks as the flight's (:func:`logged_chunk_periods`), so the tables are
-    equal bit for bit.  An ``oracle`` reference needs the simulated atmosphere: it is flown
-    again from the scenario (simulation only, as live).
+    rows go through the same flight computer
+    (:class:`~probing.experiment.flight_computer.FlightComputer`: its reference, estimators
+    and detectors), in the same chunks as the flight's (:func:`logged_chunk_periods`), so
+    the tables are equal bit for bit.  An ``oracle`` reference needs the simulated
+    atmosphere: it is flown again from the scenario (simulation only).
 
     Raises
     ------
     ReplayError
-        If the file is not a monitored flight's log, or its drift mode cannot be replayed
-        (``follow``: its twin flew alongside the aircraft).
+        If the file is not a monitored flight's log, or lacks a column its reference reads
+        (``follow``: the autopilot's commands).
     probing.experiment.storage.StoredFileError
         If the file cannot be read.
     """
@@ -407,27 +407,20 @@ def replay_monitor(
     kept = {k: v for k, v in meta.items() if k.startswith(b"probing.") and k not in _LOG_ONLY}
     twin = open_reference_twin(scn, nominal=True, use_cache=twin_cache)
     with twin or nullcontext():
-        onboard = Onboard(scn, reference_source(scn, twin), baseline, chunk_periods * m)
+        source = reference_source(scn, twin)
+        computer = FlightComputer(scn, None, baseline, source, chunk_periods, monitor)
         with output_folder(folder, kept) as outputs:
-            estimates = EstimatesFile(outputs, scn, lag_s)
-            monitor.open(outputs)
+            computer.open(outputs, lag_s)
             rows = _batches(log, table, chunk_periods * period_steps)
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
                 first = 0
                 for batch in rows:
                     chunk = {c: batch.column(c).to_numpy() for c in batch.schema.names}
                     count = batch.num_rows // period_steps
-                    done = onboard.estimates(chunk, first)
-                    est = done.estimates
-                    estimates.write(est)
-                    monitor.update(est.periods, est.h, est.z, done.trajectory)
+                    computer.consume(chunk, first)
                     first += count
                     bar.advance(count)
-            estimates.finish()
-            if ended is not None:
-                for writer in outputs.writers:
-                    writer.add_metadata({b"probing.ended": ended})
-            monitor.finish()
+            computer.finish(outputs, ended)
     return monitor.result(None, folder, None if ended is None else ended.decode())
 
 
@@ -490,10 +483,6 @@ def logged_scenario(
         raise ReplayError(f"{log}: its scenario: {exc}") from None
     if scn.digest() != digest.decode():
         raise ReplayError(f"{log}: its scenario does not match its digest")
-    if scn.drift == "follow":
-        raise ReplayError(
-            f"{log}: drift follow flew its twin alongside the aircraft; it cannot be replayed"
-        )
     names = set(read_schema(log).names if table is None else table.schema.names)
     needed = log_columns(scn)
     missing = [c for c in needed if c not in names]

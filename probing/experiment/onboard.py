@@ -5,9 +5,10 @@ A flight records, step by step, what its flight computer had: the probe it injec
 autopilot's commands and every sensor's measurement (``sensors.parquet``, the layout
 :func:`probing.experiment.layouts.sensors_schema`).  :class:`Onboard` turns that stream,
 chunk by chunk, into the per-period pulse-response estimates; a live flight
-(:func:`probing.experiment.run.run_scenario`) and a replay of its log
-(:func:`probing.experiment.replay.replay_log`) feed it the same columns, so they are one
-code path.
+in this process (:func:`probing.experiment.run.run_scenario`), a live one
+(:func:`probing.experiment.live.live_monitor`) and a replay of its log
+(:func:`probing.experiment.monitor.replay_monitor`) feed it the same columns through the
+same :class:`~probing.experiment.flight_computer.FlightComputer`, so they are one code path.
 
 The reference it subtracts is ``output.drift``'s (``docs/monitoring.md``):
 
@@ -16,8 +17,8 @@ The reference it subtracts is ``output.drift``'s (``docs/monitoring.md``):
 * ``nominal``: the nominal aircraft in calm air, flying its own autopilot;
 * ``gust``: the nominal aircraft in calm air flown through the gust estimated from the
   sensors (:class:`GustSource`);
-* ``follow``: the nominal aircraft flying the recorded commands, stepped alongside the
-  flight (handed in with each chunk);
+* ``follow``: the nominal aircraft in calm air flying the recorded commands
+  (:class:`FollowSource`);
 * ``detrend`` and ``none``: no model; the trim's measurement is the baseline.
 """
 
@@ -33,15 +34,19 @@ import numpy as np
 from probing.core.gust import GUST_SENSORS, GustEstimator
 from probing.core.trajectory import trajectory_features
 from probing.experiment.drift import drift_correction
+from probing.experiment.layouts import AUTOPILOT_COLUMNS
 from probing.experiment.scenario import Scenario
-from probing.sim.control import control_power
-from probing.sim.flight import Flight
+from probing.sim.control import ClosedLoop, control_power
+from probing.sim.errors import DivergenceError
+from probing.sim.flight import Control, Flight
 from probing.sim.gust_twin import GustTwin
+from probing.sim.plant import Plant, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = [
     "LOG_DRIFTS",
     "Estimated",
+    "FollowSource",
     "GustSource",
     "Onboard",
     "ReferenceSource",
@@ -132,12 +137,54 @@ def calm_nominal(flight: Flight) -> Flight:
     return dataclasses.replace(flight.nominal, turbulence="none", seed=0)
 
 
-def reference_source(scn: Scenario, twin: ReferenceTwin | None) -> ReferenceSource | None:
+class FollowSource:
+    """``drift = "follow"``: the nominal aircraft in calm air flying the autopilot's commands
+    as the flight computer recorded them (the log's :data:`AUTOPILOT_COLUMNS`), a period at
+    a time, its state checked after each.
+
+    Parameters
+    ----------
+    scn : Scenario
+        The flight's scenario.
+    plant : Plant, optional
+        The nominal aircraft trimmed in calm air (:func:`calm_nominal`) to fly (default: one
+        loaded and trimmed here); it is stepped.
+    """
+
+    def __init__(self, scn: Scenario, plant: Plant | None = None) -> None:
+        plant = plant if plant is not None else make_plant(calm_nominal(scn.flight))
+        self.plant = plant
+        self.loop = ClosedLoop(plant, Control())  # healthy, its loops open: it replays
+        self.nodes = plant.channel_nodes(list(scn.channels))
+        self.period_steps = scn.probe.length * scn.steps_per_bit
+        #: Steps flown so far.
+        self.steps = 0
+
+    def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
+        commands = np.column_stack([log[c] for c in AUTOPILOT_COLUMNS])
+        out = np.empty((len(commands), len(self.nodes)))
+        for start in range(0, len(commands), self.period_steps):
+            span = slice(start, start + self.period_steps)
+            self.loop.replay(commands[span], self.nodes, out[span])
+            self.steps += len(commands[span])
+            try:
+                self.plant.check_state()
+            except DivergenceError as exc:
+                raise DivergenceError(f"the nominal twin flying our commands: {exc}") from None
+        return out
+
+
+def reference_source(
+    scn: Scenario, twin: ReferenceTwin | None, follower: Plant | None = None
+) -> ReferenceSource | None:
     """The reference of ``scn``'s drift mode, computed from the recorded stream: the
-    precomputed ``twin`` (:func:`open_reference_twin`), the gust twin, or None (``follow``,
-    whose twin steps with the flight, and the modes without a model)."""
+    precomputed ``twin`` (:func:`open_reference_twin`), the gust twin, the nominal aircraft
+    flying the recorded commands (``follow``, on ``follower`` if given), or None (the modes
+    without a model)."""
     if scn.drift == "gust":
         return GustSource(scn)
+    if scn.follows:
+        return FollowSource(scn, follower)
     return TwinSource(twin) if twin is not None else None
 
 
@@ -149,9 +196,12 @@ LOG_DRIFTS = ("gust", "nominal", "detrend", "none")
 
 def log_columns(scn: Scenario) -> tuple[str, ...]:
     """The columns of a log that :class:`Onboard` reads for ``scn``: ``time_s``, the
-    scenario's channels and, with the ``gust`` reference, the sensors its estimate and its
-    twin need (:data:`probing.core.gust.GUST_SENSORS`, roll rate, bank, altitude)."""
+    scenario's channels, with ``follow`` the autopilot's commands and, with the ``gust``
+    reference, the sensors its estimate and its twin need
+    (:data:`probing.core.gust.GUST_SENSORS`, roll rate, bank, altitude)."""
     names = ["time_s", *scn.channels]
+    if scn.follows:  # the nominal model flies the autopilot's recorded commands
+        names += AUTOPILOT_COLUMNS
     if scn.drift == "gust":
         names += [*GUST_SENSORS, "p_rad_s", "phi_rad", "h_ft"]
     return tuple(dict.fromkeys(names))
@@ -188,8 +238,7 @@ class Onboard:
     scn : Scenario
         The flight's scenario (its channels, probe, estimator and drift mode).
     source : ReferenceSource or None
-        The reference (:func:`reference_source`); None: the ``baseline`` (or, for
-        ``follow``, the reference handed in with each chunk).
+        The reference (:func:`reference_source`); None: the ``baseline``.
     baseline : numpy.ndarray
         ``(channels,)``: what is subtracted without a reference.
     push_bits : int
@@ -207,18 +256,11 @@ class Onboard:
         self.spb = scn.probe.steps_per_bit(scn.dt_s)
         self.drift = drift_correction(scn, scn.probe, push_bits)
 
-    def estimates(
-        self,
-        log: Mapping[str, np.ndarray],
-        first: int,
-        flown_reference: np.ndarray | None = None,
-    ) -> Estimated:
+    def estimates(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
         """A chunk of whole periods from period ``first`` on -> what the flight computer
-        makes of it (:class:`Estimated`).
-
-        ``flown_reference``: the reference stepped with the flight (``follow``)."""
+        makes of it (:class:`Estimated`)."""
         measured = np.column_stack([log[c] for c in self.scn.channels])
-        reference = flown_reference
+        reference = None
         if self.source is not None:
             reference = self.source.next(log)
         baseline = reference if reference is not None else self.baseline

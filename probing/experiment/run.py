@@ -22,22 +22,14 @@ from collections.abc import Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
-from probing.core.faults import onset_step
 from probing.core.forked import INTERRUPTS
-from probing.core.nonlinearities import Nonlinearity
 from probing.core.prbs import Probe
-from probing.experiment.bounds import EstimatesFile
-from probing.experiment.layouts import AUTOPILOT_COLUMNS, sensors_schema
-from probing.experiment.onboard import (
-    Onboard,
-    calm_nominal,
-    open_reference_twin,
-    reference_source,
-)
+from probing.experiment.flight_computer import FlightComputer, RunObserver, folder_of
+from probing.experiment.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.progress import progress_bar
 from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
@@ -45,19 +37,20 @@ from probing.experiment.settled import SettledMean
 from probing.experiment.storage import (
     OutputFolder,
     Settled,
-    metadata,
     output_folder,
     provenance,
     timeseries_schema,
 )
-from probing.sim.control import ClosedLoop, control_power
+from probing.sim.autopilot import Autopilot
+from probing.sim.control import autopilot_for, control_power
 from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
-from probing.sim.plant import Plant, SurfaceDrive, TrimResult, make_plant
-from probing.sim.sensing import Sensing
+from probing.sim.plant import Plant, TrimResult, make_plant
+from probing.sim.sensing import ChannelNoise, Sensing
 from probing.sim.surfaces import SURFACES
 from probing.sim.twins import ReferenceTwin
+from probing.sim.world import JSBSimWorld
 
 __all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
 
@@ -106,49 +99,26 @@ class RunResult:
     ended: str | None = None
 
 
-class RunObserver(Protocol):
-    """What follows a run period by period (the monitor): it may write files of its own
-    into the run's folder, which appear with the run's files or not at all."""
-
-    def open(self, outputs: OutputFolder) -> None:
-        """Called once, with the run's output folder, before the first period."""
-
-    def update(
-        self,
-        periods: np.ndarray,
-        h: np.ndarray,
-        z: np.ndarray,
-        trajectory: tuple[np.ndarray, np.ndarray] | None = None,
-    ) -> None:
-        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M), and
-        its whole periods with their deviation's features (:class:`Onboard`'s)."""
-
-    def finish(self) -> None:
-        """Called after the last period, before the run's files are closed."""
-
-
 # ------------------------------------------------------------------ set-up
 @dataclass
 class _Rig:
-    """Everything a run steps with, built from the scenario."""
+    """Everything a run steps with, built from the scenario: the world in this process (the
+    aircraft, its actuator, damage, turbulence and sensors) and what the flight computer
+    knows of it (its autopilot, flying on the world's sensors)."""
 
     scn: Scenario
     probe: Probe
-    nl: Nonlinearity | None
     plant: Plant
+    world: JSBSimWorld
+    autopilot: Autopilot | None  # stepping one step at a time: a loop, a fault, sensors
     nodes: list
     y_trim: np.ndarray
     twin: ReferenceTwin | None
-    drive: SurfaceDrive | None = None  # the probed surface, driven by its position
-    loop: ClosedLoop | None = None  # stepping one step at a time: autopilot, actuator fault
-    fault_nl: Nonlinearity | None = None  # a nonlinearity that appears on the probe path
     nominal_twin: bool = False
     stop_on_divergence: bool = False
     ended: str | None = None  # why the flight ended early (stop_on_divergence)
-    follower: ClosedLoop | None = None  # drift "follow": the nominal twin flying our commands
-    follower_nodes: list | None = None
+    follower: Plant | None = None  # drift "follow": the nominal aircraft to fly our commands
     periods_flown: int = 0
-    sensing: Sensing | None = None  # the aircraft's sensors ([sensors]): what it measures
     record: bool = False  # write sensors.parquet: the autopilot's commands are kept then
 
     @classmethod
@@ -159,55 +129,43 @@ class _Rig:
         aircraft: TrimmedAircraft | None,
         nominal_twin: bool = False,
     ) -> _Rig:
-        probe = scn.probe
         flight = scn.flight
         power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
-        loop = sensing = None
+        sensing = None
         if scn.sensors is not None:
             sensing = Sensing(plant, scn.sensors, scn.seed, scn.build_fault("sensor"))
+        world = JSBSimWorld(plant, scn.surface, fault=scn.actuator_fault, sensing=sensing)
+        autopilot = None
         if scn.stepped_one_by_one or sensing is not None:
-            loop = ClosedLoop(
-                plant,
-                scn.control or Control(),
-                power,
-                scn.actuator_fault,
-                scn.surface,
-                sensing=sensing,
-            )
+            autopilot = autopilot_for(world, scn.control or Control(), power)
         nodes = plant.channel_nodes(list(scn.channels))
         if sensing is not None:  # the sensors' reading of the trim
             y_trim = np.array([sensing.current[sensing.index(c)] for c in scn.channels])
         else:
             y_trim = np.array([n.get_double_value() for n in nodes])
         twin = open_reference_twin(scn, nominal=nominal_twin, use_cache=twin_cache)
-        follower = follower_nodes = None
+        follower = None
         if scn.follows:
             try:
                 calm = calm_nominal(flight)  # a model flying our commands knows no gusts
-                second = aircraft.second_for(calm) if aircraft else None
-                second = second or make_plant(calm)
+                follower = aircraft.second_for(calm) if aircraft else None
+                follower = follower or make_plant(calm)
             except BaseException:
                 if twin is not None:
                     twin.close(success=False)  # its temporary file goes
                 raise
-            follower = ClosedLoop(second, Control())  # healthy, its loops open: it replays
-            follower_nodes = second.channel_nodes(list(scn.channels))
         return cls(
             scn,
-            probe,
-            scn.build_nonlinearity(),
+            scn.probe,
             plant,
+            world,
+            autopilot,
             nodes,
             y_trim,
             twin,
-            plant.drive(scn.surface),
-            loop,
-            scn.build_fault_nonlinearity(),
             nominal_twin,
             follower=follower,
-            follower_nodes=follower_nodes,
-            sensing=sensing,
         )
 
     @property
@@ -260,46 +218,31 @@ class _Chunk:
     surface: np.ndarray  # (rows,) realised position of the probed surface, its unit
     control: np.ndarray | None  # (rows,) the autopilot's command of the surface (closed loop)
     log: dict[str, np.ndarray]  # what the flight computer recorded (sensors.parquet's rows)
-    flown_reference: np.ndarray | None  # (rows, C) the twin flying our commands ("follow")
 
 
-def _chunks(rig: _Rig) -> Iterator[_Chunk]:
-    """Step the plant (and a twin flying our commands) period by period, checking the state
-    after each; yield the periods in chunks of about :data:`CHUNK_STEPS` steps with what the
-    flight computer recorded (sensor noise added)."""
+def _chunks(rig: _Rig, computer: FlightComputer) -> Iterator[_Chunk]:
+    """Fly the flight computer against the world period by period, checking the state after
+    each; yield the periods in chunks of about
+    :data:`CHUNK_STEPS` steps with what the flight computer recorded."""
     scn, n_steps = rig.scn, rig.period_steps
-    x_period = rig.probe.samples(scn.dt_s, 1)
-    sigma = np.array([scn.sensor_noise.get(c, 0.0) for c in scn.channels])
-    rng = np.random.default_rng(scn.seed)
+    noise = ChannelNoise(
+        scn.channels,
+        [scn.sensor_noise.get(c, 0.0) for c in scn.channels],
+        scn.seed,
+        scn.build_fault("sensor"),
+        scn.dt_s,
+    )
     chunk = rig.chunk_periods
-    out, ref, surface, nl_out, control, commands, sensed = _buffers(rig, chunk * n_steps)
-    nl_state = rig.nl.initial_state() if rig.nl else None
-    probe_path = _FaultOnset(rig.fault_nl, scn.fault_onset_s, scn.dt_s, n_steps)
-    sensor_fault = scn.build_fault("sensor")
-    drive = rig.drive
-    trim = drive.trim_position
+    out, surface, nl_out, control, commands, sensed = _buffers(rig, chunk * n_steps)
     for first in range(0, scn.periods, chunk):
         k = min(chunk, scn.periods - first)
         rows = k * n_steps
         for i in range(k):
             span = slice(i * n_steps, (i + 1) * n_steps)
-            if rig.nl:
-                q, nl_state = rig.nl.process(x_period, scn.dt_s, nl_state)
-            else:
-                q = x_period
-            q = probe_path.apply(q, first + i)
-            nl_out[span] = q
-            if rig.loop:
-                measured = sensed[span] if sensed is not None else None
-                flown = commands[span] if commands is not None else None
-                rig.loop.step(
-                    q, rig.nodes, out[span], surface[span], control[span], flown, measured
-                )
-            else:
-                cmd = drive.command(trim + q)
-                rig.plant.step(cmd, rig.nodes, out[span], surface[span], drive)
+            nl_out[span] = q = computer.probe_path(first + i)
+            _fly_period(rig, computer, q, span, out, surface, control, commands, sensed)
             try:
-                _check_period(rig, commands, ref, span)
+                rig.plant.check_state()
             except DivergenceError as exc:
                 if not rig.stop_on_divergence:
                     raise
@@ -309,10 +252,10 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
         if k == 0:
             return
         rig.periods_flown = first + k
-        if rig.sensing is not None:  # what the sensors measured, the sensor fault included
-            recorded = dict(zip(rig.sensing.channels, sensed[:rows].T, strict=True))
+        if rig.world.sensing is not None:  # what the sensors measured, the fault included
+            recorded = dict(zip(rig.world.sensing.channels, sensed[:rows].T, strict=True))
         else:  # the outputs with disturbance.sensor_noise and the sensor fault added
-            measured = _measured(out[:rows], rng, sigma, sensor_fault, scn, first * n_steps)
+            measured = noise.measure(out[:rows], first * n_steps)
             recorded = dict(zip(scn.channels, measured.T, strict=True))
         yield _Chunk(
             first,
@@ -320,98 +263,54 @@ def _chunks(rig: _Rig) -> Iterator[_Chunk]:
             nl_out[:rows],
             surface[:rows],
             None if control is None else control[:rows],
-            _log(scn, first * n_steps, x_period, k, commands, recorded, rows),
-            ref[:rows] if rig.follower else None,
+            computer.log(first * n_steps, k, commands, recorded),
         )
         if rig.ended:
             return
 
 
-def _buffers(rig: _Rig, rows: int) -> tuple:
-    """A chunk's arrays, filled in place: the outputs ``(rows, C)``, the follower's
-    ``(rows, C)``, the surface's realised position and the probe path's ``(rows,)``; with the
-    autopilot its command of the surface ``(rows,)``, and its commands ``(rows, 3)`` where a
-    twin flies them or the log records them (the step loop keeps them only then); with
-    sensors their measurements ``(rows, sensors)``."""
-    n_ch = len(rig.scn.channels)
-    control = np.empty(rows) if rig.loop else None
-    commands = np.empty((rows, 3)) if rig.loop and (rig.follower or rig.record) else None
-    sensed = np.empty((rows, len(rig.sensing.channels))) if rig.sensing else None
-    outputs = (np.empty((rows, n_ch)), np.empty((rows, n_ch)), np.empty(rows), np.empty(rows))
-    return (*outputs, control, commands, sensed)
-
-
-def _log(
-    scn: Scenario,
-    first_step: int,
-    x_period: np.ndarray,
-    count: int,
-    commands: np.ndarray | None,
-    recorded: dict[str, np.ndarray],
-    rows: int,
-) -> dict[str, np.ndarray]:
-    """A chunk's rows of ``sensors.parquet`` (:func:`probing.experiment.layouts.sensors_schema`)."""
-    u = scn.surface_unit
-    log = {
-        "time_s": (first_step + np.arange(1, rows + 1)) * scn.dt_s,
-        f"probe_{u}": np.tile(x_period, count),
-    }
-    if commands is not None:
-        for j, name in enumerate(AUTOPILOT_COLUMNS):
-            log[name] = commands[:rows, j]
-    log.update(recorded)
-    return log
-
-
-def _measured(
+def _fly_period(
+    rig: _Rig,
+    computer: FlightComputer,
+    q: np.ndarray,
+    span: slice,
     out: np.ndarray,
-    rng: np.random.Generator,
-    sigma: np.ndarray,
-    sensor_fault: Any,
-    scn: Scenario,
-    first_step: int,
-) -> np.ndarray:
-    """A chunk's outputs ``(rows, C)`` with sensor noise and the sensor fault (on what the
-    aircraft measures, not on its reference) from step ``first_step`` on."""
-    rows, n_ch = out.shape
-    measured = out + rng.standard_normal((rows, n_ch)) * sigma
-    if sensor_fault is not None:
-        sensor_fault.apply(measured, scn.channels, first_step, scn.dt_s)
-    return measured
+    surface: np.ndarray,
+    control: np.ndarray | None,
+    commands: np.ndarray | None,
+    sensed: np.ndarray | None,
+) -> None:
+    """One period: the flight computer's demands, step by step through its autopilot, or a
+    period at a time (trim plus the probe path) where it computes nothing step by step."""
+    world, n = rig.world, len(q)
+    if computer.autopilot is None:
+        drive = world.drive
+        world.fly_commands(
+            drive.command(drive.trim_position + q), rig.nodes, out[span], surface[span]
+        )
+        return
+    law = computer.law(rig.plant.steps_run, q, record_commands=commands is not None)
+    measured = sensed[span] if sensed is not None else None
+    world.fly(n, rig.nodes, out[span], law=law, position=surface[span], measured=measured)
+    control[span] = computer.control_record
+    if commands is not None:
+        commands[span] = computer.commands_record
 
 
-def _check_period(rig: _Rig, commands: np.ndarray | None, ref: np.ndarray, span: slice) -> None:
-    """After a period: check the plant's state; with a follower, have it replay the period's
-    commands into ``ref`` and check its state too (raises DivergenceError)."""
-    rig.plant.check_state()
-    if rig.follower:
-        rig.follower.replay(commands[span], rig.follower_nodes, ref[span])
-        try:
-            rig.follower.plant.check_state()
-        except DivergenceError as exc:
-            raise DivergenceError(f"the nominal twin flying our commands: {exc}") from None
-
-
-class _FaultOnset:
-    """A nonlinearity that appears on the probe path at a step: from the onset on, the probe
-    after the scenario's nonlinearity passes through it too (its state starts there)."""
-
-    def __init__(self, nl: Nonlinearity | None, onset_s: float, dt_s: float, n_steps: int):
-        self.nl, self.dt_s, self.n_steps = nl, dt_s, n_steps
-        self.onset = onset_step(onset_s, dt_s) if nl is not None else None
-        self.state = nl.initial_state() if nl is not None else None
-
-    def apply(self, q: np.ndarray, period: int) -> np.ndarray:
-        """The period's probe path ``q`` (deg) with the fault from its onset on."""
-        if self.nl is None:
-            return q
-        start = self.onset - period * self.n_steps
-        if start >= self.n_steps:
-            return q
-        start = max(start, 0)
-        out = q.copy()
-        out[start:], self.state = self.nl.process(q[start:], self.dt_s, self.state)
-        return out
+def _buffers(rig: _Rig, rows: int) -> tuple:
+    """A chunk's arrays, filled in place: the outputs ``(rows, C)``, the surface's realised
+    position and the probe path's ``(rows,)``; with the autopilot its command of the surface
+    ``(rows,)``, and its commands ``(rows, 3)`` where a twin flies them or the log records
+    them (the step loop keeps them only then); with sensors their measurements
+    ``(rows, sensors)``."""
+    n_ch = len(rig.scn.channels)
+    stepped = rig.autopilot is not None
+    sensing = rig.world.sensing
+    control = np.empty(rows) if stepped else None
+    commands = np.empty((rows, 3)) if stepped and (rig.scn.follows or rig.record) else None
+    sensed = np.empty((rows, len(sensing.channels))) if sensing else None
+    outputs = (np.empty((rows, n_ch)), np.empty(rows), np.empty(rows))
+    return (*outputs, control, commands, sensed)
 
 
 # ------------------------------------------------------------------ the run
@@ -489,42 +388,33 @@ def run_scenario(
     rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
     with rig.twin or nullcontext():  # a simulated twin is stored, or dropped
         rig.stop_on_divergence, rig.record = stop_on_divergence, record
-        probe, channels = rig.probe, list(scn.channels)
-        m = probe.length
-        onboard = Onboard(scn, reference_source(scn, rig.twin), rig.y_trim, rig.chunk_periods * m)
-        lag_s = np.arange(m) * probe.bit_duration_s
-        folder = Path(folder) if folder is not None else Path(out) / scn.name
-        x_period = probe.samples(scn.dt_s, 1)
-        with_reference = rig.twin is not None or rig.follower is not None or scn.drift == "gust"
-        ts_schema = timeseries_schema(channels, with_reference, rig.loop is not None, scn.surface)
+        source = reference_source(scn, rig.twin, rig.follower)
+        computer = FlightComputer(
+            scn, rig.autopilot, rig.y_trim, source, rig.chunk_periods, observer
+        )
+        channels = list(scn.channels)
+        lag_s = np.arange(rig.probe.length) * rig.probe.bit_duration_s
+        folder = folder_of(out, scn.name, folder)
+        with_reference = rig.twin is not None or scn.follows or scn.drift == "gust"
+        stepped = rig.autopilot is not None
+        ts_schema = timeseries_schema(channels, with_reference, stepped, scn.surface)
+        sensing = rig.world.sensing
+        logged = list(sensing.channels if sensing is not None else scn.channels)
         with output_folder(folder, rig.metadata()) as outputs:
-            estimates = EstimatesFile(outputs, scn, lag_s, keep_settled)
             w_ts = _timeseries_writer(outputs, scn, channels, ts_schema, timeseries)
-            w_log = _log_writer(outputs, rig) if record else None
-            if observer is not None:
-                observer.open(outputs)
+            computer.open(
+                outputs, lag_s, log_channels=logged if record else None, keep_settled=keep_settled
+            )
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
-                for c in _chunks(rig):
-                    if w_log is not None:
-                        w_log.write(c.log)
-                    done = onboard.estimates(c.log, c.first, c.flown_reference)
-                    est, measured, reference = done.estimates, done.measured, done.reference
-                    estimates.write(est)
-                    if observer is not None:
-                        observer.update(est.periods, est.h, est.z, done.trajectory)
+                for c in _chunks(rig, computer):
+                    done = computer.consume(c.log, c.first)
                     if w_ts is not None:
-                        w_ts.write(
-                            _timeseries_rows(c, measured, reference, x_period, scn, channels)
-                        )
+                        rows = _timeseries_rows(c, done.measured, done.reference, scn, channels)
+                        w_ts.write(rows)
                     bar.advance(c.count)
                     INTERRUPTS.check()  # a SIGTERM or Ctrl-C held in an import: stop here
-            estimates.finish()
-            if rig.ended:
-                for writer in outputs.writers:
-                    writer.add_metadata(metadata(ended=rig.ended))
-            if observer is not None:
-                observer.finish()
-    return _run_result(rig, folder, estimates.settled, lag_s, t_start)
+            computer.finish(outputs, rig.ended)
+    return _run_result(rig, computer, folder, lag_s, t_start)
 
 
 def _timeseries_writer(
@@ -536,22 +426,12 @@ def _timeseries_writer(
     return outputs.writer("timeseries.parquet", channels, scn.surface_unit, schema=ts_schema)
 
 
-def _log_writer(outputs: OutputFolder, rig: _Rig) -> Any:
-    """The writer of ``sensors.parquet``, its footer holding the sensors' reading of the trim
-    (``probing.trim_measured``: the baseline of the drift modes without a model)."""
-    scn = rig.scn
-    channels = rig.sensing.channels if rig.sensing is not None else scn.channels
-    schema = sensors_schema(channels, rig.loop is not None, scn.surface)
-    writer = outputs.writer("sensors.parquet", channels, scn.surface_unit, schema=schema)
-    trim = dict(zip(scn.channels, rig.y_trim.tolist(), strict=True))
-    writer.add_metadata(metadata(trim_measured=trim))
-    return writer
-
-
 def _run_result(
-    rig: _Rig, folder: Path, settled: SettledMean, lag_s: np.ndarray, t_start: float
+    rig: _Rig, computer: FlightComputer, folder: Path, lag_s: np.ndarray, t_start: float
 ) -> RunResult:
     """What a finished run hands back (``t_start``: when it began, for ``wall_s``)."""
+    assert computer.estimates is not None
+    settled = computer.estimates.settled
     return RunResult(
         out_dir=folder,
         trim=rig.plant.trim_result,
@@ -570,7 +450,6 @@ def _timeseries_rows(
     c: _Chunk,
     measured: np.ndarray,
     reference: np.ndarray | None,
-    x_period: np.ndarray,
     scn: Scenario,
     channels: list[str],
 ) -> dict[str, np.ndarray]:

@@ -30,7 +30,8 @@ class Runner:
     section : str or None
         The scenario section that selects it (None: the default runner).
     commands : frozenset of str
-        What flies it: ``run``, ``truth``, ``monitor``, ``sweep`` (a sweep's base).
+        What flies it: ``run``, ``truth``, ``monitor``, ``sweep`` (a sweep's base),
+        ``live`` (against a separate JSBSim process).
     refusal : str
         Why another command cannot, after ``probing <command>`` (``{command}`` is not used).
     """
@@ -62,7 +63,7 @@ RUNNERS: tuple[Runner, ...] = (
         "flies a steady condition; a [manoeuvre] scenario is flown by probing run (with its "
         "single-pulse truth along the manoeuvre)",
     ),
-    Runner("steady", None, frozenset({"run", "truth", "monitor", "sweep"})),
+    Runner("steady", None, frozenset({"run", "truth", "monitor", "sweep", "live"})),
 )
 
 

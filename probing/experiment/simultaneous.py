@@ -35,6 +35,7 @@ from probing.sim.plant import TrimResult, make_plant
 from probing.sim.surfaces import SURFACES
 from probing.sim.truth import linear_pulse_response
 from probing.sim.twins import open_twin
+from probing.sim.world import JSBSimWorld
 
 __all__ = [
     "SeparationCheck",
@@ -399,18 +400,18 @@ def _fly(
         if scn.twin_knows_gusts
         else None
     )
+    world, setters = JSBSimWorld(plant), [d.set for d in drives]
     if twin is None:
         for first in range(0, total, period):
-            plant.step_surfaces(
-                commands[first : first + period], drives, nodes, y[first : first + period]
-            )
+            span = slice(first, first + period)
+            world.fly(period, nodes, y[span], table=commands[span], setters=setters)
             plant.check_state()
         y -= y_trim
     else:
         with twin:
             for first in range(0, total, period):
                 span = slice(first, first + period)
-                plant.step_surfaces(commands[span], drives, nodes, y[span])
+                world.fly(period, nodes, y[span], table=commands[span], setters=setters)
                 plant.check_state()
                 y[span] -= twin.next(period)
             steps += twin.steps_simulated

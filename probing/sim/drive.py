@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from probing.sim.surfaces import DEFAULT_SURFACE, Surface
+from probing.sim.surfaces import Surface
 
-__all__ = ["SurfaceDrive", "actuator_pulse_response", "calibrate"]
+__all__ = ["SurfaceDrive", "calibrate"]
 
 
 class SurfaceDrive:
@@ -160,40 +160,3 @@ def calibrate(fdm: Any, surface: Surface, nodes: list, pos_node: Any, model: str
     if keep.sum() < 2:
         raise ValueError(f"no command moves the {surface.name} of {model}")
     return SurfaceDrive(surface, nodes, pos_node, pos0, cmd0, grid[keep], position[keep])
-
-
-#: JSBSim's integrator choices, one per kind of state (0 holds the state still).
-INTEGRATORS = tuple(
-    f"simulation/integrator/{kind}"
-    for kind in (
-        "rate/rotational",
-        "rate/translational",
-        "position/rotational",
-        "position/translational",
-    )
-)
-
-
-def actuator_pulse_response(
-    plant: Any, n_steps: int = 200, height: float = 1e-3, surface: str = DEFAULT_SURFACE
-) -> np.ndarray:
-    """The realised surface after each step for a one-step pulse of the asked position,
-    per unit asked (1 at step 0 and 0 after for a surface without actuator dynamics; the
-    GTM's 5 Hz servos spread it over about 0.2 s).
-
-    The pulse is small (``height``, in the surface's unit) so a rate limit does not act.
-    The aircraft is held still while it is measured (JSBSim's integrators off), so that
-    what the flight-control system does with the aircraft's motion (the 737's yaw damper
-    on the rudder) is not counted as the actuator's: the linearisation sees that through
-    the states.  ``plant`` (a :class:`~probing.sim.plant.Plant`) is stepped: use it for
-    nothing else afterwards.
-    """
-    for integrator in INTEGRATORS:
-        plant.fdm[integrator] = 0  # eNone: the state stays, the flight-control system runs
-    drive = plant.drive(surface)
-    position = np.full(n_steps, drive.trim_position)
-    position[0] += height
-    out = np.empty((n_steps, 0))
-    realised = np.empty(n_steps)
-    plant.step(drive.command(position), [], out, realised, drive)
-    return (realised - drive.trim_position) / height

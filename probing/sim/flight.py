@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from probing.core.faults import ACTUATOR_FAULTS, ActuatorFault  # re-exported: the autopilot's
+from probing.core.sensors import FPS_PER_KT
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "SpeedKind",
     "TrimResult",
     "check_damage_case",
+    "disturbance_properties",
     "one_speed",
 ]
 
@@ -251,6 +253,44 @@ TURBULENCE_WIND_20FT_KT: dict[str, float] = {
 }
 if TURBULENCE_WIND_20FT_KT.keys() != TURBULENCE_SEVERITY.keys():  # one set of levels
     raise AssertionError("turbulence levels differ between the two tables")
+
+#: JSBSim's turbulence model type for MIL-F-8785C / MIL-HDBK-1797 Dryden (``ttMilspec``).
+TURB_TYPE_MILSPEC = 3
+
+
+def disturbance_properties(turbulence: str, seed: int) -> dict[str, float]:
+    """The property writes that seed JSBSim's random generators and switch ``turbulence``
+    on, in the order they are written: what :meth:`probing.sim.plant.Plant.disturb` writes
+    after the trim, and what a client of a separate JSBSim process sends it.
+
+    Parameters
+    ----------
+    turbulence : str
+        A key of :data:`TURBULENCE_SEVERITY` (``"none"`` writes the seeds only).
+    seed : int
+        Seed of JSBSim's random generators (``simulation/randomseed`` and the turbulence's
+        ``atmosphere/randomseed``).
+
+    Returns
+    -------
+    dict of str to float
+        ``{property: value}`` in write order; the wind 20 ft above ground in ft/s.
+
+    Raises
+    ------
+    ValueError
+        If ``turbulence`` is not a level.
+    """
+    if turbulence not in TURBULENCE_SEVERITY:
+        raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
+    writes = {"simulation/randomseed": float(int(seed)), "atmosphere/randomseed": float(int(seed))}
+    if turbulence != "none":
+        writes["atmosphere/turb-type"] = float(TURB_TYPE_MILSPEC)
+        writes["atmosphere/turbulence/milspec/severity"] = float(TURBULENCE_SEVERITY[turbulence])
+        writes["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = (
+            TURBULENCE_WIND_20FT_KT[turbulence] * FPS_PER_KT
+        )
+    return writes
 
 
 @dataclass(frozen=True)

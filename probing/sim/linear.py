@@ -14,10 +14,10 @@ import numpy as np
 
 from probing.core.convolution import causal_convolve
 from probing.sim.channels import CHANNELS
-from probing.sim.drive import actuator_pulse_response
 from probing.sim.modes import LongitudinalModes
 from probing.sim.plant import Plant
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
+from probing.sim.world import actuator_pulse_response
 
 __all__ = [
     "LAT_STATES",
@@ -166,7 +166,7 @@ def linear_response(
     phi, p, r) added for the aileron and rudder, and the channels among them.
 
     The realised surface follows the asked one through the model's actuator, measured on the
-    plant itself (:func:`~probing.sim.drive.actuator_pulse_response`); the plant is
+    plant itself (:func:`~probing.sim.world.actuator_pulse_response`); the plant is
     stepped for that, so use it for nothing else afterwards.  The altitude, heading and
     position states are left out: they integrate the others (the
     full model has an eigenvalue at 1, so no periodic steady state) and feed back only

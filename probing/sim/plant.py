@@ -14,7 +14,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-from collections.abc import Sequence
 
 os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
@@ -22,7 +21,6 @@ import numpy as np
 
 from probing.core.faults import onset_step
 from probing.core.forked import can_fork, forked_map
-from probing.core.sensors import FPS_PER_KT
 from probing.sim import aircraft as aircraft_files
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
 from probing.sim.channels import CHANNELS
@@ -33,10 +31,10 @@ from probing.sim.flight import (
     SPEED_KINDS,
     SYMMETRIC_DAMAGE,
     TURBULENCE_SEVERITY,
-    TURBULENCE_WIND_20FT_KT,
     Flight,
     TrimResult,
     check_damage_case,
+    disturbance_properties,
     one_speed,
 )
 from probing.sim.jsbsim_log import JSBSimLog
@@ -271,7 +269,8 @@ class Plant:
 
     def schedule(self, flight: Flight) -> None:
         """After the trim: switch ``flight``'s damage case on at its onset, counted in steps
-        of :meth:`step` from now (the step that starts at the onset is the first damaged)."""
+        flown (:meth:`probing.sim.world.JSBSimWorld.fly`) from now (the step that starts at
+        the onset is the first damaged)."""
         self._steps = 0
         self._fault = None
         if flight.damage_onset_s is not None:
@@ -291,7 +290,7 @@ class Plant:
     def start_scheduled_damage(self) -> None:
         """Switch the scheduled damage case on now (effective from the next step) and clear
         it: what :meth:`step` does at the onset step, for a loop that steps the aircraft
-        itself (:class:`probing.sim.control.ClosedLoop`)."""
+        itself (:meth:`probing.sim.world.JSBSimWorld.fly`)."""
         if self._fault is None:
             raise ValueError("no damage is scheduled")
         case = self._fault[0]
@@ -309,7 +308,9 @@ class Plant:
         The trim does not depend on either (turbulence is off while trimming and the trim
         draws no random number), so one trimmed aircraft serves flights that differ only
         in them: a copy of it (a forked process, :mod:`probing.sim.fork`) disturbed here
-        steps exactly as an aircraft loaded and trimmed with these values.
+        steps exactly as an aircraft loaded and trimmed with these values.  The writes, in
+        order, are :func:`probing.sim.flight.disturbance_properties`' (a client of a separate
+        JSBSim process sends it the same ones).
 
         Parameters
         ----------
@@ -319,17 +320,11 @@ class Plant:
         seed : int
             Seed of JSBSim's random generators.
         """
-        if turbulence not in TURBULENCE_SEVERITY:
-            raise ValueError(f"turbulence must be one of {sorted(TURBULENCE_SEVERITY)}")
-        fdm = self.fdm
+        writes = disturbance_properties(turbulence, seed)  # refuses an unknown level
         self.turbulence, self.seed = turbulence, int(seed)
-        fdm["simulation/randomseed"] = self.seed
-        fdm["atmosphere/randomseed"] = self.seed
-        if turbulence != "none":
-            fdm["atmosphere/turb-type"] = 3  # ttMilspec: MIL-F-8785C / MIL-HDBK-1797 Dryden
-            fdm["atmosphere/turbulence/milspec/severity"] = TURBULENCE_SEVERITY[turbulence]
-            w20 = TURBULENCE_WIND_20FT_KT[turbulence] * FPS_PER_KT
-            fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = w20
+        fdm = self.fdm
+        for name, value in writes.items():
+            fdm[name] = value
 
     def _with_log(self, message: str) -> str:
         """``message`` with JSBSim's warnings and errors since the last call appended."""
@@ -411,109 +406,6 @@ class Plant:
         if unknown:
             raise ValueError(f"unknown channel(s) {unknown}; allowed: {sorted(CHANNELS)}")
         return [self._pm.get_node(CHANNELS[c].prop) for c in channels]
-
-    def step(
-        self,
-        cmd_norm: np.ndarray | None,
-        nodes: list,
-        out: np.ndarray,
-        position: np.ndarray | None = None,
-        drive: SurfaceDrive | None = None,
-    ) -> None:
-        """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
-
-        Parameters
-        ----------
-        cmd_norm : numpy.ndarray or None
-            Normalised command of the driven surface for each step (written before the
-            step), shape ``(n,)``.  None holds the commands the plant has (after
-            :meth:`trim`, the trimmed ones) and writes nothing: the unprobed twin.
-        nodes : list
-            Property nodes of the channels, from :meth:`channel_nodes`.
-        out : numpy.ndarray
-            ``(n, len(nodes))`` float64, filled in place (channel units, see :data:`CHANNELS`).
-        position : numpy.ndarray, optional
-            ``(n,)``, receives the driven surface's realised position after each step (its
-            unit).
-        drive : SurfaceDrive, optional
-            The surface the commands drive (:meth:`drive`); default the elevator.
-
-        Notes
-        -----
-        The per-step work is the command write, ``run()`` and one read per channel; the
-        reads are appended to one flat list and copied into ``out`` once, so no array is
-        built per step.
-        """
-        n = out.shape[0]
-        drive = drive or self.drive()
-        fault = self._fault
-        if fault is not None and fault[1] < self._steps + n:  # the onset falls in these steps
-            j = max(0, fault[1] - self._steps)
-            cmds = (None, None) if cmd_norm is None else (cmd_norm[:j], cmd_norm[j:])
-            els = (None, None) if position is None else (position[:j], position[j:])
-            if j:
-                self._fault = None  # not in the steps before it
-                self.step(cmds[0], nodes, out[:j], els[0], drive)
-                self._fault = fault
-            self.start_scheduled_damage()
-            self.step(cmds[1], nodes, out[j:], els[1], drive)
-            return
-        self._steps += n
-        getters = [node.get_double_value for node in nodes]
-        if position is not None:
-            getters.append(drive.pos_node.get_double_value)
-        run = self.fdm.run
-        values: list[float] = []
-        append = values.append
-        if cmd_norm is None:
-            for _ in range(n):
-                run()
-                for get in getters:
-                    append(get())
-        else:
-            if len(cmd_norm) != n:
-                raise ValueError(f"{len(cmd_norm)} commands for {n} output rows")
-            set_cmd = drive.set
-            for c in cmd_norm.tolist():
-                set_cmd(c)
-                run()
-                for get in getters:
-                    append(get())
-        block = np.array(values, dtype=np.float64).reshape(n, len(getters))
-        out[:] = block[:, : len(nodes)]
-        if position is not None:
-            position[:] = block[:, -1]
-
-    def step_surfaces(
-        self, commands: np.ndarray, drives: Sequence[SurfaceDrive], nodes: list, out: np.ndarray
-    ) -> None:
-        """Run ``out.shape[0]`` steps driving several surfaces at once: before step k,
-        ``commands[k, i]`` (normalised) is written to ``drives[i]``; ``out[k, j]`` is channel j
-        read after it.  :meth:`step` drives one surface; this is the simultaneous probe's.
-
-        Raises
-        ------
-        ValueError
-            If the shapes disagree, or a damage onset is pending (not offered here).
-        """
-        n = out.shape[0]
-        if commands.shape != (n, len(drives)):
-            raise ValueError(f"commands {commands.shape} for {n} steps of {len(drives)} surfaces")
-        if self._fault is not None:
-            raise ValueError("a damage onset is not offered with several surfaces driven")
-        self._steps += n
-        getters = [node.get_double_value for node in nodes]
-        setters = [d.set for d in drives]
-        run = self.fdm.run
-        values: list[float] = []
-        append = values.append
-        for row in commands.tolist():
-            for write, c in zip(setters, row, strict=True):
-                write(c)
-            run()
-            for get in getters:
-                append(get())
-        out[:] = np.array(values, dtype=np.float64).reshape(n, len(nodes))
 
     def check_state(self) -> None:
         """Raise :class:`DivergenceError` if the aircraft left the meaningful region."""

@@ -12,13 +12,15 @@ them on the flight computer's side to what the separate simulator gives.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from probing.core.faults import SensorBias, onset_step
 from probing.core.sensors import Sensor, SensorSuite
 from probing.sim.plant import Plant
 
-__all__ = ["SENSOR_STREAM", "Sensing", "SensorBank"]
+__all__ = ["SENSOR_STREAM", "ChannelNoise", "Sensing", "SensorBank"]
 
 #: The sensors' noise stream: ``numpy.random.default_rng([seed, SENSOR_STREAM])``, apart from
 #: the scenario seed's other uses (JSBSim's turbulence, ``disturbance.sensor_noise``).
@@ -106,3 +108,43 @@ class Sensing(SensorBank):
             self.fault_channel = self.channels.index(fault.channel)
             self.fault_bias = float(fault.bias)
             self.fault_onset = onset_step(fault.onset_s, plant.dt_s)
+
+
+class ChannelNoise:
+    """The world's measurement without a sensor suite: each channel's true value with white
+    noise (``disturbance.sensor_noise``) and a sensor fault from its onset on.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The measured channels, in order.
+    sigma : sequence of float
+        Each channel's noise standard deviation, its unit.
+    seed : int
+        The scenario's seed (``numpy.random.default_rng(seed)``).
+    fault : SensorBias or None
+        An offset on one channel from its onset on.
+    dt_s : float
+        The step, s.
+    """
+
+    def __init__(
+        self,
+        channels: Sequence[str],
+        sigma: Sequence[float],
+        seed: int,
+        fault: SensorBias | None,
+        dt_s: float,
+    ) -> None:
+        self.channels, self.fault, self.dt_s = tuple(channels), fault, float(dt_s)
+        self.sigma = np.asarray(sigma, dtype=np.float64)
+        self.rng = np.random.default_rng(seed)
+
+    def measure(self, true: np.ndarray, first_step: int) -> np.ndarray:
+        """The measurements ``(rows, channels)`` of the true values ``true`` of the steps from
+        ``first_step`` on (call it for consecutive blocks, in order)."""
+        rows, n_ch = true.shape
+        measured = true + self.rng.standard_normal((rows, n_ch)) * self.sigma
+        if self.fault is not None:
+            self.fault.apply(measured, self.channels, first_step, self.dt_s)
+        return measured

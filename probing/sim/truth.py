@@ -29,6 +29,7 @@ from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.linear import linear_response
 from probing.sim.plant import make_plant
+from probing.sim.world import JSBSimWorld
 
 __all__ = ["linear_pulse_response", "single_pulse_response"]
 
@@ -86,11 +87,11 @@ def single_pulse_response(
         position = np.full(n_steps, drive.trim_position)
         position[:steps_per_bit] += amplitude_deg
         nodes = pulsed.channel_nodes(list(channels))
-        pulsed.step(drive.command(position), nodes, out_p, drive=drive)
+        JSBSimWorld(pulsed, surface).fly_commands(drive.command(position), nodes, out_p)
         pulsed.check_state()
-        held = reference.drive(surface)
-        cmd_trim = np.full(n_steps, held.trim_command)
-        reference.step(cmd_trim, reference.channel_nodes(list(channels)), out_r, drive=held)
+        held = JSBSimWorld(reference, surface)
+        cmd_trim = np.full(n_steps, held.drive.trim_command)
+        held.fly_commands(cmd_trim, reference.channel_nodes(list(channels)), out_r)
     h = (out_p - out_r)[steps_per_bit - 1 :: steps_per_bit] / amplitude_deg
     return {c: h[:, j] for j, c in enumerate(channels)}
 

@@ -36,17 +36,20 @@ import numpy as np
 
 from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.sim import aircraft as _aircraft_module
+from probing.sim import autopilot as _autopilot_module
 from probing.sim import channels as _channels_module
 from probing.sim import control as _control_module
 from probing.sim import drive as _drive_module
 from probing.sim import plant as _plant_module
 from probing.sim import turn_trim as _turn_trim_module
+from probing.sim import world as _world_module
 from probing.sim.aircraft import cache_dir, usable_folder
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import trim_spec
 from probing.sim.plant import Plant, make_plant
 from probing.sim.surfaces import DEFAULT_SURFACE
+from probing.sim.world import JSBSimWorld
 
 __all__ = [
     "TWIN_FORMAT",
@@ -78,8 +81,8 @@ def twin_cache_dir() -> Path:
 @functools.cache
 def _source_digest() -> str:
     """SHA-256 of the code that defines the twin's numbers: the plant (trim, stepping), the
-    aircraft's sanitising, the channel table, the surface drive, the turn trim, the autopilot
-    and this module."""
+    aircraft's sanitising, the channel table, the surface drive, the turn trim, the autopilot,
+    the stepping function and this module."""
     digest = hashlib.sha256()
     modules = (
         _aircraft_module,
@@ -88,6 +91,8 @@ def _source_digest() -> str:
         _drive_module,
         _turn_trim_module,
         _control_module,
+        _autopilot_module,
+        _world_module,
     )
     for path in (*(Path(m.__file__) for m in modules), Path(__file__)):
         digest.update(path.name.encode())
@@ -285,7 +290,7 @@ class ReferenceTwin:
             if self._loop is not None:
                 self._loop.step(None, self._nodes, block)
             else:
-                self._plant.step(None, self._nodes, block)
+                JSBSimWorld(self._plant).fly(n, self._nodes, block)
             self._plant.check_state()
             self.steps_simulated += n
             if self._writer is not None:

@@ -16,6 +16,7 @@ from probing.experiment.scenario import Scenario, parse_scenario
 from probing.sim.errors import TrimError
 from probing.sim.flight import Flight
 from probing.sim.fork import TrimmedAircraft, trim_key
+from probing.sim.world import JSBSimWorld
 
 pytestmark = pytest.mark.jsbsim
 
@@ -172,7 +173,7 @@ def test_the_parent_stays_flat_over_many_children() -> None:
     def step(seed: int) -> float:
         plant = aircraft.plant_for(dataclasses.replace(SCENARIOS[2].flight, seed=seed))
         out = np.empty((500, 1))
-        plant.step(None, plant.channel_nodes(["theta_rad"]), out)
+        JSBSimWorld(plant).fly_commands(None, plant.channel_nodes(["theta_rad"]), out)
         return float(out[-1, 0])
 
     last = [o.get() for o in forked_map(step, range(40))]

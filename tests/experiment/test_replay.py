@@ -109,11 +109,25 @@ def test_the_log_holds_what_the_flight_computer_had_and_nothing_else(flights):
     assert table.num_rows == 24 * 255
 
 
-def test_a_follow_log_cannot_be_replayed_and_says_why(tmp_path):
+def test_a_follow_log_replays_bit_for_bit_from_its_recorded_commands(tmp_path):
+    """drift = "follow": the flight computer flies its nominal model on the autopilot's
+    commands it recorded, so a replay of the log (which holds them) gives the same tables."""
     scn = _scenario("follow", **{"disturbance.turbulence": "none"})
     live = monitor_scenario(scn, tmp_path / "live", progress=False)
-    with pytest.raises(ReplayError, match="follow"):
-        replay_monitor(live.out_dir / "sensors.parquet", tmp_path / "again", progress=False)
+    again = replay_monitor(live.out_dir / "sensors.parquet", tmp_path / "again", progress=False)
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
+        a, b = _tables(live.out_dir, name)[0], _tables(again.out_dir, name)[0]
+        assert len(a) > 0 and a.equals(b), name
+
+
+def test_a_follow_log_without_the_autopilots_commands_is_refused(tmp_path):
+    scn = _scenario("follow", **{"disturbance.turbulence": "none"})
+    live = monitor_scenario(scn, tmp_path / "live", progress=False)
+    log = pq.read_table(live.out_dir / "sensors.parquet")
+    cut = log.drop(list(AUTOPILOT_COLUMNS)).replace_schema_metadata(log.schema.metadata)
+    pq.write_table(cut, tmp_path / "cut.parquet")
+    with pytest.raises(ReplayError, match="autopilot_elevator_deg"):
+        replay_monitor(tmp_path / "cut.parquet", tmp_path / "again", progress=False)
 
 
 def _probing(*args: str, cwd: Path) -> subprocess.CompletedProcess:

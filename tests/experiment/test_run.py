@@ -335,19 +335,19 @@ def _settled_means(folder: Path, scn) -> dict[str, np.ndarray]:
 
 def _dead_sensor(monkeypatch: pytest.MonkeyPatch, period: int | None, channel: int) -> None:
     """The probed aircraft's ``channel`` reads NaN once, in ``period`` (None: never)."""
-    import probing.sim.plant as plant_module
+    import probing.sim.world as world_module
 
-    step = plant_module.Plant.step
+    fly = world_module.JSBSimWorld.fly_commands
     calls = {"probed": 0}
 
-    def step_with_a_dead_sensor(self, cmd_norm, nodes, out, position=None, drive=None):
-        step(self, cmd_norm, nodes, out, position, drive)
-        if cmd_norm is not None:  # the probed aircraft, one period per call
+    def fly_with_a_dead_sensor(self, commands, nodes, out, position=None):
+        fly(self, commands, nodes, out, position)
+        if commands is not None:  # the probed aircraft, one period per call
             if calls["probed"] == period:
                 out[5, channel] = np.nan
             calls["probed"] += 1
 
-    monkeypatch.setattr(plant_module.Plant, "step", step_with_a_dead_sensor)
+    monkeypatch.setattr(world_module.JSBSimWorld, "fly_commands", fly_with_a_dead_sensor)
 
 
 def test_run_result_is_the_mean_of_the_settled_periods_in_the_file_channel_by_channel(

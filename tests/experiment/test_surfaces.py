@@ -18,6 +18,7 @@ from probing.experiment.scenario import ScenarioError, parse_scenario
 from probing.experiment.truth import compute_truth, predicted_probing
 from probing.sim.plant import make_plant
 from probing.sim.surfaces import SURFACES
+from probing.sim.world import JSBSimWorld
 
 pytestmark = pytest.mark.jsbsim
 
@@ -81,7 +82,9 @@ def test_every_surface_reaches_its_position_exactly(model: str, surface: str):
     asked = drive.trim_position + np.concatenate((rng.uniform(-step, step, 60), [0.0, 1e-4, -1e-4]))
     asked = np.clip(asked, lo, hi)
     realised = np.empty(asked.size)
-    plant.step(drive.command(asked), [], np.empty((asked.size, 0)), realised, drive)
+    JSBSimWorld(plant, surface).fly_commands(
+        drive.command(asked), [], np.empty((asked.size, 0)), realised
+    )
     np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)
     if surface == "throttle":  # every engine's lever, not only the first's
         levers = [plant.fdm[f"fcs/throttle-pos-norm[{i}]"] for i in range(plant.engine_count())]
@@ -113,7 +116,9 @@ def test_the_rudder_map_is_exact_and_its_yaw_damper_acts_on_top(model: str):
     position = np.empty(300)
     pulse = np.full(300, drive.trim_position)
     pulse[:50] += 2.0
-    plant.step(drive.command(pulse), [], np.empty((300, 0)), position, drive)
+    JSBSimWorld(plant, drive.surface.name).fly_commands(
+        drive.command(pulse), [], np.empty((300, 0)), position
+    )
     assert np.abs(position - pulse).max() > 1e-3  # the damper answers the yaw it caused
 
 
@@ -302,12 +307,11 @@ def test_the_aileron_driven_and_measured_is_the_right_panel(model: str):
     for target in asked:
         realised = np.empty(1)
         sensor = np.empty((1, 1))
-        plant.step(
+        JSBSimWorld(plant, "aileron").fly_commands(
             drive.command(np.array([target])),
             plant.channel_nodes(["aileron_deg"]),
             sensor,
             realised,
-            drive,
         )
         right = fdm["fcs/right-aileron-pos-deg"]
         assert right == pytest.approx(target, abs=1e-12), (target, right)

@@ -9,6 +9,7 @@ import pytest
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import ActuatorFault, Control, Flight
 from probing.sim.plant import make_plant
+from probing.sim.world import JSBSimWorld
 
 pytestmark = pytest.mark.jsbsim
 
@@ -23,13 +24,14 @@ def _square(n: int, amplitude: float, seed: int = 0) -> np.ndarray:
 
 @pytest.mark.parametrize("flight", [GTM, Flight("A320", 10000.0, "speed_kcas", 250.0, 0.01)])
 def test_open_loop_one_step_at_a_time_is_the_plants_own_stepping_bit_for_bit(flight):
-    """Every loop open, no fault: the same outputs and elevator, to the bit, as Plant.step
-    with the calibrated map applied to the whole array (the A320's map has a kink at 0)."""
+    """Every loop open, no fault: the same outputs and elevator, to the bit, as the world's
+    open-loop history (JSBSimWorld.fly_commands) with the calibrated map applied to the whole
+    array (the A320's map has a kink at 0)."""
     q = _square(3000, 0.01)
     a, b = make_plant(flight), make_plant(flight)
     out_a, out_b = np.empty((3000, 2)), np.empty((3000, 2))
     el_a, el_b = np.empty(3000), np.empty(3000)
-    a.step(
+    JSBSimWorld(a).fly_commands(
         a.drive().command(a.trim_result.elevator_deg + q), a.channel_nodes(CHANNELS), out_a, el_a
     )
     ClosedLoop(b, Control()).step(q, b.channel_nodes(CHANNELS), out_b, el_b)

@@ -14,6 +14,7 @@ from probing.core.prbs import Probe
 from probing.sim.errors import TrimError
 from probing.sim.flight import Flight
 from probing.sim.truth import linear_pulse_response, single_pulse_response
+from probing.sim.world import JSBSimWorld
 
 pytestmark = pytest.mark.jsbsim
 
@@ -41,7 +42,9 @@ def test_elevator_deflection_is_exact(model: str, new_plant) -> None:
     surface = np.concatenate((surface, [lo + 0.5, hi - 0.5, trim.elevator_deg]))
     realised = np.empty(surface.size)
     out = np.empty((surface.size, 1))
-    plant.step(plant.drive().command(surface), plant.channel_nodes(["theta_rad"]), out, realised)
+    JSBSimWorld(plant).fly_commands(
+        plant.drive().command(surface), plant.channel_nodes(["theta_rad"]), out, realised
+    )
     np.testing.assert_allclose(realised, surface, rtol=0, atol=1e-12)
 
 
@@ -136,7 +139,7 @@ def test_the_first_step_is_the_trims_own(
     assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
     drive = plant.drive()
     out = np.empty((1, 0))
-    plant.step(np.array([drive.trim_command]), [], out)
+    JSBSimWorld(plant).fly_commands(np.array([drive.trim_command]), [], out)
     bare.run()
     assert [plant.fdm[p] for p in FIRST_STEP] == [bare[p] for p in FIRST_STEP]
     assert abs(plant.fdm["velocities/q-rad_sec"]) < 1e-8
@@ -259,9 +262,10 @@ def test_a320_elevator_is_exact_across_the_kink_at_zero_deflection(new_plant) ->
     asked = np.array([-0.0004, -0.0001, 0.0, 0.0001, 0.0004, 0.003, -0.003])
     realised = np.empty(asked.size)
     out = np.empty((asked.size, 1))
+    world, node = JSBSimWorld(plant), plant.channel_nodes(["theta_rad"])[0]
     for k in range(asked.size):  # one step each, from wherever the last left the surface
-        plant.step(plant.drive().command(asked[k : k + 1]), plant.channel_nodes(["theta_rad"]),
-                   out[k : k + 1], realised[k : k + 1])  # fmt: skip
+        world.fly_commands(plant.drive().command(asked[k : k + 1]), [node],
+                           out[k : k + 1], realised[k : k + 1])  # fmt: skip
     np.testing.assert_allclose(realised, asked, rtol=0, atol=1e-12)
 
 
@@ -278,6 +282,6 @@ def test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset(
     out = np.empty((sum(chunks), 1))
     start = 0
     for n in chunks:
-        plant.step(None, [node], out[start : start + n])
+        JSBSimWorld(plant).fly_commands(None, [node], out[start : start + n])
         start += n
     assert np.array_equal(out[:, 0], np.where(np.arange(60) >= 30, 5.0, 0.0))

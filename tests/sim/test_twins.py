@@ -18,6 +18,7 @@ from probing.sim.plant import make_plant
 from probing.sim.twins import open_twin as _open_twin
 from probing.sim.twins import twin_key as _twin_key
 from probing.sim.twins import twin_spec as _twin_spec
+from probing.sim.world import JSBSimWorld
 
 pytestmark = pytest.mark.jsbsim
 
@@ -219,7 +220,9 @@ def test_holding_the_trim_command_equals_writing_it(model: str) -> None:
     nodes_h = held.channel_nodes(["theta_rad", "q_rad_s", "alpha_rad"])
     nodes_w = written.channel_nodes(["theta_rad", "q_rad_s", "alpha_rad"])
     out_h, out_w = np.empty((300, 3)), np.empty((300, 3))
-    held.step(None, nodes_h, out_h)
-    written.step(np.full(300, written.trim_result.elevator_cmd_norm), nodes_w, out_w)
+    JSBSimWorld(held).fly_commands(None, nodes_h, out_h)
+    JSBSimWorld(written).fly_commands(
+        np.full(300, written.trim_result.elevator_cmd_norm), nodes_w, out_w
+    )
     np.testing.assert_array_equal(out_h, out_w)
     assert np.ptp(out_h[:, 0]) > 0  # the aircraft does move (turbulence, drift)
