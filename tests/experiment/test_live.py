@@ -24,14 +24,18 @@ import pytest
 
 from probing.cli import main
 from probing.experiment import live as live_module
-from probing.experiment.live import LIVE_CHUNK_PERIODS, live_monitor
+from probing.experiment.flight_computer import FlightComputer
+from probing.experiment.live import LIVE_CHUNK_PERIODS, LiveError, check_live, live_monitor
 from probing.experiment.monitor import logged_chunk_periods, monitor_scenario, replay_monitor
 from probing.experiment.run import CHUNK_STEPS
 from probing.experiment.scenario import load_scenario
 from probing.experiment.storage import read_footer
 from probing.sim.channels import CHANNELS
+from probing.sim.live_sim import write_sim
 
 pytestmark = pytest.mark.jsbsim
+
+ROOT = Path(__file__).resolve().parents[2]
 
 SCENARIO = """\
 name = "live-737"
@@ -599,3 +603,105 @@ def test_the_compute_time_leaves_out_the_waits_for_the_clock(tmp_path, monkeypat
     )
     assert result.wait_s >= sum(slept)
     assert result.compute_per_period_s * periods <= result.wall_s - sum(slept)
+
+
+# ------------------------------------------------------- the study's flight, live
+#: The realisable monitor study's flight (scenarios/references/base.toml: GTM at 800 ft and
+#: 75 KCAS, the autopilot's three loops, NASA's T2 sensors, light turbulence) with the ``gust``
+#: reference and the elevator's effectiveness halved at 155 s: a fault inside the loop.
+STUDY = {
+    "name": "live-study",
+    "output.drift": "gust",
+    "disturbance.seed": 1,
+    "fault.type": "effectiveness",
+    "fault.scale": 0.5,
+    "fault.onset_s": 155.276,
+}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """The study's fault flight flown live and in this process, with the same seed."""
+    base = tmp_path_factory.mktemp("study")
+    scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(STUDY)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    sim_dir = base / "sim"
+    write_sim(scn.flight, sim_dir, port, scn.total_steps * scn.dt_s + 60.0)
+    with _simulator(base, sim_dir) as proc:
+        live = live_monitor(scn, "127.0.0.1", port, base / "live", progress=False)
+        stopped = _stopped_within(proc, STOP_S)
+    here = monitor_scenario(scn, base / "here", progress=False)
+    return scn, live, here, stopped
+
+
+def test_the_study_flight_flies_live_as_in_this_process(study):
+    """Closed loop on the T2 sensors, light turbulence seeded alike in both simulators (the
+    turbulence written in the first frame), the gust reference and an actuator fault: the
+    same first alarm within a period and the same verdict; the logs agree to the socket's
+    resolution amplified by the loop (measured: theta within 4.3e-5 rad, the elevator within
+    8.5e-4 deg over 100 periods, against a theta std of 0.011 rad: the turbulence is the
+    same realisation, not one alike)."""
+    scn, live, here, stopped = study
+    a, b = live.monitor, here
+    assert a.first_alarm_period is not None and b.first_alarm_period is not None
+    assert abs(a.first_alarm_period - b.first_alarm_period) <= 1
+    assert a.verdict == b.verdict
+    log_a = _table(live.monitor.out_dir, "sensors.parquet")
+    log_b = _table(here.out_dir, "sensors.parquet")
+    assert list(log_a.columns) == list(log_b.columns) and len(log_a) == scn.total_steps
+    theta = np.abs(log_a["theta_rad"].to_numpy() - log_b["theta_rad"].to_numpy())
+    assert theta.max() < 2e-4 < 0.1 * log_b["theta_rad"].std()
+    assert stopped is not None  # the simulator ended with the flight
+
+
+def test_the_study_flights_live_log_replays_bit_for_bit(study, tmp_path):
+    _, live, _, _ = study
+    again = replay_monitor(live.monitor.out_dir / "sensors.parquet", tmp_path, progress=False)
+    for name in ("monitor.parquet", "probing.parquet", "bounds.parquet"):
+        a, b = _table(live.monitor.out_dir, name), _table(again.out_dir, name)
+        assert len(a) > 0 and a.equals(b), name
+
+
+def test_in_process_live_and_replay_fly_one_flight_computer(live, tmp_path, monkeypatch):
+    """The three worlds hand their chunks to the same class's one consumer."""
+    base, scn = live
+    seen: list[str] = []
+    consume = FlightComputer.consume
+
+    def counted(self, log, first):
+        seen.append(type(self).__qualname__)
+        return consume(self, log, first)
+
+    monkeypatch.setattr(FlightComputer, "consume", counted)
+    kinds = []
+    monitor_scenario(scn, tmp_path / "here", progress=False)
+    kinds.append(len(seen))
+    replay_monitor(base / scn.name / "sensors.parquet", tmp_path / "again", progress=False)
+    kinds.append(len(seen) - sum(kinds))
+    (tmp_path / "live").mkdir()
+    _fly_live(tmp_path / "live", SCENARIO)
+    kinds.append(len(seen) - sum(kinds))
+    assert all(k > 0 for k in kinds) and set(seen) == {"FlightComputer"}
+
+
+@pytest.mark.parametrize(
+    ("changes", "refused"),
+    [
+        ({"output.drift": "oracle"}, "output.drift is oracle"),
+        (
+            {"output.drift": "reference", "disturbance.turbulence": "none"},
+            "output.drift is reference",
+        ),
+        ({"fault.type": "gtm_damage", "fault.case": 5, "fault.onset_s": 10.0}, None),
+        ({"output.drift": "nominal"}, None),
+    ],
+)
+def test_live_refuses_only_what_needs_the_simulators_own_turbulence(changes, refused):
+    scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(changes)
+    if refused is None:
+        check_live(scn)
+    else:
+        with pytest.raises(LiveError, match=refused):
+            check_live(scn)
