@@ -216,6 +216,12 @@ class SensorBias:
     bias: float
     onset_s: float
 
+    def measure(self, value: float, step: int, onset: int) -> float:
+        """One measurement of the channel after step ``step``, the fault acting from step
+        ``onset`` (:func:`onset_step` of :attr:`onset_s`) on: what a world that measures
+        step by step calls, the same rule as :meth:`apply`."""
+        return value + self.bias if step >= onset else value
+
     def apply(
         self, measured: np.ndarray, channels: tuple[str, ...], first_step: int, dt_s: float
     ) -> None:

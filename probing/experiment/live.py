@@ -219,13 +219,10 @@ class SocketWorld:
         if self.bank is None:
             sigma = [scn.sensor_noise.get(c, 0.0) for c in self.logged]
             self.noise = ChannelNoise(self.logged, sigma, scn.seed, fault, scn.dt_s)
-        self.bias = None  # (channel index, offset, onset step) of a sensor fault in the suite
+        self.sensor_fault = None  # (column, fault, onset step) of a sensor fault in the suite
         if fault is not None and self.bank is not None:
-            self.bias = (
-                self.bank.index(fault.channel),
-                fault.bias,
-                onset_step(fault.onset_s, scn.dt_s),
-            )
+            onset = onset_step(fault.onset_s, scn.dt_s)
+            self.sensor_fault = (self.bank.index(fault.channel), fault, onset)
         self.fault = scn.actuator_fault
         self.fault_onset = onset_step(self.fault.onset_s, scn.dt_s) if self.fault else -1
         self.held: float | None = None
@@ -346,8 +343,8 @@ class SocketWorld:
             if j >= len(self.logged):
                 continue  # the probed surface's position: the actuator's, not logged
             value = self.bank.sensors[j].step(row[j], draws[j])
-            if self.bias is not None and j == self.bias[0] and step >= self.bias[2]:
-                value += self.bias[1]
+            if self.sensor_fault is not None and j == self.sensor_fault[0]:
+                value = self.sensor_fault[1].measure(value, step, self.sensor_fault[2])
             out[j] = self.current[j] = value
 
     def finish(self) -> None:

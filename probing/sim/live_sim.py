@@ -54,8 +54,9 @@ def write_sim(flight: Flight, folder: Path, port: int, end_s: float) -> list[str
     Parameters
     ----------
     flight : Flight
-        The scenario's flight: model, condition, dt (calm air, no damage: checked by the
-        caller).
+        The scenario's flight: model, condition, dt (trimmed undamaged: checked by the
+        caller; its turbulence and a damage case in flight are written by the flight
+        computer's side over the socket, :class:`probing.experiment.live.SocketWorld`).
     folder : pathlib.Path
         The root to write (created; its ``aircraft``, ``engine``, ``systems`` and ``scripts``
         are replaced).

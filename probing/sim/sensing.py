@@ -99,14 +99,14 @@ class Sensing(SensorBank):
         nodes = plant.channel_nodes(list(suite.sensors))
         self.getters = [node.get_double_value for node in nodes]
         super().__init__(suite, plant.dt_s, seed, [get() for get in self.getters])
+        #: The sensor fault, the column it acts on and its onset step (None: no fault).
+        self.fault = fault
         self.fault_channel: int | None = None
-        self.fault_bias = 0.0
         self.fault_onset = -1
         if fault is not None:
             if fault.channel not in self.channels:
                 raise ValueError(f"the sensor fault's channel {fault.channel} has no sensor")
             self.fault_channel = self.channels.index(fault.channel)
-            self.fault_bias = float(fault.bias)
             self.fault_onset = onset_step(fault.onset_s, plant.dt_s)
 
 

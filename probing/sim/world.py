@@ -213,8 +213,8 @@ class JSBSimWorld:
             if sensing is not None:  # the sensors after each step, the law's inputs next step
                 current, noise = sensing.current, sensing.noise(n)
                 sense = list(zip([s.step for s in sensing.sensors], sensing.getters, strict=True))
-                bias_at, bias = sensing.fault_channel, sensing.fault_bias
-                bias_onset = sensing.fault_onset
+                fault_at, fault_onset = sensing.fault_channel, sensing.fault_onset
+                faulty = sensing.fault.measure if sensing.fault is not None else None
             for k in range(n):
                 step = first + k
                 if rows is not None:
@@ -239,8 +239,8 @@ class JSBSimWorld:
                 run()
                 if sensing is not None:
                     row = [st(get(), e) for (st, get), e in zip(sense, noise[k], strict=True)]
-                    if bias_at is not None and step >= bias_onset:
-                        row[bias_at] += bias
+                    if faulty is not None:
+                        row[fault_at] = faulty(row[fault_at], step, fault_onset)
                     current[:] = row
                     sensed.append(row)
                 for get in getters:
