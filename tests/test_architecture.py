@@ -182,3 +182,44 @@ def test_the_size_rules_can_fail(tmp_path: Path) -> None:
     path.write_text(f'def f():\n    """Doc.\n\n    more\n    """\n    # a comment\n\n{body}\n')
     ((name, node, lines),) = list(_functions(path))
     assert name == "f" and _code_lines(node, lines) == 61
+
+
+#: The functions that step JSBSim (``fdm.run``): the one stepping function, and the
+#: surfaces' calibration (on a copy, before any flight); the trim runs ``run_ic``.
+STEPPERS = {"probing/sim/world.py:JSBSimWorld.fly", "probing/sim/drive.py:calibrate"}
+
+
+def _steppers(path: Path, root: Path) -> set[str]:
+    """The functions of a module that take JSBSim's ``run`` (``<...>fdm.run``), innermost."""
+    found = set()
+    for name, node, _ in _functions(path):
+        inner = {
+            id(n)
+            for child in ast.walk(node)
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)) and child is not node
+            for n in ast.walk(child)
+        }
+        for sub in ast.walk(node):
+            if (
+                id(sub) not in inner
+                and isinstance(sub, ast.Attribute)
+                and sub.attr == "run"
+                and ast.unparse(sub.value).split(".")[-1] == "fdm"
+            ):
+                found.add(f"{path.relative_to(root)}:{name}")
+    return found
+
+
+def test_jsbsim_is_stepped_by_one_function_only() -> None:
+    """``fdm.run`` is taken in the one stepping function (and the calibration) only."""
+    found = set().union(*(_steppers(p, ROOT) for p in _sources()))
+    assert found == STEPPERS
+
+
+def test_the_stepper_rule_can_fail(tmp_path: Path) -> None:
+    path = tmp_path / "m.py"
+    path.write_text(
+        "class A:\n    def go(self):\n        self.plant.fdm.run()\n\n"
+        "def f(fdm):\n    def g():\n        return fdm.run\n    return g\n"
+    )
+    assert _steppers(path, tmp_path) == {"m.py:A.go", "m.py:f.g"}
