@@ -13,12 +13,13 @@ and ``--replay``'s: the probe path (with its fault), the autopilot on the measur
 reference (``gust``, ``nominal``, ``follow``, ``detrend``, ``none``), the estimators and the
 monitor.
 
-Each message writes the frame's commands and reads the channels: the integrator's states
-(:data:`STATE_PREFIXES`) are the frame's own, what JSBSim computes after the commands (air
-data, load factors, the surfaces) is the frame before's and completes the row before.  So the
-autopilot sees the attitude and rates of the step before, as in this process, and the
-airspeed one step older; a stuck actuator holds the position measured two steps before its
-onset (docs/live.md, "What differs from a flight in this process").
+Each frame is two messages (:meth:`~probing.experiment.sim_socket.SimSocket.held_get`, then
+:meth:`~probing.experiment.sim_socket.SimSocket.resume_with`): the first holds the frame
+after JSBSim integrated its state and reads the channels (the integrator's states,
+:data:`STATE_PREFIXES`, are the frame's own; what JSBSim computes after the commands, air
+data, load factors, the surfaces, is still the frame before's and completes the row
+before), the second writes the frame's commands and lets it go on.  So the flight computer
+computes a step's commands from the whole row before, as in this process.
 
 Each period (:data:`LIVE_CHUNK_PERIODS`) becomes the rows of ``sensors.parquet`` once its
 last row is complete, and a line reports it; the log's footer records the chunk
@@ -266,15 +267,19 @@ class SocketWorld:
         probed, elevator = self.names["probed"], self.names["elevator"]
         cmds = commands.tolist() if commands is not None else None
         for k in range(n):
-            values = self.first_frame if self.steps == 0 else {}
+            reply = self.sim.held_get(self.ask)  # the frame's state, the row before's rest
+            if self.steps:
+                self._complete(reply[len(self.state) :])
+            values = dict(self.first_frame) if self.steps == 0 else {}
             if cmds is not None:
-                values = {**values, **dict.fromkeys(probed, cmds[k])}
+                values.update(dict.fromkeys(probed, cmds[k]))
             else:
                 assert law is not None
-                values = {**values, **self._demand(law(k), probed, elevator)}
+                values.update(self._demand(law(k), probed, elevator))
             if self.damage is not None and self.steps == self.damage[0]:
                 values[DAMAGE_PROPERTY] = self.damage[1]
-            self._frame(values)
+            self._start(reply[: len(self.state)])
+            self.sim.resume_with(values)
             if self.realtime:
                 due = self.start + self.steps * self.scn.dt_s
                 pause = max(0.0, due - time.perf_counter())
@@ -298,12 +303,8 @@ class SocketWorld:
         values.update(dict.fromkeys(probed, self.drive.command_clipped(surface)))
         return values
 
-    def _frame(self, values: dict[str, float]) -> None:
-        """One frame: ``values`` written, its row started and the row before completed."""
-        reply = self.sim.exchange(values, self.ask)
-        now, before = reply[: len(self.state)], reply[len(self.state) :]
-        if self.steps:
-            self._complete(before)
+    def _start(self, now: list[float]) -> None:
+        """The frame's row, with its state channels (``now``) measured."""
         row = self.row
         for j, v in zip(self.state, now, strict=True):
             row[j] = v
@@ -349,9 +350,7 @@ class SocketWorld:
 
     def finish(self) -> None:
         """After the last frame: its row completed (the simulator holds)."""
-        before = self.sim.get(self.later_props)
-        self.sim.hold()
-        self._complete(before)
+        self._complete(self.sim.held_get(self.later_props))
 
     def take(self, rows: int, first_step: int) -> dict[str, np.ndarray]:
         """The first ``rows`` complete rows, measured: what the sensors logged."""

@@ -10,7 +10,10 @@ ever).  It has no command that ends the simulator; ``set simulation/terminate 1`
 it before ``quit`` when it closes (:meth:`SimSocket.close`).  With
 ``action="BLOCKING_INPUT"`` a running simulator waits in every frame, after integrating the
 state and before the flight-control system, until a message comes, and answers every
-command in it: one message is one frame.  Each reply line is followed by the
+command in it: one message is one frame.  A ``hold`` in that message stops the frame there
+(the held simulator integrates nothing and runs no flight-control system) until a later
+message resumes it: :meth:`SimSocket.held_get` then :meth:`SimSocket.resume_with` read a
+frame's values before its commands are written.  Each reply line is followed by the
 prompt ``JSBSim> `` in a segment of its own; the client reads reply *lines* and never waits
 for a prompt, and acknowledges every segment at once (:data:`QUICKACK`).
 """
@@ -156,6 +159,21 @@ class SimSocket:
             _value(self.where, n, line)
             for n, line in zip(names, replies[len(commands) :], strict=True)
         ]
+
+    def held_get(self, names: list[str]) -> list[float]:
+        """Hold the simulator in the frame it waits in and read ``names`` (one message): the
+        rest of that frame waits for :meth:`resume_with`."""
+        replies = self._send(["hold", *(f"get {n}" for n in names)])
+        if replies[0] != "Holding":
+            raise SimConnectionError(f"{self.where}: hold: {replies[0]!r}")
+        return [_value(self.where, n, line) for n, line in zip(names, replies[1:], strict=True)]
+
+    def resume_with(self, values: dict[str, float]) -> None:
+        """Write ``values`` (full precision) and resume (one message): the held frame goes on
+        with them."""
+        commands = [*(f"set {name} {value!r}" for name, value in values.items()), "resume"]
+        wanted = [*(["set successful"] * len(values)), "Resuming"]
+        self._expect(commands, wanted)
 
     def get(self, names: list[str]) -> list[float]:
         """The properties ``names`` (6 significant digits: JSBSim's reply)."""
