@@ -148,6 +148,10 @@ their command while JSBSim linearises). Figure: `figures/gtm_modes.png`.
 
 DOC_TAIL = """
 
+The two ground truths a run can write beside it (`probing run --truth`: the single pulse
+and the linearisation stepped as JSBSim steps the aircraft), why they disagreed on the GTM
+and how far they agree now: [truth.md](truth.md).
+
 ## What is plausible and what is not
 
 * **Trim alpha at 75 kt is about 5.6 deg, not the ~3 deg of NASA's nominal initial condition.**

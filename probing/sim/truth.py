@@ -12,7 +12,7 @@
     command).  A one-bit pulse of the asked surface, read at the end of each bit, matches (a).
     What is left between the two is the simulator's own integration at its step (JSBSim
     integrates the body rates and attitude with forward Euler): first order in dt, a few
-    per cent on the GTM's 6.7 rad/s short period at 100 Hz (docs/gtm.md, "The two truths").
+    per cent on the GTM's 6.7 rad/s short period at 100 Hz (docs/truth.md).
 
 Writing them beside a run, with the probing output they predict, is
 :func:`probing.experiment.truth.compute_truth`.

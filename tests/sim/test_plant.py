@@ -227,7 +227,7 @@ def test_single_pulse_matches_linearisation() -> None:
     """The two truths of the 737 (Fig. 4's set-up: t0 = dt = 0.01 s, 511 taps) agree within
     2 % on every channel: the linearisation stepped as JSBSim steps the aircraft, the first
     tap zero in both (the airframe answers one step after the surface moves).  Without
-    that one-step delay q is 18 % off (docs/gtm.md, "The two truths")."""
+    that one-step delay q is 18 % off (docs/truth.md)."""
     lin = linear_pulse_response(FLIGHT_737, CHANNELS, 0.01, 511)
     pulse = single_pulse_response(FLIGHT_737, CHANNELS, 0.005, 1, 511)
     for c in CHANNELS:

@@ -1,7 +1,7 @@
 """The GTM's two truths, the single pulse and the linearisation stepped as JSBSim steps it,
 differ by the simulator's own integration, first order in its step: within 2 % on every
-channel at dt = 1 ms; at the scenarios' 10 ms the difference halves with dt (docs/gtm.md,
-"The two truths").  The servo and the one-step delay are in both."""
+channel at dt = 1 ms; at the scenarios' 10 ms the difference halves with dt
+(docs/truth.md).  The servo and the one-step delay are in both."""
 
 from __future__ import annotations
 
