@@ -13,6 +13,7 @@ import os
 import shlex
 import socket
 import subprocess
+import sys
 import threading
 import time
 import types
@@ -707,3 +708,19 @@ def test_live_refuses_only_what_needs_the_simulators_own_turbulence(changes, ref
     else:
         with pytest.raises(LiveError, match=refused):
             check_live(scn)
+
+
+def test_the_fault_comparison_example_prints_its_table(tmp_path):
+    """examples/live/compare_faults.py (docs/live.md's table), one short flight pair: its
+    row says the same first alarm and verdict live and in this process."""
+    script = ROOT / "examples" / "live" / "compare_faults.py"
+    args = ["--seeds", "1", "--faults", "damage case 5", "--periods", "24"]
+    done = subprocess.run(
+        [sys.executable, str(script), str(tmp_path), *args], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    row = done.stdout.splitlines()[-1].strip("| ").split(" | ")
+    assert row[0] == "damage case 5" and row[2] == row[3] and row[4] == row[5]
+    assert json.loads((tmp_path / "compare.json").read_text())[0][2:4] == [
+        int(row[2]) if row[2] != "none" else None
+    ] * 2
