@@ -37,21 +37,21 @@ def flight(hours: float) -> Scenario:
 def _timed_monitor(scn: Scenario) -> tuple[float, float]:
     """(wall s of the monitored run, s spent in the monitor's updates and finish)."""
     spent = [0.0]
-    original = monitor_module._Monitor.update
+    original = monitor_module.Monitor.update
 
     def update(self, *args):  # the real update, timed
         t0 = time.perf_counter()
         original(self, *args)
         spent[0] += time.perf_counter() - t0
 
-    monitor_module._Monitor.update = update
+    monitor_module.Monitor.update = update
     try:
         with tempfile.TemporaryDirectory() as out:
             t0 = time.perf_counter()
             monitor_scenario(scn, out, progress=False, twin_cache=False)
             wall = time.perf_counter() - t0
     finally:
-        monitor_module._Monitor.update = original
+        monitor_module.Monitor.update = original
     return wall, spent[0]
 
 

@@ -29,7 +29,6 @@ gives the same tables bit for bit.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -41,8 +40,8 @@ import numpy as np
 
 from probing.core.faults import onset_step
 from probing.experiment.flight_computer import FlightComputer, folder_of
-from probing.experiment.monitor import MonitorResult, _Monitor
-from probing.experiment.onboard import open_reference_twin, reference_source
+from probing.experiment.monitor import Monitor, MonitorResult
+from probing.experiment.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.progress import Progress, progress_bar
 from probing.experiment.run import scenario_provenance
 from probing.experiment.runners import runner_of
@@ -397,9 +396,7 @@ def live_monitor(
     check_live(scn)
     sim = SimSocket(host, port, timeout_s)
     try:
-        plant = make_plant(
-            dataclasses.replace(scn.flight, turbulence="none", damage_case=0, damage_onset_s=None)
-        )
+        plant = make_plant(calm_nominal(scn.flight))  # the actuators' maps, as the rig knows
         sim.hold()
         dt_sim, time_sim = sim.get(["simulation/dt", "simulation/sim-time-sec"])
         if not math.isclose(dt_sim, scn.dt_s, rel_tol=1e-5):
@@ -418,7 +415,7 @@ def live_monitor(
 
 
 def flight_computer(
-    scn: Scenario, plant: Plant, world: SocketWorld, monitor: _Monitor
+    scn: Scenario, plant: Plant, world: SocketWorld, monitor: Monitor
 ) -> FlightComputer:
     """The flight computer of a live flight: the same as a flight in this process builds,
     its autopilot flying on ``world``'s measurements, its actuator's maps and trim those of
@@ -443,7 +440,7 @@ def _fly(
     stream: TextIO | None,
 ) -> LiveResult:
     """The flight after the connection: chunks of whole periods flown, logged, estimated."""
-    monitor = _Monitor(scn, scn.monitor_settings())
+    monitor = Monitor(scn, scn.monitor_settings())
     computer = flight_computer(scn, plant, world, monitor)
     lag_s = np.arange(scn.bits_per_period) * scn.probe.bit_duration_s
     wait0, start, chunk_s = world.sim.wait_s, time.perf_counter(), 0.0
@@ -503,7 +500,7 @@ def _bar(scn: Scenario, stream: TextIO | None, progress: bool | None) -> Any:
     return progress_bar(scn.periods, label, "periods", stream, False, lines=progress is not False)
 
 
-def _report(bar: Progress, monitor: _Monitor, est: Any, first: int, count: int) -> None:
+def _report(bar: Progress, monitor: Monitor, est: Any, first: int, count: int) -> None:
     """``count`` periods from ``first`` on done: one line with the last one's end time, the
     latest estimate's largest tap of the first monitored channel and the first alarm."""
     j, channel = monitor.monitored[0]

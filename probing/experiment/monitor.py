@@ -48,6 +48,7 @@ from probing.experiment.storage import (
 from probing.sim.fork import TrimmedAircraft
 
 __all__ = [
+    "Monitor",
     "MonitorResult",
     "ReplayError",
     "logged_chunk_periods",
@@ -123,7 +124,7 @@ class MonitorResult:
 DETECTORS = ("probing", "trajectory")
 
 
-class _Monitor:
+class Monitor:
     """The detectors of a flight's channels, fed by the run (a :class:`RunObserver`): per
     monitored channel a probing detector (:class:`~probing.core.monitor.ChangeDetector`)
     and a trajectory detector (:class:`~probing.core.trajectory.TrajectoryDetector`)."""
@@ -310,7 +311,7 @@ def monitor_scenario(
     probing.experiment.scenario.ScenarioError
         If the run is too short for the baseline (checked before anything runs).
     """
-    monitor = _Monitor(scn, scn.monitor_settings())
+    monitor = Monitor(scn, scn.monitor_settings())
     run = run_scenario(
         scn,
         out,
@@ -396,7 +397,7 @@ def replay_monitor(
     meta = read_footer(log) if table is None else dict(table.schema.metadata or {})
     scn, baseline = logged_scenario(log, meta, table)
     settings = scn.monitor_settings()
-    monitor = _Monitor(scn, settings)
+    monitor = Monitor(scn, settings)
     probe = scn.probe
     m = probe.length
     period_steps = m * probe.steps_per_bit(scn.dt_s)

@@ -721,6 +721,7 @@ def test_the_fault_comparison_example_prints_its_table(tmp_path):
     assert done.returncode == 0, done.stderr
     row = done.stdout.splitlines()[-1].strip("| ").split(" | ")
     assert row[0] == "damage case 5" and row[2] == row[3] and row[4] == row[5]
-    assert json.loads((tmp_path / "compare.json").read_text())[0][2:4] == [
-        int(row[2]) if row[2] != "none" else None
-    ] * 2
+    assert (
+        json.loads((tmp_path / "compare.json").read_text())[0][2:4]
+        == [int(row[2]) if row[2] != "none" else None] * 2
+    )
