@@ -36,7 +36,7 @@ from probing.cli import (
     run,
     sweep,
 )
-from probing.cli.common import UsageError, _error, _Parser
+from probing.cli.common import Parser, UsageError, print_error
 from probing.core.forked import INTERRUPTS
 
 __all__ = ["build_parser", "main"]
@@ -59,7 +59,7 @@ COMMANDS = (run, live, sweep, fig4, excitations, plot, design, gtm, analyze, exa
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for documentation and tests)."""
-    parser = _Parser(
+    parser = Parser(
         prog="probing",
         description=DESCRIPTION,
         epilog=EPILOG,
@@ -148,21 +148,21 @@ def _main(argv: Sequence[str] | None) -> int:
             INTERRUPTS.check()  # one Python dropped where it landed: the user asked to stop
             return code
     except UsageError as exc:
-        return _error(str(exc), 2)
+        return print_error(str(exc), 2)
     except ValueError as exc:  # a stored file that cannot be read, wherever it is read
         from probing.experiment.storage import StoredFileError
         from probing.sim.errors import CacheFolderError
 
         # a cache folder that is not one, wherever the cache is resolved (probing.sim.aircraft)
         if isinstance(exc, (StoredFileError, CacheFolderError)):
-            return _error(str(exc), 2)
+            return print_error(str(exc), 2)
         raise
     except Terminated:
         stopping = 143
-        return _error("terminated", stopping)
+        return print_error("terminated", stopping)
     except KeyboardInterrupt:
         stopping = 130
-        return _error("interrupted", stopping)
+        return print_error("interrupted", stopping)
     finally:
         if stopping and argv is None:  # the process's own command line: it ends here
             _end_interrupted(stopping)

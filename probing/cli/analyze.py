@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from probing.cli.common import Subcommands, UsageError, _out_folder, _path, command
+from probing.cli.common import Subcommands, UsageError, command, out_folder, path_arg
 
 
 def _positive(text: str) -> float:
@@ -39,7 +39,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     )
     from probing.experiment.record import RecordError
 
-    _out_folder(args.out, "--out")
+    out_folder(args.out, "--out")
     if not args.file.is_file():
         raise UsageError(f"FILE {args.file}: no such file")
     req = AnalysisRequest(
@@ -89,7 +89,7 @@ def register(sub: Subcommands) -> None:
         "pulse compression on recorded data (CSV, Parquet or MATLAB .mat): probing.parquet, "
         "bounds.parquet and pulse_response.png in --out (docs/analyze.md)",
     )
-    p.add_argument("file", type=_path, metavar="FILE", help="the record: .csv, .parquet or .mat")
+    p.add_argument("file", type=path_arg, metavar="FILE", help="the record: .csv, .parquet or .mat")
     p.add_argument("--input", required=True, metavar="COL", help="the probe as injected")
     p.add_argument(
         "--output", required=True, nargs="+", metavar="COL", help="one or more measured outputs"
@@ -130,5 +130,5 @@ def register(sub: Subcommands) -> None:
         help="the figure's last lag (s) (default: the whole period, or zoomed to the response "
         "when it is short against the period)",
     )
-    p.add_argument("--out", type=_path, required=True, help="output folder")
+    p.add_argument("--out", type=path_arg, required=True, help="output folder")
     p.set_defaults(func=_cmd_analyze)

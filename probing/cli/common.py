@@ -17,12 +17,12 @@ class UsageError(Exception):
     """Bad input found by a command: printed as one line, exit code 2."""
 
 
-def _error(message: str, code: int) -> int:
+def print_error(message: str, code: int) -> int:
     print(f"probing: error: {message}", file=sys.stderr)
     return code
 
 
-def _out_folder(path: Path, option: str) -> Path:
+def out_folder(path: Path, option: str) -> Path:
     """``path`` after :func:`probing.experiment.storage.check_output_folder` (UsageError)."""
     from probing.experiment.storage import OutputPathError, check_output_folder
 
@@ -32,7 +32,7 @@ def _out_folder(path: Path, option: str) -> Path:
         raise UsageError(str(exc)) from None
 
 
-def _out_file(path: Path, option: str) -> Path:
+def out_file(path: Path, option: str) -> Path:
     """``path`` after :func:`probing.experiment.storage.check_output_file` (UsageError)."""
     from probing.experiment.storage import OutputPathError, check_output_file
 
@@ -42,13 +42,13 @@ def _out_file(path: Path, option: str) -> Path:
         raise UsageError(str(exc)) from None
 
 
-def _run_folder(out: Path, scn: Any) -> None:
+def check_run_folder(out: Path, scn: Any) -> None:
     """``--out`` and the run's own folder in it, ``OUT/<scenario name>`` (UsageError)."""
-    _out_folder(out, "--out")
-    _out_folder(out / scn.name, "--out")
+    out_folder(out, "--out")
+    out_folder(out / scn.name, "--out")
 
 
-def _load_scenario(path: Path) -> Any:
+def scenario_arg(path: Path) -> Any:
     from probing.experiment.scenario import ScenarioError, load_scenario
 
     try:
@@ -57,7 +57,7 @@ def _load_scenario(path: Path) -> Any:
         raise UsageError(str(exc)) from None
 
 
-def _simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
+def simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
     """Run ``job``; a trim failure or divergence is one line and exit code 1.
 
     An aircraft JSBSim cannot load, and a trim failure of an aircraft folder of the user's
@@ -69,14 +69,14 @@ def _simulating(job: Callable[[], int], where: str, model: str | None = None) ->
     try:
         return job()
     except AircraftNotFoundError as exc:
-        return _error(f"{where}: {exc}", 2)
+        return print_error(f"{where}: {exc}", 2)
     except TrimError as exc:
-        return _error(f"{where}: {exc}", 2 if model is not None and is_path(model) else 1)
+        return print_error(f"{where}: {exc}", 2 if model is not None and is_path(model) else 1)
     except DivergenceError as exc:
-        return _error(f"{where}: {exc}", 1)
+        return print_error(f"{where}: {exc}", 1)
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line, ``probing: error: ...``, exit code 2
     (argparse prints the whole usage first); its subcommands' parsers are of this class."""
 
@@ -102,7 +102,7 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
-def _path(text: str) -> Path:
+def path_arg(text: str) -> Path:
     """A path argument; an empty one (``--out ""``, the current folder) is refused."""
     if not text:
         raise argparse.ArgumentTypeError("empty path")

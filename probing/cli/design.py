@@ -14,12 +14,12 @@ from typing import Any
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _error,
-    _load_scenario,
-    _out_file,
-    _path,
-    _simulating,
     command,
+    out_file,
+    path_arg,
+    print_error,
+    scenario_arg,
+    simulating,
 )
 
 
@@ -41,7 +41,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         except DesignError as exc:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
-            return _error(f"infeasible: {exc}", 2)
+            return print_error(f"infeasible: {exc}", 2)
         written = _write_exports(args, d, scn)
         if args.json:
             fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
@@ -58,7 +58,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
             print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
         return 0
 
-    return _simulating(job, f"--aircraft {args.aircraft}")
+    return simulating(job, f"--aircraft {args.aircraft}")
 
 
 def _check_exports(args: argparse.Namespace) -> None:
@@ -68,11 +68,11 @@ def _check_exports(args: argparse.Namespace) -> None:
 
     args.export_probe = args.export_probe or []
     for path in args.export_probe:
-        _out_file(path, "--export-probe")
+        out_file(path, "--export-probe")
         if path.suffix not in EXPORT_SUFFIXES:
             raise UsageError(f"--export-probe {path}: the file must end in .csv or .h")
     if args.save_scenario is not None:
-        _out_file(args.save_scenario, "--save-scenario")
+        out_file(args.save_scenario, "--save-scenario")
         if args.save_scenario.suffix != ".toml":
             raise UsageError(
                 f"--save-scenario {args.save_scenario}: the file must end in .toml (a "
@@ -100,7 +100,7 @@ def _check_simultaneous(path: Path) -> int:
     """``probing design --simultaneous``: the design's memory condition, or its refusal."""
     from probing.experiment.simultaneous import SeparationError, check_separation
 
-    scn = _load_scenario(path)
+    scn = scenario_arg(path)
     if scn.simultaneous is None:
         raise UsageError(f"{path}: has no [simultaneous] section")
 
@@ -119,7 +119,7 @@ def _check_simultaneous(path: Path) -> int:
         print(check.table())
         return 0
 
-    return _simulating(job, str(path))
+    return simulating(job, str(path))
 
 
 def _modes_dict(modes: Any) -> dict[str, float]:
@@ -201,7 +201,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument(
         "--simultaneous",
-        type=_path,
+        type=path_arg,
         default=None,
         metavar="SCENARIO",
         help="check a scenario's [simultaneous] design from the linearisation (exit 2 if "
@@ -229,7 +229,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--export-probe",
-        type=_path,
+        type=path_arg,
         action="append",
         default=None,
         metavar="FILE",
@@ -239,7 +239,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--save-scenario",
-        type=_path,
+        type=path_arg,
         default=None,
         metavar="FILE",
         help="write the recommended scenario, FILE.toml (probing run FILE flies it)",

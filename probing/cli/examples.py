@@ -10,7 +10,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from probing.cli.common import Subcommands, UsageError, _out_folder, _path, command
+from probing.cli.common import Subcommands, UsageError, command, out_folder, path_arg
 
 
 def _shipped() -> dict[str, Path]:
@@ -23,7 +23,7 @@ def _shipped() -> dict[str, Path]:
 def _copy(target: Path) -> None:
     """Copy the shipped folders into ``target`` (new, or an empty folder), all or nothing:
     into a temporary folder beside it, renamed at the end."""
-    _out_folder(target, "--copy")
+    out_folder(target, "--copy")
     if target.exists() and any(target.iterdir()):
         raise UsageError(f"--copy {target}: is not empty")
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -69,7 +69,7 @@ def register(sub: Subcommands) -> None:
     )
     examples.add_argument(
         "--copy",
-        type=_path,
+        type=path_arg,
         metavar="DIR",
         help="copy them into DIR (new or empty) as DIR/scenarios and DIR/examples",
     )

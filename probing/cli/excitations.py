@@ -10,11 +10,11 @@ from pathlib import Path
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _out_file,
-    _out_folder,
-    _path,
-    _simulating,
     command,
+    out_file,
+    out_folder,
+    path_arg,
+    simulating,
 )
 from probing.cli.fig4 import BOUNDS_HELP
 
@@ -28,12 +28,12 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
         runs = planned(args.scenarios, args.out)  # every scenario valid before anything runs
     except ScenarioError as exc:
         raise UsageError(str(exc)) from None
-    _out_folder(args.out, "--out")
-    _out_file(args.out / "manifest.json", "--out")
+    out_folder(args.out, "--out")
+    out_file(args.out / "manifest.json", "--out")
     for r in runs:
-        _out_folder(r["folder"] / r["scenario"].name, "--out")
-    _out_folder(args.figures, "--figures")
-    _out_file(args.summary, "--summary")
+        out_folder(r["folder"] / r["scenario"].name, "--out")
+    out_folder(args.figures, "--figures")
+    out_file(args.summary, "--summary")
     if args.monitor is not None and not any(args.monitor.glob("monitor-*/summary.parquet")):
         raise UsageError(
             f"--monitor: {args.monitor}: no monitor sweep in it (monitor-*/summary.parquet); "
@@ -45,7 +45,7 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
         run_study(args.scenarios, args.out, jobs=args.jobs)
         return _finish(args, t_start)
 
-    return _simulating(job, str(args.scenarios))
+    return simulating(job, str(args.scenarios))
 
 
 def _finish(args: argparse.Namespace, t_start: float) -> int:
@@ -80,21 +80,21 @@ def register(sub: Subcommands) -> None:
         "on the GTM and the 737: runs, tables and figures (docs/excitations.md)",
     )
     exc.add_argument(
-        "--scenarios", type=_path, default=Path("scenarios"), help="folder of the Fig. 4 sets"
+        "--scenarios", type=path_arg, default=Path("scenarios"), help="folder of the Fig. 4 sets"
     )
     exc.add_argument(
-        "--out", type=_path, default=Path("results/excitations"), help="results folder"
+        "--out", type=path_arg, default=Path("results/excitations"), help="results folder"
     )
-    exc.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    exc.add_argument("--figures", type=path_arg, default=Path("figures"), help="figure folder")
     exc.add_argument(
         "--summary",
-        type=_path,
+        type=path_arg,
         default=Path("docs/excitations_summary.md"),
         help="the tables, as markdown",
     )
     exc.add_argument(
         "--monitor",
-        type=_path,
+        type=path_arg,
         default=None,
         help="results of the sweeps in scenarios/excitations (their table joins the summary)",
     )

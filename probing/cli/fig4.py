@@ -10,11 +10,11 @@ from pathlib import Path
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _out_file,
-    _out_folder,
-    _path,
-    _simulating,
     command,
+    out_file,
+    out_folder,
+    path_arg,
+    simulating,
 )
 
 #: The help of ``--bounds`` (``probing fig4`` and ``probing plot fig4``).
@@ -36,7 +36,7 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
     _check_fig4_outputs(results, args)
-    _out_file(results / "manifest.json", "--out")
+    out_file(results / "manifest.json", "--out")
     _check_fig4_runs(scen_dir, results, args.force)
     print(f"probing fig4: {scen_dir} -> {results}")
 
@@ -44,16 +44,16 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
         run_set(scen_dir, results, force=args.force)
         return _finish_fig4(results, args, t_start)
 
-    return _simulating(job, str(scen_dir))
+    return simulating(job, str(scen_dir))
 
 
 def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
-    _out_folder(results, option)
+    out_folder(results, option)
     for name in ("summary.csv", "summary.md"):
-        _out_file(results / name, option)
-    _out_folder(args.figures, "--figures")
+        out_file(results / name, option)
+    out_folder(args.figures, "--figures")
     if args.copy_summary is not None:
-        _out_file(args.copy_summary, "--copy-summary")
+        out_file(args.copy_summary, "--copy-summary")
 
 
 def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
@@ -68,7 +68,7 @@ def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
     except ScenarioError as exc:
         raise UsageError(str(exc)) from None
     for scn, folder in runs:
-        _out_folder(folder, "--out")
+        out_folder(folder, "--out")
         if not force:
             try:
                 is_stored(folder, scn)
@@ -100,15 +100,15 @@ def register(sub: Subcommands) -> None:
     """Add ``fig4`` to ``sub``."""
     fig4 = command(sub, "fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
     fig4.add_argument(
-        "--scenarios", type=_path, default=Path("scenarios/fig4"), help="scenario set folder"
+        "--scenarios", type=path_arg, default=Path("scenarios/fig4"), help="scenario set folder"
     )
     fig4.add_argument(
-        "--out", type=_path, default=None, help="results folder (default: results/<set folder>)"
+        "--out", type=path_arg, default=None, help="results folder (default: results/<set folder>)"
     )
-    fig4.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    fig4.add_argument("--figures", type=path_arg, default=Path("figures"), help="figure folder")
     fig4.add_argument("--force", action="store_true", help="simulate even if results are stored")
     fig4.add_argument(
-        "--copy-summary", type=_path, default=None, help="also copy summary.md to this file"
+        "--copy-summary", type=path_arg, default=None, help="also copy summary.md to this file"
     )
     fig4.add_argument("--bounds", action="store_true", help=BOUNDS_HELP)
     fig4.set_defaults(func=_cmd_fig4)

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from probing.cli.common import Subcommands, _out_file, _out_folder, _path, _simulating, command
+from probing.cli.common import Subcommands, command, out_file, out_folder, path_arg, simulating
 
 
 def _cmd_modes(args: argparse.Namespace) -> int:
-    _out_file(args.docs, "--docs")
-    _out_file(args.figure.with_name(f"{args.figure.name}.png"), "--figure")
+    out_file(args.docs, "--docs")
+    out_file(args.figure.with_name(f"{args.figure.name}.png"), "--figure")
 
     def job() -> int:
         from probing.analysis import gtm_modes
@@ -29,13 +29,13 @@ def _cmd_modes(args: argparse.Namespace) -> int:
         print(f"wrote {args.docs} and {path}")
         return 0
 
-    return _simulating(job, "gtm_t2")
+    return simulating(job, "gtm_t2")
 
 
 def _cmd_gtm_damage(args: argparse.Namespace) -> int:
-    _out_folder(args.out, "--out")
-    _out_file(args.out / "summary.csv", "--out")
-    _out_folder(args.figures, "--figures")
+    out_folder(args.out, "--out")
+    out_file(args.out / "summary.csv", "--out")
+    out_folder(args.figures, "--figures")
 
     def job() -> int:
         from probing.analysis import gtm_damage
@@ -56,7 +56,7 @@ def _cmd_gtm_damage(args: argparse.Namespace) -> int:
         print(f"summary -> {args.out / 'summary.csv'}, trim -> {args.out / 'trim.csv'}")
         return 0
 
-    return _simulating(job, "gtm_t2")
+    return simulating(job, "gtm_t2")
 
 
 def register(sub: Subcommands) -> None:
@@ -66,9 +66,11 @@ def register(sub: Subcommands) -> None:
         "modes",
         "trim and linearise the GTM at 800 ft, 60..130 KEAS; write the mode table and figure",
     )
-    modes.add_argument("--docs", type=_path, default=Path("docs/gtm.md"), help="page written whole")
     modes.add_argument(
-        "--figure", type=_path, default=Path("figures/gtm_modes"), help="figure (without .png)"
+        "--docs", type=path_arg, default=Path("docs/gtm.md"), help="page written whole"
+    )
+    modes.add_argument(
+        "--figure", type=path_arg, default=Path("figures/gtm_modes"), help="figure (without .png)"
     )
     modes.set_defaults(func=_cmd_modes)
 
@@ -78,7 +80,7 @@ def register(sub: Subcommands) -> None:
         "NASA's Example 6: each GTM damage case at 10 s of a 45 deg bank climbing turn",
     )
     damage.add_argument(
-        "--out", type=_path, default=Path("results/gtm_damage"), help="time histories, summary"
+        "--out", type=path_arg, default=Path("results/gtm_damage"), help="time histories, summary"
     )
-    damage.add_argument("--figures", type=_path, default=Path("figures"), help="figure folder")
+    damage.add_argument("--figures", type=path_arg, default=Path("figures"), help="figure folder")
     damage.set_defaults(func=_cmd_gtm_damage)

@@ -11,12 +11,12 @@ from typing import TYPE_CHECKING
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _load_scenario,
-    _out_folder,
-    _path,
-    _run_folder,
-    _simulating,
+    check_run_folder,
     command,
+    out_folder,
+    path_arg,
+    scenario_arg,
+    simulating,
 )
 
 if TYPE_CHECKING:
@@ -42,7 +42,7 @@ def _cmd_live(args: argparse.Namespace) -> int:
         )
     if args.port is not None and not is_port(args.port):
         raise UsageError(f"--port {args.port}: give {PORTS_TEXT}")
-    scn = _load_scenario(args.scenario)
+    scn = scenario_arg(args.scenario)
     try:
         check_live(scn)
     except LiveError as exc:
@@ -56,7 +56,7 @@ def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
     """``--write-sim DIR``: the simulator's files, and the command that starts it."""
     from probing.sim.live_sim import LISTENS_EVERYWHERE, write_sim
 
-    folder = _out_folder(args.write_sim, "--write-sim")
+    folder = out_folder(args.write_sim, "--write-sim")
     end_s = scn.total_steps * scn.dt_s + END_MARGIN_S
     port = DEFAULT_PORT if args.port is None else args.port
     line = write_sim(scn.flight, folder, port, end_s)
@@ -79,7 +79,7 @@ def _connect(scn: Scenario, args: argparse.Namespace) -> int:
             f"--connect {args.connect}: not this machine's loopback; give --allow-remote to "
             "fly a simulator elsewhere"
         )
-    _run_folder(args.out, scn)
+    check_run_folder(args.out, scn)
 
     def job() -> int:
         try:
@@ -90,7 +90,7 @@ def _connect(scn: Scenario, args: argparse.Namespace) -> int:
         print(f"{scn.name} (live): {result.headroom_line()}")
         return 0
 
-    return _simulating(job, str(args.scenario))
+    return simulating(job, str(args.scenario))
 
 
 def register(sub: Subcommands) -> None:
@@ -101,11 +101,11 @@ def register(sub: Subcommands) -> None:
         "fly a scenario on a JSBSim process started apart (its input socket, lock step) with "
         "the monitor: sensors.parquet, probing.parquet, monitor.parquet (docs/live.md)",
     )
-    live.add_argument("scenario", type=_path, help="scenario TOML file (docs/scenarios.md)")
+    live.add_argument("scenario", type=path_arg, help="scenario TOML file (docs/scenarios.md)")
     live.add_argument("--connect", metavar="HOST:PORT", help="the simulator's input socket")
     live.add_argument(
         "--write-sim",
-        type=_path,
+        type=path_arg,
         metavar="DIR",
         help="write the simulator's JSBSim root into DIR and print the command that starts it",
     )
@@ -115,7 +115,7 @@ def register(sub: Subcommands) -> None:
         help=f"with --write-sim: the input socket's TCP port (default {DEFAULT_PORT})",
     )
     live.add_argument(
-        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+        "--out", type=path_arg, default=Path("results"), help="results go to OUT/<scenario name>/"
     )
     live.add_argument(
         "--realtime", action="store_true", help="pace the frames at the wall clock (dt each)"

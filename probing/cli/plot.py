@@ -12,13 +12,13 @@ from typing import Any
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _out_file,
-    _out_folder,
-    _path,
     command,
+    out_file,
+    out_folder,
+    path_arg,
 )
 from probing.cli.fig4 import BOUNDS_HELP, _check_fig4_outputs, _finish_fig4
-from probing.cli.sweep import _plot_sweep_folder
+from probing.cli.sweep import plot_sweep_folder
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
@@ -47,8 +47,8 @@ def _plot_fig4(args: argparse.Namespace) -> int:
 
 def _plot_sweep(args: argparse.Namespace) -> int:
     """A sweep's figure (and a sweep over seeds' table) from its folder."""
-    _out_folder(args.figures, "--figures")
-    _plot_sweep_folder(args.results, args.figures)
+    out_folder(args.figures, "--figures")
+    plot_sweep_folder(args.results, args.figures)
     return 0
 
 
@@ -92,8 +92,8 @@ def _plot_study(
     if not args.results.is_dir():
         raise UsageError(f"RESULTS: {args.results} is not a folder")
     figures, summary = args.figures, args.summary
-    _out_folder(figures, "--figures")
-    _out_file(summary, "--summary")
+    out_folder(figures, "--figures")
+    out_file(summary, "--summary")
     from probing.experiment.storage import StoredFileError
 
     try:
@@ -190,26 +190,29 @@ def register(sub: Subcommands) -> None:
     plot.add_argument("target", choices=list(PLOT_TARGETS), help="which figure set")
     plot.add_argument(
         "results",
-        type=_path,
+        type=path_arg,
         help="the folder read: "
         + "; ".join(f"{name}: {target.results}" for name, target in PLOT_TARGETS.items()),
     )
     plot.add_argument(
         "--figures",
-        type=_path,
+        type=path_arg,
         default=None,
         help=f"figure folder (default: {_defaults('figures')})",
     )
     with_summary = [name for name, target in PLOT_TARGETS.items() if target.summary is not None]
     plot.add_argument(
         "--summary",
-        type=_path,
+        type=path_arg,
         default=None,
         help=f"{', '.join(with_summary)}: write the study's tables to this file "
         f"(default: {_defaults('summary')})",
     )
     plot.add_argument(
-        "--copy-summary", type=_path, default=None, help="fig4: also copy summary.md to this file"
+        "--copy-summary",
+        type=path_arg,
+        default=None,
+        help="fig4: also copy summary.md to this file",
     )
     plot.add_argument("--bounds", action="store_true", help=f"fig4: {BOUNDS_HELP}")
     plot.set_defaults(func=_cmd_plot)

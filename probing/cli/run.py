@@ -9,19 +9,19 @@ from typing import Any
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _load_scenario,
-    _path,
-    _run_folder,
-    _simulating,
+    check_run_folder,
     command,
+    path_arg,
+    scenario_arg,
+    simulating,
 )
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from probing.experiment.runners import runner_of
 
-    scn = _load_scenario(args.scenario)
-    _run_folder(args.out, scn)
+    scn = scenario_arg(args.scenario)
+    check_run_folder(args.out, scn)
     special = {"simultaneous": _run_simultaneous, "manoeuvre": _run_manoeuvre}
     if runner_of(scn).name in special:
         return special[runner_of(scn).name](scn, args)
@@ -40,7 +40,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
         return 0
 
-    return _simulating(job, str(args.scenario), scn.model)
+    return simulating(job, str(args.scenario), scn.model)
 
 
 def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
@@ -62,7 +62,7 @@ def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
             print(result.table())
         return 0
 
-    return _simulating(job, str(args.scenario), scn.model)
+    return simulating(job, str(args.scenario), scn.model)
 
 
 def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
@@ -82,7 +82,7 @@ def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
         )
         return 0
 
-    return _simulating(job, str(args.scenario), scn.model)
+    return simulating(job, str(args.scenario), scn.model)
 
 
 def _print_truth(scn: Any, out: Path) -> None:
@@ -103,14 +103,14 @@ def _one_surface(scn: Any, path: Path, command: str) -> Any:
 
 
 def _cmd_truth(args: argparse.Namespace) -> int:
-    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "truth")
-    _run_folder(args.out, scn)
+    scn = _one_surface(scenario_arg(args.scenario), args.scenario, "truth")
+    check_run_folder(args.out, scn)
 
     def job() -> int:
         _print_truth(scn, args.out)
         return 0
 
-    return _simulating(job, str(args.scenario), scn.model)
+    return simulating(job, str(args.scenario), scn.model)
 
 
 def _cmd_monitor(args: argparse.Namespace) -> int:
@@ -124,12 +124,12 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         raise UsageError("monitor: give a scenario, or --replay LOG (not both)")
     if args.replay is not None:
         return _replay(args)
-    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
+    scn = _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
     try:
         scn.monitor_settings()
     except ScenarioError as exc:
         raise UsageError(f"{args.scenario}: {exc}") from None
-    _run_folder(args.out, scn)
+    check_run_folder(args.out, scn)
 
     def job() -> int:
         from probing.experiment.monitor import monitor_scenario
@@ -138,7 +138,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         print(f"{scn.name}: {result.line()} -> {result.out_dir / 'monitor.parquet'}")
         return 0
 
-    return _simulating(job, str(args.scenario), scn.model)
+    return simulating(job, str(args.scenario), scn.model)
 
 
 #: What a log that is not a flight's own needs (``probing monitor --replay`` without a map).
@@ -169,7 +169,7 @@ def _replay(args: argparse.Namespace) -> int:
         )
         hint = f"; {NEEDS_MAP}" if foreign and args.map is None else ""
         raise UsageError(f"{exc}{hint}") from None
-    _run_folder(args.out, scn)
+    check_run_folder(args.out, scn)
 
     def job() -> int:
         from probing.experiment.staging import staged_output
@@ -180,7 +180,7 @@ def _replay(args: argparse.Namespace) -> int:
         print(f"{scn.name} (replayed): {result.line()} -> {folder / 'monitor.parquet'}")
         return 0
 
-    return _simulating(job, str(args.replay))
+    return simulating(job, str(args.replay))
 
 
 def _foreign(args: argparse.Namespace) -> Any:
@@ -189,7 +189,7 @@ def _foreign(args: argparse.Namespace) -> Any:
     from probing.experiment.foreign_log import foreign_log, read_map
     from probing.experiment.monitor import ReplayError
 
-    scn = _one_surface(_load_scenario(args.scenario), args.scenario, "monitor")
+    scn = _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
     try:
         return foreign_log(args.replay, read_map(args.map), scn)
     except ReplayError as exc:
@@ -223,21 +223,21 @@ def register(sub: Subcommands) -> None:
         "monitor.parquet (docs/monitoring.md)",
     )
     monitor.add_argument(
-        "scenario", type=_path, nargs="?", help="scenario TOML file (docs/scenarios.md)"
+        "scenario", type=path_arg, nargs="?", help="scenario TOML file (docs/scenarios.md)"
     )
     monitor.add_argument(
-        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+        "--out", type=path_arg, default=Path("results"), help="results go to OUT/<scenario name>/"
     )
     monitor.add_argument(
         "--replay",
-        type=_path,
+        type=path_arg,
         metavar="LOG",
         help="recompute the monitor from a flight's sensors.parquet alone (no scenario), "
         "or, with --map and a scenario, from a log recorded elsewhere",
     )
     monitor.add_argument(
         "--map",
-        type=_path,
+        type=path_arg,
         metavar="MAP",
         help="a TOML map of a foreign --replay log (CSV or Parquet): the project's columns "
         "-> the file's, unit scale factors, the trim reading (docs/formats.md)",
@@ -250,7 +250,7 @@ def register(sub: Subcommands) -> None:
 
 def _scenario_arguments(parser: argparse.ArgumentParser) -> None:
     """The scenario file and the results folder, as run, truth and monitor take them."""
-    parser.add_argument("scenario", type=_path, help="scenario TOML file (docs/scenarios.md)")
+    parser.add_argument("scenario", type=path_arg, help="scenario TOML file (docs/scenarios.md)")
     parser.add_argument(
-        "--out", type=_path, default=Path("results"), help="results go to OUT/<scenario name>/"
+        "--out", type=path_arg, default=Path("results"), help="results go to OUT/<scenario name>/"
     )

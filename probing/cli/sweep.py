@@ -9,10 +9,10 @@ from pathlib import Path
 from probing.cli.common import (
     Subcommands,
     UsageError,
-    _error,
-    _out_folder,
-    _path,
     command,
+    out_folder,
+    path_arg,
+    print_error,
 )
 
 
@@ -30,11 +30,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         sweep = load_sweep(args.sweep)
     except ScenarioError as exc:
         raise UsageError(str(exc)) from None
-    _out_folder(args.out, "--out")
-    _out_folder(args.out / sweep.name, "--out")
+    out_folder(args.out, "--out")
+    out_folder(args.out / sweep.name, "--out")
     figures = args.figures if args.figures is not None else args.out / sweep.name / "figures"
     if args.plot:
-        _out_folder(figures, "--figures")
+        out_folder(figures, "--figures")
     from probing.sweep import SchedulerError, SweepBusyError, run_sweep
 
     try:
@@ -50,7 +50,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     except SchedulerError as exc:
         raise UsageError(str(exc)) from None
     except SweepBusyError as exc:
-        return _error(str(exc), 1)
+        return print_error(str(exc), 1)
     for message in result.messages:
         print(f"  {message}", file=sys.stderr)
     from probing.analysis.tables import sweep_table
@@ -59,11 +59,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     print(sweep_table(read_summary(result.folder), sweep.fields))
     print(result.line())
     if args.plot:
-        _plot_sweep_folder(result.folder, figures)
+        plot_sweep_folder(result.folder, figures)
     return 1 if result.errors else 0
 
 
-def _plot_sweep_folder(folder: Path, figures: Path) -> None:
+def plot_sweep_folder(folder: Path, figures: Path) -> None:
     """Draw a sweep's figure; for a sweep over seeds also print its measured/predicted table."""
     from probing.analysis.seeds import has_seeds, seed_statistics, seed_table
     from probing.analysis.sweep_plots import NotASweepError, load_sweep_data, plot_sweep
@@ -85,9 +85,9 @@ def register(sub: Subcommands) -> None:
     sweep = command(
         sub, "sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)"
     )
-    sweep.add_argument("sweep", type=_path, help="sweep TOML file (scenarios/sweeps/*.toml)")
+    sweep.add_argument("sweep", type=path_arg, help="sweep TOML file (scenarios/sweeps/*.toml)")
     sweep.add_argument(
-        "--out", type=_path, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
+        "--out", type=path_arg, default=Path("results/sweeps"), help="the sweep goes to OUT/<name>/"
     )
     sweep.add_argument(
         "-j", "--jobs", type=int, default=None, help="worker processes (default: one per core)"
@@ -113,7 +113,7 @@ def register(sub: Subcommands) -> None:
     sweep.add_argument("--plot", action="store_true", help="draw the sweep's figure afterwards")
     sweep.add_argument(
         "--figures",
-        type=_path,
+        type=path_arg,
         default=None,
         help="figure folder (default: OUT/<name>/figures)",
     )

@@ -61,7 +61,7 @@ class ParameterError(ValueError):
 
 
 # --------------------------------------------------------------------------- helpers
-def _as_signal(x: ArrayLike) -> np.ndarray:
+def as_signal(x: ArrayLike) -> np.ndarray:
     """Input signal as a finite 1-D float64 array."""
     arr = np.asarray(x, dtype=np.float64)
     if arr.ndim != 1:
@@ -71,21 +71,21 @@ def _as_signal(x: ArrayLike) -> np.ndarray:
     return arr
 
 
-def _check_dt(dt: float) -> float:
+def check_dt(dt: float) -> float:
     dt = float(dt)
     if not (math.isfinite(dt) and dt > 0.0):
         raise ValueError(f"dt ({dt!r}) must be a finite number of seconds > 0")
     return dt
 
 
-def _check_amplitude(amplitude: float) -> float:
+def check_amplitude(amplitude: float) -> float:
     a = float(amplitude)
     if not (math.isfinite(a) and a > 0.0):
         raise ValueError(f"amplitude ({amplitude!r}) must be finite and > 0")
     return a
 
 
-def _runs(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def constant_runs(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Start indices and lengths of the runs of equal consecutive values of x (non-empty)."""
     starts = np.concatenate(([0], np.flatnonzero(x[1:] != x[:-1]) + 1))
     lengths = np.diff(np.append(starts, x.size))
@@ -178,7 +178,7 @@ class Nonlinearity(ABC):
         """
 
 
-class _Memoryless(Nonlinearity):
+class MemorylessBase(Nonlinearity):
     """A static nonlinearity: y[k] depends on x[k] only; the state is ``None``."""
 
     def initial_state(self) -> None:
@@ -186,8 +186,8 @@ class _Memoryless(Nonlinearity):
         return None
 
     def process(self, x: ArrayLike, dt: float, state: Any = None) -> tuple[np.ndarray, None]:
-        _check_dt(dt)
-        return self._map(_as_signal(x)), None
+        check_dt(dt)
+        return self._map(as_signal(x)), None
 
     @abstractmethod
     def _map(self, x: np.ndarray) -> np.ndarray:

@@ -10,10 +10,10 @@ from numpy.typing import ArrayLike
 from probing.core.nonlinearities.base import (
     Nonlinearity,
     ParameterError,
-    _as_signal,
-    _check_amplitude,
-    _check_dt,
-    _runs,
+    as_signal,
+    check_amplitude,
+    check_dt,
+    constant_runs,
 )
 
 
@@ -74,8 +74,8 @@ class HysteresisRelay(Nonlinearity):
         return False
 
     def process(self, x: ArrayLike, dt: float, state: bool) -> tuple[np.ndarray, bool]:
-        _check_dt(dt)
-        x = _as_signal(x)
+        check_dt(dt)
+        x = as_signal(x)
         if x.size == 0:
             return np.empty(0), bool(state)
         up = x > self.upper_threshold
@@ -87,7 +87,7 @@ class HysteresisRelay(Nonlinearity):
         return y, bool(is_high[-1])
 
     def apparent(self, amplitude: float) -> tuple[float, float]:
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         if not a > self.upper_threshold:  # never reaches high: stays at rest
             return 0.0, self.low
         if not -a < self.lower_threshold:  # switches high once, never back
@@ -134,14 +134,14 @@ class Backlash(Nonlinearity):
         return 0.0
 
     def process(self, x: ArrayLike, dt: float, state: float) -> tuple[np.ndarray, float]:
-        _check_dt(dt)
-        x = _as_signal(x)
+        check_dt(dt)
+        x = as_signal(x)
         y = float(state)
         if x.size == 0:
             return np.empty(0), y
         # Within a run of constant input the output settles on the first sample of
         # the run (clip is idempotent), so the recursion only runs over the runs.
-        starts, lengths = _runs(x)
+        starts, lengths = constant_runs(x)
         half = 0.5 * self.width
         values = x[starts]
         lows = (values - half).tolist()
@@ -156,7 +156,7 @@ class Backlash(Nonlinearity):
         return np.repeat(levels, lengths), y
 
     def apparent(self, amplitude: float) -> tuple[float, float]:
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         if 2.0 * a > self.width:
             return a - self.width / 2.0, 0.0
         return 0.0, 0.0

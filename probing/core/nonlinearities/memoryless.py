@@ -7,15 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.nonlinearities.base import (
+    MemorylessBase,
     ParameterError,
-    _check_amplitude,
-    _Memoryless,
+    check_amplitude,
 )
 
 
 # ------------------------------------------------------------------------- deadband
 @dataclass(frozen=True)
-class Deadband(_Memoryless):
+class Deadband(MemorylessBase):
     """Deadband from ``lower`` (d-) to ``upper`` (d+), eq. (13) with the erratum.
 
     Parameters
@@ -68,7 +68,7 @@ class Deadband(_Memoryless):
         )
 
     def apparent(self, amplitude: float) -> tuple[float, float]:
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         lo, up = self.lower, self.upper
         if up >= a and lo <= -a:  # f: the probe never leaves the band
             return 0.0, 0.0
@@ -85,7 +85,7 @@ class Deadband(_Memoryless):
 
 # ----------------------------------------------------------------------- saturation
 @dataclass(frozen=True)
-class Saturation(_Memoryless):
+class Saturation(MemorylessBase):
     """Saturation to [``lower``, ``upper``] (U-, U+), eq. (16).
 
     Parameters
@@ -126,7 +126,7 @@ class Saturation(_Memoryless):
         return np.clip(x, self.lower, self.upper)
 
     def apparent(self, amplitude: float) -> tuple[float, float]:
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         lo, up = self.lower, self.upper
         if lo > a:  # e: both levels clipped to U-
             return 0.0, lo
@@ -144,7 +144,7 @@ class Saturation(_Memoryless):
 
 # ---------------------------------------------------------------------------- relay
 @dataclass(frozen=True)
-class Relay(_Memoryless):
+class Relay(MemorylessBase):
     """Ideal relay switching at ``threshold`` S between ``low`` and ``high``, eq. (17).
 
     Parameters
@@ -188,7 +188,7 @@ class Relay(_Memoryless):
         return np.where(x > s, self.high, np.where(x < s, self.low, mid))
 
     def apparent(self, amplitude: float) -> tuple[float, float]:
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         s, lo, hi = self.threshold, self.low, self.high
         if -a < s < a:
             return (hi - lo) / 2.0, (hi + lo) / 2.0

@@ -13,10 +13,10 @@ from probing.core.nonlinearities.base import (
     NoApparentFormError,
     Nonlinearity,
     ParameterError,
-    _as_signal,
-    _check_amplitude,
-    _check_dt,
-    _runs,
+    as_signal,
+    check_amplitude,
+    check_dt,
+    constant_runs,
 )
 
 
@@ -97,12 +97,12 @@ class RateLimit(Nonlinearity):
     def process(
         self, x: ArrayLike, dt: float, state: RateLimitState
     ) -> tuple[np.ndarray, RateLimitState]:
-        dt = _check_dt(dt)
-        x = _as_signal(x)
+        dt = check_dt(dt)
+        x = as_signal(x)
         if x.size == 0:
             return np.empty(0), state
         limit = self.rate * dt  # largest output change per sample
-        starts, lengths = _runs(x)
+        starts, lengths = constant_runs(x)
         values = x[starts]
         nruns = starts.size
         origins = np.empty(nruns)
@@ -170,7 +170,7 @@ class RateLimit(Nonlinearity):
         float
             2a/t0, signal units per second.
         """
-        a = _check_amplitude(amplitude)
+        a = check_amplitude(amplitude)
         t0 = float(bit_duration_s)
         if not (math.isfinite(t0) and t0 > 0.0):
             raise ValueError(f"bit_duration_s ({bit_duration_s!r}) must be finite and > 0")

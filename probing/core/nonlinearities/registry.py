@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from probing.core.nonlinearities.base import (
     Nonlinearity,
-    _check_amplitude,
+    check_amplitude,
 )
 from probing.core.nonlinearities.hysteretic import Backlash, HysteresisRelay
 from probing.core.nonlinearities.memoryless import Deadband, Relay, Saturation
@@ -53,7 +53,7 @@ def compensate(z: ArrayLike, nonlinearity: Nonlinearity, amplitude: float) -> np
     NoApparentFormError
         For a :class:`RateLimit` (a ``TypeError``).
     """
-    a = _check_amplitude(amplitude)
+    a = check_amplitude(amplitude)
     zb = np.asarray(z, dtype=np.float64)
     if zb.ndim < 1 or zb.shape[-1] < 1:
         raise ValueError("z must have at least one sample along its last axis")
