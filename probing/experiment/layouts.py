@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from probing.sim.autopilot import COMMAND_COLUMNS
 from probing.sim.channels import unit_of
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -150,7 +151,7 @@ def timeseries_schema(
 
 #: The autopilot's commands a flight records (``sensors.parquet``): the elevator's from trim
 #: (before the probe), the aileron's and every engine's throttle (normalised, absolute).
-AUTOPILOT_COLUMNS = ("autopilot_elevator_deg", "autopilot_aileron_norm", "autopilot_throttle_norm")
+AUTOPILOT_COLUMNS = COMMAND_COLUMNS
 
 
 def sensors_schema(

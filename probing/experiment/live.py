@@ -43,6 +43,7 @@ from probing.experiment.flight_computer import FlightComputer, folder_of
 from probing.experiment.monitor import Monitor, MonitorResult
 from probing.experiment.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.progress import Progress, progress_bar
+from probing.experiment.references import REALISABLE_DRIFTS
 from probing.experiment.run import scenario_provenance
 from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
@@ -72,7 +73,7 @@ __all__ = [
 #: The drift modes a live flight supports: every realisable one (``oracle`` and
 #: ``reference`` fly a twin through the simulator's own turbulence, which no flight computer
 #: knows).
-LIVE_DRIFTS = ("gust", "nominal", "follow", "detrend", "none")
+LIVE_DRIFTS = REALISABLE_DRIFTS
 
 #: The periods a live flight logs and estimates at a time: one, so each period's estimate and
 #: the monitor's state are known (and reported) as the period ends.  The log's footer records

@@ -25,7 +25,7 @@ The reference it subtracts is ``output.drift``'s (``docs/monitoring.md``):
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -35,6 +35,7 @@ from probing.core.gust import GUST_SENSORS, GustEstimator
 from probing.core.trajectory import trajectory_features
 from probing.experiment.drift import drift_correction
 from probing.experiment.layouts import AUTOPILOT_COLUMNS
+from probing.experiment.references import REALISABLE_DRIFTS, REFERENCES
 from probing.experiment.scenario import Scenario
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.errors import DivergenceError
@@ -174,36 +175,42 @@ class FollowSource:
         return out
 
 
+#: The sources of the references computed from the log as it comes (``kind = "log"`` in
+#: :data:`probing.experiment.references.REFERENCES`): name -> the class, built with the
+#: scenario and a trimmed aircraft to fly if the run has one to spare (else None).
+SOURCES: dict[str, Callable[[Scenario, Plant | None], ReferenceSource]] = {
+    "gust": lambda scn, plant: GustSource(scn),
+    "follow": FollowSource,
+}
+
+
 def reference_source(
     scn: Scenario, twin: ReferenceTwin | None, follower: Plant | None = None
 ) -> ReferenceSource | None:
-    """The reference of ``scn``'s drift mode, computed from the recorded stream: the
-    precomputed ``twin`` (:func:`open_reference_twin`), the gust twin, the nominal aircraft
-    flying the recorded commands (``follow``, on ``follower`` if given), or None (the modes
-    without a model)."""
-    if scn.drift == "gust":
-        return GustSource(scn)
-    if scn.follows:
-        return FollowSource(scn, follower)
-    return TwinSource(twin) if twin is not None else None
+    """The reference of ``scn``'s drift mode (:data:`REFERENCES`), computed from the
+    recorded stream: the precomputed ``twin`` (:func:`open_reference_twin`), a source of
+    :data:`SOURCES` (``follower``: a trimmed nominal aircraft it may fly), or None (the
+    references without a model)."""
+    kind = REFERENCES[scn.drift].kind
+    if kind == "log":
+        return SOURCES[scn.drift](scn, follower)
+    if kind == "twin":
+        assert twin is not None, "a twin reference needs its twin"
+        return TwinSource(twin)
+    return None
 
 
-#: The drift modes whose reference is computed from the log alone and the nominal model:
-#: a log recorded elsewhere can be monitored with these (the others fly the simulated
-#: atmosphere, or step a twin alongside the flight).
-LOG_DRIFTS = ("gust", "nominal", "detrend", "none")
+#: The drift modes a log recorded elsewhere can be monitored with: the realisable ones (the
+#: others fly the simulated atmosphere).
+LOG_DRIFTS = REALISABLE_DRIFTS
 
 
 def log_columns(scn: Scenario) -> tuple[str, ...]:
     """The columns of a log that :class:`Onboard` reads for ``scn``: ``time_s``, the
-    scenario's channels, with ``follow`` the autopilot's commands and, with the ``gust``
-    reference, the sensors its estimate and its twin need
-    (:data:`probing.core.gust.GUST_SENSORS`, roll rate, bank, altitude)."""
-    names = ["time_s", *scn.channels]
-    if scn.follows:  # the nominal model flies the autopilot's recorded commands
-        names += AUTOPILOT_COLUMNS
-    if scn.drift == "gust":
-        names += [*GUST_SENSORS, "p_rad_s", "phi_rad", "h_ft"]
+    scenario's channels and what its reference reads (:attr:`Reference.log_columns`: with
+    ``follow`` the autopilot's commands, with ``gust`` the sensors its estimate and its twin
+    need)."""
+    names = ["time_s", *scn.channels, *REFERENCES[scn.drift].log_columns]
     return tuple(dict.fromkeys(names))
 
 
@@ -223,9 +230,10 @@ def open_reference_twin(
 def twin_flight(scn: Scenario, *, nominal: bool = True) -> Flight | None:
     """The flight of ``scn``'s precomputed twin (:func:`open_reference_twin`), None if it has
     none."""
-    if not scn.uses_twin:
+    reference = REFERENCES[scn.drift]
+    if reference.kind != "twin":
         return None
-    if scn.drift == "nominal":
+    if not reference.knows_gusts:  # a realisable twin: the nominal aircraft in calm air
         return calm_nominal(scn.flight)
     return scn.flight.nominal if nominal else scn.flight
 

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from probing.sim.flight import Control, Manoeuvre
 
 __all__ = [
+    "COMMAND_COLUMNS",
     "LOOP_CHANNELS",
     "Autopilot",
     "AutopilotTrim",
@@ -44,6 +45,10 @@ __all__ = [
     "Gains",
     "gains",
 ]
+
+#: The commands the autopilot flies, as a log records them (elevator deg from trim, before the
+#: probe and the actuator; aileron and throttle normalised): :attr:`Autopilot.commands_record`.
+COMMAND_COLUMNS = ("autopilot_elevator_deg", "autopilot_aileron_norm", "autopilot_throttle_norm")
 
 #: The channels the loops read, in the order :meth:`Autopilot.law` reads them.
 LOOP_CHANNELS = ("theta_rad", "q_rad_s", "phi_rad", "p_rad_s", "vt_fps")
