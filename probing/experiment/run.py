@@ -280,21 +280,19 @@ def _fly_period(
     commands: np.ndarray | None,
     sensed: np.ndarray | None,
 ) -> None:
-    """One period: the flight computer's demands, step by step through its autopilot, or a
-    period at a time (trim plus the probe path) where it computes nothing step by step."""
-    world, n = rig.world, len(q)
-    if computer.autopilot is None:
-        drive = world.drive
-        world.fly_commands(
-            drive.command(drive.trim_position + q), rig.nodes, out[span], surface[span]
-        )
-        return
-    law = computer.law(rig.plant.steps_run, q, record_commands=commands is not None)
+    """One period of the flight computer's demands, flown by the world."""
     measured = sensed[span] if sensed is not None else None
-    world.fly(n, rig.nodes, out[span], law=law, position=surface[span], measured=measured)
-    control[span] = computer.control_record
-    if commands is not None:
-        commands[span] = computer.commands_record
+    flown = commands[span] if commands is not None else None
+    rig.world.fly_probe(
+        computer.autopilot,
+        q,
+        rig.nodes,
+        out[span],
+        position=surface[span],
+        control=control[span] if control is not None else None,
+        commands=flown,
+        measured=measured,
+    )
 
 
 def _buffers(rig: _Rig, rows: int) -> tuple:

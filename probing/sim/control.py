@@ -169,33 +169,17 @@ class ClosedLoop:
             Property nodes and their values ``(n, len(nodes))``, written before each step
             (a gust twin's wind and rotational gusts).
         """
-        n = out.shape[0]
-        pilot = self.autopilot
-        law = pilot.law(
-            self.plant.steps_run,
-            n,
-            probe.tolist() if probe is not None else None,
-            record_control=control is not None,
-            record_commands=commands is not None,
-        )
-        table, setters = None, []
-        if inputs is not None:
-            setters = [node.set_double_value for node in inputs[0]]
-            table = inputs[1]
-        self.world.fly(
-            n,
+        self.world.fly_probe(
+            self.autopilot,
+            probe,
             nodes,
             out,
-            law=law,
-            table=table,
-            setters=setters,
             position=position,
+            control=control,
+            commands=commands,
             measured=measured,
+            inputs=inputs,
         )
-        if control is not None:
-            control[:] = pilot.control_record
-        if commands is not None:
-            commands[:] = pilot.commands_record
 
     def replay(self, commands: np.ndarray, nodes: list, out: np.ndarray) -> None:
         """Fly another aircraft's autopilot commands (:meth:`step`'s ``commands``) through

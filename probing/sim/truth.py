@@ -25,7 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from probing.core.prbs import steps_per_bit
-from probing.sim.control import ClosedLoop, control_power
+from probing.sim.control import autopilot_for, control_power
 from probing.sim.flight import Flight
 from probing.sim.linear import linear_response
 from probing.sim.plant import make_plant
@@ -71,27 +71,14 @@ def single_pulse_response(
     pulsed, reference = make_plant(flight), make_plant(flight)
     out_p = np.empty((n_steps, len(channels)))
     out_r = np.empty((n_steps, len(channels)))
-    surface = flight.surface
-    if power is not None:  # both fly the autopilot; the pulse enters between it and the surface
-        pulse = np.zeros(n_steps)
-        pulse[:steps_per_bit] = amplitude_deg
-        ClosedLoop(pulsed, flight.control, power, surface=surface).step(
-            pulse, pulsed.channel_nodes(list(channels)), out_p
-        )
-        pulsed.check_state()
-        ClosedLoop(reference, flight.control, power, surface=surface).step(
-            None, reference.channel_nodes(list(channels)), out_r
-        )
-    else:
-        drive = pulsed.drive(surface)
-        position = np.full(n_steps, drive.trim_position)
-        position[:steps_per_bit] += amplitude_deg
-        nodes = pulsed.channel_nodes(list(channels))
-        JSBSimWorld(pulsed, surface).fly_commands(drive.command(position), nodes, out_p)
-        pulsed.check_state()
-        held = JSBSimWorld(reference, surface)
-        cmd_trim = np.full(n_steps, held.drive.trim_command)
-        held.fly_commands(cmd_trim, reference.channel_nodes(list(channels)), out_r)
+    pulse = np.zeros(n_steps)
+    pulse[:steps_per_bit] = amplitude_deg
+    # with an autopilot both fly it; the pulse enters between it and the surface
+    for plant, probe, out in ((pulsed, pulse, out_p), (reference, None, out_r)):
+        world = JSBSimWorld(plant, flight.surface)
+        autopilot = autopilot_for(world, flight.control, power) if power is not None else None
+        world.fly_probe(autopilot, probe, plant.channel_nodes(list(channels)), out)
+        plant.check_state()
     h = (out_p - out_r)[steps_per_bit - 1 :: steps_per_bit] / amplitude_deg
     return {c: h[:, j] for j, c in enumerate(channels)}
 

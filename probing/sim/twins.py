@@ -287,10 +287,9 @@ class ReferenceTwin:
                 raise OSError(f"{self.path}: truncated at step {self._next}")
         else:
             assert self._plant is not None
-            if self._loop is not None:
-                self._loop.step(None, self._nodes, block)
-            else:
-                JSBSimWorld(self._plant).fly(n, self._nodes, block)
+            world = self._loop.world if self._loop is not None else JSBSimWorld(self._plant)
+            autopilot = self._loop.autopilot if self._loop is not None else None
+            world.fly_probe(autopilot, None, self._nodes, block)
             self._plant.check_state()
             self.steps_simulated += n
             if self._writer is not None:

@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from probing.core.faults import onset_step
-from probing.sim.autopilot import Demand
+from probing.sim.autopilot import Autopilot, Demand
 from probing.sim.flight import ActuatorFault
 from probing.sim.plant import Plant
 from probing.sim.sensing import Sensing
@@ -129,6 +129,68 @@ class JSBSimWorld:
             return
         table = np.asarray(commands, dtype=np.float64).reshape(-1, 1)
         self.fly(n, nodes, out, table=table, setters=[self.drive.set], position=position)
+
+    def fly_probe(
+        self,
+        autopilot: Autopilot | None,
+        probe: np.ndarray | None,
+        nodes: list,
+        out: np.ndarray,
+        *,
+        position: np.ndarray | None = None,
+        control: np.ndarray | None = None,
+        commands: np.ndarray | None = None,
+        measured: np.ndarray | None = None,
+        inputs: tuple[list, np.ndarray] | None = None,
+    ) -> None:
+        """Fly ``out.shape[0]`` steps of the flight computer's demands: through ``autopilot``
+        step by step (:meth:`Autopilot.law`), or, where the aircraft has none, the probed
+        surface at its trim plus ``probe`` a period at a time (:meth:`fly_commands`): the one
+        place this choice is made (a flight, a twin, a single pulse).
+
+        Parameters
+        ----------
+        autopilot : Autopilot or None
+            The flight computer's law, flying on this world's measurements.
+        probe : numpy.ndarray or None
+            ``(n,)``: the probe path's deflection of each step, the probed surface's unit;
+            None: no probe (a twin).
+        nodes, out, position, measured
+            As for :meth:`fly`.
+        control, commands : numpy.ndarray, optional
+            ``(n,)`` and ``(n, 3)``: receive the autopilot's command of the probed surface and
+            the commands it flew (:attr:`Autopilot.control_record`, ``commands_record``).
+        inputs : (list, numpy.ndarray), optional
+            Property nodes and their values ``(n, len(nodes))``, written before each step
+            (a gust twin's wind and rotational gusts).
+        """
+        n = out.shape[0]
+        if autopilot is None:
+            if inputs is not None or control is not None or commands is not None:
+                raise ValueError("inputs, control and commands need an autopilot")
+            drive = self.drive
+            asked = None if probe is None else drive.command(drive.trim_position + probe)
+            self.fly_commands(asked, nodes, out, position)
+            return
+        law = autopilot.law(
+            self.plant.steps_run,
+            n,
+            probe.tolist() if probe is not None else None,
+            record_control=control is not None,
+            record_commands=commands is not None,
+        )
+        table, setters = None, []
+        if inputs is not None:
+            setters = [node.set_double_value for node in inputs[0]]
+            table = inputs[1]
+        self.fly(
+            n, nodes, out, law=law, table=table, setters=setters, position=position,
+            measured=measured,
+        )  # fmt: skip
+        if control is not None:
+            control[:] = autopilot.control_record
+        if commands is not None:
+            commands[:] = autopilot.commands_record
 
     # The one stepping function: over 60 lines on purpose, its loops run once per
     # simulation step (docs/benchmarks.md, "Step-loop efficiency").
