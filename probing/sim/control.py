@@ -14,6 +14,7 @@ open-loop history of the same surface deflections does (tested bit for bit).
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 
@@ -136,50 +137,13 @@ class ClosedLoop:
         nodes: list,
         out: np.ndarray,
         position: np.ndarray | None = None,
-        control: np.ndarray | None = None,
-        commands: np.ndarray | None = None,
-        measured: np.ndarray | None = None,
-        inputs: tuple[list, np.ndarray] | None = None,
+        **options: Any,
     ) -> None:
-        """Run ``out.shape[0]`` steps; ``out[k, j]`` is channel j read right after step k.
-
-        Parameters
-        ----------
-        probe : numpy.ndarray or None
-            The probe path's deflection (the probe after its nonlinearity) added to the
-            probed surface at each step, in its unit, shape ``(n,)``; None: no probe (a
-            reference twin).
-        nodes : list
-            Property nodes of the channels (:meth:`Plant.channel_nodes`).
-        out : numpy.ndarray
-            ``(n, len(nodes))``, filled in place.
-        position : numpy.ndarray, optional
-            ``(n,)``, receives the probed surface's realised position after each step.
-        control : numpy.ndarray, optional
-            ``(n,)``, receives the autopilot's command of the probed surface at each step
-            (its unit, from trim; 0 where no loop drives it).
-        commands : numpy.ndarray, optional
-            ``(n, 3)``, receives the autopilot's commands at each step: elevator (deg from
-            trim, before the probe and the actuator), aileron and throttle (normalised), for
-            a twin that flies them (:meth:`replay`).
-        measured : numpy.ndarray, optional
-            ``(n, len(sensing.channels))``, receives the sensors' measurements after each
-            step (needs ``sensing``).
-        inputs : (list, numpy.ndarray), optional
-            Property nodes and their values ``(n, len(nodes))``, written before each step
-            (a gust twin's wind and rotational gusts).
-        """
-        self.world.fly_probe(
-            self.autopilot,
-            probe,
-            nodes,
-            out,
-            position=position,
-            control=control,
-            commands=commands,
-            measured=measured,
-            inputs=inputs,
-        )
+        """Run ``out.shape[0]`` steps of this autopilot with ``probe`` on its surface
+        (``out[k, j]`` is channel j read right after step k): :meth:`JSBSimWorld.fly_probe`
+        with this loop's autopilot, its ``options`` (``control``, ``commands``, ``measured``,
+        ``inputs``) passed on."""
+        self.world.fly_probe(self.autopilot, probe, nodes, out, position=position, **options)
 
     def replay(self, commands: np.ndarray, nodes: list, out: np.ndarray) -> None:
         """Fly another aircraft's autopilot commands (:meth:`step`'s ``commands``) through
