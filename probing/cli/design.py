@@ -98,11 +98,14 @@ def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> list[Path]:
 
 def _check_simultaneous(path: Path) -> int:
     """``probing design --simultaneous``: the design's memory condition, or its refusal."""
+    from probing.experiment.runners import runner_of
     from probing.experiment.simultaneous import SeparationError, check_separation
 
     scn = scenario_arg(path)
-    if scn.simultaneous is None:
-        raise UsageError(f"{path}: has no [simultaneous] section")
+    runner = runner_of(scn).name
+    if runner != "simultaneous":
+        why = "has no [simultaneous] section" if runner == "steady" else f"is flown by {runner}"
+        raise UsageError(f"{path}: {why}; design --simultaneous checks a simultaneous design")
 
     def job() -> int:
         try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -20,11 +21,11 @@ from probing.cli.common import (
 def _cmd_run(args: argparse.Namespace) -> int:
     from probing.experiment.runners import runner_of
 
-    scn = scenario_arg(args.scenario)
+    scn = _one_surface(scenario_arg(args.scenario), args.scenario, "run")
     check_run_folder(args.out, scn)
-    special = {"simultaneous": _run_simultaneous, "manoeuvre": _run_manoeuvre}
-    if runner_of(scn).name in special:
-        return special[runner_of(scn).name](scn, args)
+    handler = RUN_HANDLERS.get(runner_of(scn).name)
+    if handler is not None:
+        return handler(scn, args)
 
     def job() -> int:
         from probing.experiment.run import run_scenario
@@ -85,6 +86,14 @@ def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
     return simulating(job, str(args.scenario), scn.model)
 
 
+#: ``probing run``'s handler of each runner but the steady one
+#: (:data:`probing.experiment.runners.RUNNERS`): ``handler(scn, args)``, the exit code.
+RUN_HANDLERS: dict[str, Callable[[Any, argparse.Namespace], int]] = {
+    "simultaneous": _run_simultaneous,
+    "manoeuvre": _run_manoeuvre,
+}
+
+
 def _print_truth(scn: Any, out: Path) -> None:
     from probing.experiment.truth import compute_truth
 
@@ -92,8 +101,9 @@ def _print_truth(scn: Any, out: Path) -> None:
 
 
 def _one_surface(scn: Any, path: Path, command: str) -> Any:
-    """``scn``, unless its runner does not offer ``command`` (a [simultaneous] or a
-    [manoeuvre] scenario: ``probing run`` flies it)."""
+    """``scn``, unless its runner does not offer ``command``
+    (:meth:`probing.experiment.runners.Runner.refuses`: a [simultaneous] or a [manoeuvre]
+    scenario is flown by ``probing run`` only)."""
     from probing.experiment.runners import runner_of
 
     refusal = runner_of(scn).refuses(command)

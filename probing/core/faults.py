@@ -10,7 +10,8 @@ Each entry says everything the rest of the project needs of a fault type:
   scenario's nonlinearity, on the probed surface's actuator, in the plant (the airframe),
   or on a measured output channel; the simulation dispatches on it;
 * its **builder**: the fault's values -> the object the place uses (a nonlinearity, an
-  :class:`ActuatorFault`, an :class:`AirframeDamage`, a :class:`SensorBias`).
+  :class:`ActuatorFault`, an :class:`AirframeDamage`, a :class:`SensorFault` such as
+  :class:`SensorBias`).
 
 Adding a fault type is adding an entry (``docs/architecture.md``, "How to add a fault
 type").  This module loads no JSBSim: a scenario is validated without it.
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -38,6 +39,8 @@ __all__ = [
     "FaultField",
     "FaultType",
     "SensorBias",
+    "SensorFault",
+    "apply_sensor_fault",
     "onset_step",
     "sweep_fields",
 ]
@@ -218,18 +221,51 @@ class SensorBias:
 
     def measure(self, value: float, step: int, onset: int) -> float:
         """One measurement of the channel after step ``step``, the fault acting from step
-        ``onset`` (:func:`onset_step` of :attr:`onset_s`) on: what a world that measures
-        step by step calls, the same rule as :meth:`apply`."""
+        ``onset`` (:func:`onset_step` of :attr:`onset_s`) on (:class:`SensorFault`)."""
         return value + self.bias if step >= onset else value
 
-    def apply(
-        self, measured: np.ndarray, channels: tuple[str, ...], first_step: int, dt_s: float
-    ) -> None:
-        """Add the bias, in place, to the rows of ``measured`` (steps, channels) from the onset
-        step on; row ``i`` holds the output after step ``first_step + i`` (``dt_s`` in s)."""
-        start = onset_step(self.onset_s, dt_s) - first_step
-        if start < measured.shape[0]:
-            measured[max(start, 0) :, channels.index(self.channel)] += self.bias
+
+class SensorFault(Protocol):
+    """What a world asks of a sensor fault (place ``sensor``): the hook a new kind of sensor
+    fault implements (:class:`SensorBias` is one; ``docs/architecture.md``, "How to add a
+    fault type").
+
+    A world that measures step by step (:meth:`probing.sim.world.JSBSimWorld.fly` with a
+    sensor suite, :class:`probing.experiment.live.SocketWorld`) calls :meth:`measure` after
+    each step with the channel's measurement; one that measures a block of steps at once
+    (:class:`probing.sim.sensing.ChannelNoise`) calls it through :func:`apply_sensor_fault`,
+    row by row in order.  Either way the fault sees each step once, in order, so it may keep
+    a state (a sensor stuck at its value at the onset, say).
+    """
+
+    @property
+    def channel(self) -> str:
+        """The output channel it acts on (``theta_rad``, ...)."""
+
+    @property
+    def onset_s(self) -> float:
+        """Its onset, s after the trim."""
+
+    def measure(self, value: float, step: int, onset: int) -> float:
+        """The measurement of :attr:`channel` after step ``step`` (``value`` in the
+        channel's unit, as the sensor gives it), the fault acting from step ``onset``
+        (:func:`onset_step` of :attr:`onset_s`) on."""
+
+
+def apply_sensor_fault(
+    fault: SensorFault,
+    measured: np.ndarray,
+    channels: tuple[str, ...],
+    first_step: int,
+    dt_s: float,
+) -> None:
+    """A sensor fault on a block: its :meth:`~SensorFault.measure` of each row of ``measured``
+    (steps, channels), in place, in order; row ``i`` holds the output after step
+    ``first_step + i`` (``dt_s`` in s).  Call it for consecutive blocks, in order."""
+    j, onset = channels.index(fault.channel), onset_step(fault.onset_s, dt_s)
+    column = measured[:, j].tolist()
+    measure = fault.measure
+    measured[:, j] = [measure(v, first_step + i, onset) for i, v in enumerate(column)]
 
 
 def _probe_path(onset_s: float, values: Mapping[str, Any]) -> Any:

@@ -6,8 +6,9 @@ A scenario with ``[simultaneous]`` is flown by
 :func:`probing.experiment.simultaneous.run_simultaneous`, one with ``[manoeuvre]`` by
 :func:`probing.experiment.manoeuvre.run_manoeuvre`, every other one by
 :func:`probing.experiment.run.run_scenario` (a steady condition: ``probing run``, ``truth``,
-``monitor`` and sweeps).  Adding a runner is one entry here (and its command-line handler in
-:mod:`probing.cli.run`).  Loads no simulator.
+``monitor`` and sweeps).  Adding a runner is one entry here and its handler in
+``probing.cli.run.RUN_HANDLERS`` (``docs/architecture.md``, "How to add a runner"); every
+command asks :meth:`Runner.refuses` before any work.  Loads no simulator.
 """
 
 from __future__ import annotations

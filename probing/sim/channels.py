@@ -8,6 +8,7 @@ is in that unit per deg of probe), a description, and the output of JSBSim's
 
 from __future__ import annotations
 
+from collections.abc import KeysView
 from dataclasses import dataclass
 
 __all__ = ["CHANNELS", "CHANNEL_NAMES", "Channel", "unit_of"]
@@ -74,8 +75,10 @@ CHANNELS: dict[str, Channel] = {
     )
 }
 
-#: The channel names, in table order.
-CHANNEL_NAMES: tuple[str, ...] = tuple(CHANNELS)
+#: The channel names, in table order: a view of :data:`CHANNELS`, not a copy, so a channel
+#: added to the table is a name here too (the scenario's ``[output] channels`` are checked
+#: against it; ``docs/architecture.md``, "How to add a sensor channel").
+CHANNEL_NAMES: KeysView[str] = CHANNELS.keys()
 
 
 def unit_of(channel: str) -> str:

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from probing.core.faults import SensorBias, onset_step
+from probing.core.faults import SensorFault, apply_sensor_fault, onset_step
 from probing.core.sensors import Sensor, SensorSuite
 from probing.sim.plant import Plant
 
@@ -88,13 +88,14 @@ class Sensing(SensorBank):
         The sensors, channel -> spec; the channels are measured in the suite's order.
     seed : int
         The scenario's seed (the noise comes from stream :data:`SENSOR_STREAM` of it).
-    fault : SensorBias or None
-        An offset on one sensor's measurement from its onset step on (the autopilot flies on
-        it too).
+    fault : SensorFault or None
+        A fault of one sensor's measurement from its onset step on (a
+        :class:`~probing.core.faults.SensorBias`, ...; the autopilot flies on it too): its
+        ``measure`` after every step.
     """
 
     def __init__(
-        self, plant: Plant, suite: SensorSuite, seed: int, fault: SensorBias | None = None
+        self, plant: Plant, suite: SensorSuite, seed: int, fault: SensorFault | None = None
     ) -> None:
         nodes = plant.channel_nodes(list(suite.sensors))
         self.getters = [node.get_double_value for node in nodes]
@@ -112,7 +113,8 @@ class Sensing(SensorBank):
 
 class ChannelNoise:
     """The world's measurement without a sensor suite: each channel's true value with white
-    noise (``disturbance.sensor_noise``) and a sensor fault from its onset on.
+    noise (``disturbance.sensor_noise``) and a sensor fault from its onset on (its
+    ``measure`` of every row, :func:`~probing.core.faults.apply_sensor_fault`).
 
     Parameters
     ----------
@@ -122,8 +124,8 @@ class ChannelNoise:
         Each channel's noise standard deviation, its unit.
     seed : int
         The scenario's seed (``numpy.random.default_rng(seed)``).
-    fault : SensorBias or None
-        An offset on one channel from its onset on.
+    fault : SensorFault or None
+        A fault of one channel's measurement from its onset on.
     dt_s : float
         The step, s.
     """
@@ -133,7 +135,7 @@ class ChannelNoise:
         channels: Sequence[str],
         sigma: Sequence[float],
         seed: int,
-        fault: SensorBias | None,
+        fault: SensorFault | None,
         dt_s: float,
     ) -> None:
         self.channels, self.fault, self.dt_s = tuple(channels), fault, float(dt_s)
@@ -146,5 +148,5 @@ class ChannelNoise:
         rows, n_ch = true.shape
         measured = true + self.rng.standard_normal((rows, n_ch)) * self.sigma
         if self.fault is not None:
-            self.fault.apply(measured, self.channels, first_step, self.dt_s)
+            apply_sensor_fault(self.fault, measured, self.channels, first_step, self.dt_s)
         return measured

@@ -231,11 +231,9 @@ def _load_base(data: dict[str, Any], path: Path, source: str) -> Scenario:
         base = load_scenario(base_path)
     except ScenarioError as exc:
         raise ScenarioError("base", f"{base_rel}: {exc.field}: {exc.message}", source) from None
-    runner = runner_of(base)
-    if "sweep" not in runner.commands:
-        raise ScenarioError(
-            "base", f"{base_rel}: a [{runner.section}] scenario is flown by probing run", source
-        )
+    refusal = runner_of(base).refuses("sweep")
+    if refusal is not None:
+        raise ScenarioError("base", f"{base_rel}: {refusal}", source)
     return base
 
 

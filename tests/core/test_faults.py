@@ -128,15 +128,18 @@ def test_a_sensor_bias_acts_from_its_onset_step_whatever_the_chunks():
     y = rng.standard_normal((100, 2))
     bias = SensorBias("q_rad_s", -0.25, onset)
     whole = y.copy()
-    bias.apply(whole, ("theta_rad", "q_rad_s"), 0, dt)
+    faults.apply_sensor_fault(bias, whole, ("theta_rad", "q_rad_s"), 0, dt)
     assert np.array_equal(whole[:, 0], y[:, 0])
     assert np.array_equal(whole[:37, 1], y[:37, 1])
     assert np.array_equal(whole[37:, 1], y[37:, 1] + -0.25)
     chunked = y.copy()
     for first in range(0, 100, 30):
-        bias.apply(chunked[first : first + 30], ("theta_rad", "q_rad_s"), first, dt)
+        faults.apply_sensor_fault(
+            bias, chunked[first : first + 30], ("theta_rad", "q_rad_s"), first, dt
+        )
     assert np.array_equal(chunked, whole)
     assert faults.onset_step(onset, dt) == 37
+    assert [bias.measure(1.0, step, 37) for step in (36, 37)] == [1.0, 0.75]
 
 
 def test_entries_are_frozen():

@@ -9,7 +9,7 @@ import pytest
 
 from probing.core.gust import GUST_SENSORS
 from probing.core.sensors import SENSOR_SUITES
-from probing.sim.channels import CHANNEL_NAMES, CHANNELS
+from probing.sim.channels import CHANNEL_NAMES, CHANNELS, Channel
 
 NEW = ("psi_rad", "nx_g", "v_north_fps", "v_east_fps", "v_down_fps")
 
@@ -25,8 +25,15 @@ def test_the_gust_sensors_are_channels() -> None:
 
 def test_the_new_channels_come_last() -> None:
     """Appended: the channels' order of stored outputs before them is unchanged."""
-    assert CHANNEL_NAMES[-len(NEW) :] == NEW
-    assert CHANNEL_NAMES[:3] == ("theta_rad", "q_rad_s", "alpha_rad")
+    assert tuple(CHANNEL_NAMES)[-len(NEW) :] == NEW
+    assert tuple(CHANNEL_NAMES)[:3] == ("theta_rad", "q_rad_s", "alpha_rad")
+
+
+def test_the_channel_names_are_the_tables_own(monkeypatch) -> None:
+    """A view of CHANNELS, not a copy: a channel added to the table is a name at once (the
+    scenario checks ``[output] channels`` against them)."""
+    monkeypatch.setitem(CHANNELS, "qbar_psf", Channel("qbar_psf", "aero/qbar-psf", "psf", "q"))
+    assert "qbar_psf" in CHANNEL_NAMES and tuple(CHANNEL_NAMES)[-1] == "qbar_psf"
 
 
 @pytest.mark.parametrize(

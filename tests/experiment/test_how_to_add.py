@@ -1,0 +1,312 @@
+"""docs/architecture.md's "How to add" sections, done in a test: a fault type, a sensor channel
+and a runner are each added here (the registry monkeypatched, never edited), and the fault
+type and the channel are flown live (against a ``jsbsim`` process the test starts) and in
+this process, acting alike in both to the socket's 6 digits."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from test_live import SCENARIO, _fly_live, _table
+
+from probing.cli import main
+from probing.cli import run as run_cli
+from probing.core.faults import FAULTS, FaultField, FaultType, onset_step
+from probing.core.sensors import SENSOR_SUITES, SensorSpec, SensorSuite
+from probing.experiment import monitor as monitor_module
+from probing.experiment import runners, truth
+from probing.experiment.live import LiveError, check_live
+from probing.experiment.monitor import monitor_scenario, replay_monitor
+from probing.experiment.runners import Runner
+from probing.experiment.scenario import load_scenario
+from probing.sim.channels import CHANNELS, Channel
+
+pytestmark = pytest.mark.jsbsim
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: A short flight: the 737 of tests/experiment/test_live.py, 8 periods of 0.62 s, no noise.
+SHORT = SCENARIO.replace("periods = 10", "periods = 8").replace(
+    "sensor_noise = { theta_rad = 1e-6 }\n", ""
+)
+
+
+def _with(text: str, name: str, extra: str = "", channels: list[str] | None = None) -> str:
+    """:data:`SHORT` renamed ``name``, its channels ``channels``, ``extra`` appended."""
+    text = text.replace('name = "live-737"', f'name = "{name}"')
+    if channels is not None:
+        text = text.replace(
+            'channels = ["theta_rad", "q_rad_s", "alpha_rad"]',
+            f"channels = {json.dumps(channels)}",
+        )
+    return text + extra
+
+
+#: With NASA's T2 sensors in place of no noise (their noise and bias; streaming estimator).
+SUITE = '[sensors]\nsuite = "{suite}"\n'
+
+
+def _sensed(text: str, suite: str = "nasa_t2") -> str:
+    return text.replace('drift = "detrend"', 'drift = "none"') + SUITE.format(suite=suite)
+
+
+def _six_digits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where ``a`` (a live flight's) and ``b`` (this process's) agree in 6 significant
+    digits: within 1e-5 of ``b``.  A live value is read through the socket in 6 digits, and
+    the separate simulator's trim is not this process's to the last bit (measured: it
+    leaves theta 3.3e-7 rad above alpha, this one none), so they differ by up to 1.7 units
+    of the sixth digit (the pilot's load factor, about 1 g)."""
+    return np.abs(a - b) <= 1e-5 * np.abs(b)
+
+
+def _fly_both(base: Path, text: str) -> tuple[object, Path, Path]:
+    """``text`` flown live (a jsbsim process of its own) and in this process: (scenario,
+    the live flight's folder, this process's)."""
+    (base / "live").mkdir()
+    scn = _fly_live(base / "live", text)
+    monitor_scenario(scn, base / "here", progress=False)
+    return scn, base / "live" / scn.name, base / "here" / scn.name
+
+
+# ------------------------------------------------------------------ a fault type
+@dataclass(frozen=True)
+class SensorScale:
+    """A new kind of sensor fault: one channel's measurement scaled from the onset step on.
+    It implements :class:`probing.core.faults.SensorFault` (``channel``, ``onset_s``,
+    ``measure``) and nothing else."""
+
+    channel: str
+    scale: float
+    onset_s: float
+
+    def measure(self, value: float, step: int, onset: int) -> float:
+        return self.scale * value if step >= onset else value
+
+
+SENSOR_SCALE = FaultType(
+    "sensor_scale",
+    "sensor",
+    "sensor",
+    (
+        FaultField("channel", "channel", description="the measured output channel"),
+        FaultField("scale", "number", "-", 0.0, 10.0, "the measurement's scale factor"),
+    ),
+    "one measured channel is scaled (a sensor's gain error)",
+    lambda onset_s, v: SensorScale(str(v["channel"]), float(v["scale"]), onset_s),
+)
+
+#: The fault's onset (s; step 200, inside period 3) and scale.
+ONSET_S, SCALE = 2.0, 1.5
+
+FAULT = (
+    f'[fault]\ntype = "sensor_scale"\nchannel = "alpha_rad"\nscale = {SCALE}\nonset_s = {ONSET_S}\n'
+)
+
+
+@pytest.fixture(scope="module", params=["noise", "suite"])
+def scaled(request, tmp_path_factory):
+    """The fault type added to FAULTS; the flight with it live and in this process, and
+    without it in this process: without sensors (the block form of the hook,
+    :class:`~probing.sim.sensing.ChannelNoise`) and with NASA's T2 suite (step by step)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(FAULTS, "sensor_scale", SENSOR_SCALE)
+        base = tmp_path_factory.mktemp(f"scaled-{request.param}")
+        texts = {n: _with(SHORT, f"{n}-{request.param}") for n in ("scaled", "healthy")}
+        if request.param == "suite":
+            texts = {n: _sensed(t) for n, t in texts.items()}
+        scn, live, here = _fly_both(base, texts["scaled"] + FAULT)
+        (base / "healthy.toml").write_text(texts["healthy"])
+        healthy = load_scenario(base / "healthy.toml")
+        monitor_scenario(healthy, base / "here", progress=False)
+        replayed = replay_monitor(live / "sensors.parquet", base / "replay", progress=False)
+        yield SimpleNamespace(
+            scn=scn,
+            live=_table(live, "sensors.parquet"),
+            here=_table(here, "sensors.parquet"),
+            healthy=_table(base / "here" / healthy.name, "sensors.parquet"),
+            replay_probing=_table(replayed.out_dir, "probing.parquet"),
+            live_probing=_table(live, "probing.parquet"),
+        )
+
+
+def test_a_new_fault_type_is_a_scenario_type_written_back(scaled):
+    scn = scaled.scn
+    assert scn.fault_type == "sensor_scale"
+    assert scn.build_fault("sensor") == SensorScale("alpha_rad", SCALE, ONSET_S)
+    assert scn.to_dict()["fault"] == {
+        "type": "sensor_scale",
+        "onset_s": ONSET_S,
+        "channel": "alpha_rad",
+        "scale": SCALE,
+    }
+
+
+def test_a_new_fault_type_acts_from_its_onset_step_in_this_process(scaled):
+    """The flight with and without it: the same up to the step before the onset step, the
+    measurement scaled from the onset step on (row k is the output after step k)."""
+    k = onset_step(ONSET_S, scaled.scn.dt_s)
+    alpha, alpha0 = scaled.here.alpha_rad.to_numpy(), scaled.healthy.alpha_rad.to_numpy()
+    assert np.array_equal(alpha[:k], alpha0[:k])
+    assert alpha[k - 1] == alpha0[k - 1] and alpha[k] == SCALE * alpha0[k]
+    assert np.array_equal(alpha[k:], SCALE * alpha0[k:])
+    assert np.array_equal(scaled.here.theta_rad, scaled.healthy.theta_rad)  # one channel only
+
+
+def test_a_new_fault_type_acts_from_its_onset_step_live_as_in_this_process(scaled):
+    """Live, the measurement at the step before the onset step is the healthy one and at
+    the onset step the scaled one, each equal to this process's to the socket's 6 digits
+    (and not to the other: the scale is far beyond them)."""
+    k = onset_step(ONSET_S, scaled.scn.dt_s)
+    live = scaled.live.alpha_rad.to_numpy()
+    here, healthy = scaled.here.alpha_rad.to_numpy(), scaled.healthy.alpha_rad.to_numpy()
+    assert len(live) == len(here) == scaled.scn.total_steps
+    assert _six_digits(live[[k - 1, k]], here[[k - 1, k]]).all()
+    assert _six_digits(live[k - 1], healthy[k - 1]) and _six_digits(live[k], SCALE * healthy[k])
+    assert not _six_digits(live[k - 1], SCALE * healthy[k - 1])
+    assert not _six_digits(live[k], healthy[k])
+    assert _six_digits(live, here).all()
+
+
+def test_a_live_flight_with_a_new_fault_type_replays_bit_for_bit(scaled):
+    assert len(scaled.live_probing) > 0 and scaled.live_probing.equals(scaled.replay_probing)
+
+
+# ------------------------------------------------------------------ a sensor channel
+#: A JSBSim property not in CHANNELS: the normal load factor at the pilot's station.
+PILOT = Channel(
+    "nz_pilot_g", "accelerations/n-pilot-z-norm", "g", "normal load factor at the pilot's station"
+)
+
+#: NASA's T2 suite with an accelerometer at the pilot's station (numbers of the test's).
+T2_PILOT = SensorSuite(
+    "nasa_t2_pilot",
+    {**SENSOR_SUITES["nasa_t2"].sensors, "nz_pilot_g": SensorSpec(noise_sigma=0.004, bias=0.002)},
+    "nasa_t2 and the test's accelerometer at the pilot's station",
+)
+
+PILOT_CHANNELS = ["theta_rad", "q_rad_s", "nz_pilot_g"]
+
+
+@pytest.fixture(scope="module", params=["noise", "suite"])
+def pilot(request, tmp_path_factory):
+    """The channel added to CHANNELS (and, with sensors, a suite that measures it); a flight
+    estimating it live and in this process, without sensors and with the suite."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(CHANNELS, PILOT.name, PILOT)
+        mp.setitem(SENSOR_SUITES, T2_PILOT.name, T2_PILOT)
+        base = tmp_path_factory.mktemp(f"pilot-{request.param}")
+        text = _with(SHORT, f"pilot-{request.param}", channels=PILOT_CHANNELS)
+        if request.param == "suite":
+            text = _sensed(text, T2_PILOT.name)
+        scn, live, here = _fly_both(base, text)
+        yield SimpleNamespace(
+            scn=scn,
+            live=_table(live, "sensors.parquet"),
+            here=_table(here, "sensors.parquet"),
+            live_probing=_table(live, "probing.parquet"),
+            here_probing=_table(here, "probing.parquet"),
+        )
+
+
+def test_a_new_channel_is_logged_live_as_in_this_process(pilot):
+    """The log holds the new channel, live equal to this process's to the socket's 6 digits
+    at every step (it varies: a channel read a frame early or late would not be)."""
+    live, here = pilot.live.nz_pilot_g.to_numpy(), pilot.here.nz_pilot_g.to_numpy()
+    assert len(live) == len(here) == pilot.scn.total_steps
+    assert _six_digits(live, here).all()
+    assert not _six_digits(live[1:], here[:-1]).all()
+    assert np.ptp(here) > 1e-3
+
+
+def test_a_new_channel_is_estimated_live_as_in_this_process(pilot):
+    """Its pulse response is estimated in both worlds, every period's within 5e-4 of the
+    largest tap (measured: 9.9e-5 without sensors, 1.1e-4 with the suite; the estimate is
+    made of differences of the logged values, so their sixth digit weighs more in it)."""
+    a, b = pilot.live_probing, pilot.here_probing
+    ha = a[a.channel == PILOT.name].dropna(subset=["h_est"]).h_est.to_numpy()
+    hb = b[b.channel == PILOT.name].dropna(subset=["h_est"]).h_est.to_numpy()
+    assert ha.size == hb.size > 0
+    assert np.abs(ha - hb).max() <= 5e-4 * np.abs(hb).max()
+
+
+# ------------------------------------------------------------------ a runner
+#: A runner added in the test: [sensors] scenarios (standing in for a new section) are the
+#: rig's, flown by probing live and probing monitor only.
+RIG = Runner(
+    "rig",
+    "sensors",
+    frozenset({"live", "monitor"}),
+    "does not fly the rig's [sensors] scenarios (probing live and probing monitor do)",
+)
+
+#: The same runner flown by probing run and probing truth only.
+BENCH = Runner(
+    "rig",
+    "sensors",
+    frozenset({"run", "truth"}),
+    "does not fly the rig's [sensors] scenarios (probing run and probing truth do)",
+)
+
+
+def _command(command: str, scenario: Path, out: Path) -> list[str]:
+    if command == "live":
+        return ["live", str(scenario), "--write-sim", str(out / "sim")]
+    if command == "sweep":
+        sweep = out.parent / "sweep.toml"
+        sweep.write_text(
+            f'name = "s"\nbase = "{scenario.name}"\n[grid]\n"disturbance.seed" = [1]\n'
+        )
+        return ["sweep", str(sweep), "--out", str(out)]
+    return [command, str(scenario), "--out", str(out)]
+
+
+@pytest.mark.parametrize("runner", [RIG, BENCH], ids=["rig", "bench"])
+@pytest.mark.parametrize("command", ["run", "truth", "monitor", "live", "sweep"])
+def test_a_new_runner_is_consulted_by_every_command(runner, command, tmp_path, capsys, monkeypatch):
+    """A scenario the new runner flies is refused, with the runner's one line and exit code
+    2, by the commands it does not list, and flown by those it lists (here up to the
+    flight, which stands in): probing run through the runner's handler."""
+    monkeypatch.setattr(runners, "RUNNERS", (runner, *runners.RUNNERS))
+    flown: list[str] = []
+    monkeypatch.setitem(
+        run_cli.RUN_HANDLERS, runner.name, lambda scn, args: flown.append("run") or 0
+    )
+    monkeypatch.setattr(truth, "compute_truth", lambda scn, out: flown.append("truth") or out)
+    done = SimpleNamespace(line=lambda: "flown", out_dir=tmp_path)
+    monkeypatch.setattr(
+        monitor_module, "monitor_scenario", lambda scn, out, **kw: flown.append("monitor") or done
+    )
+    scenario = tmp_path / "rig.toml"
+    scenario.write_text(_sensed(_with(SHORT, "rig")))
+    assert runners.runner_of(load_scenario(scenario)) == runner
+    code = main(_command(command, scenario, tmp_path / "out"))
+    err = capsys.readouterr().err
+    if command in runner.commands:
+        assert code == 0, err
+        assert flown == ([] if command == "live" else [command])
+        if command == "live":
+            check_live(load_scenario(scenario))
+    else:
+        assert code == 2 and err.count("\n") == 1, err
+        assert f"probing {command} {runner.refusal}" in err
+        assert flown == [] and not (tmp_path / "out").exists()
+        if command == "live":
+            with pytest.raises(LiveError, match="rig's"):
+                check_live(load_scenario(scenario))
+
+
+def test_design_simultaneous_checks_what_the_simultaneous_runner_flies(capsys, monkeypatch):
+    """A [simultaneous] scenario that a new runner flies is not the simultaneous runner's:
+    ``probing design --simultaneous`` asks ``runner_of`` and refuses it in one line, exit 2
+    (the simultaneous runner's own is checked: tests/experiment/test_simultaneous.py)."""
+    crosstalk = Runner("crosstalk", "simultaneous", frozenset({"run"}), "flies crosstalk")
+    monkeypatch.setattr(runners, "RUNNERS", (crosstalk, *runners.RUNNERS))
+    shift = ROOT / "scenarios" / "simultaneous" / "shift-737.toml"
+    code = main(["design", "--simultaneous", str(shift)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "is flown by crosstalk" in err, err
