@@ -1,4 +1,4 @@
-"""Scenario files: TOML in, a validated, frozen :class:`Scenario` out.
+"""The scenario: TOML in, a validated, frozen :class:`Scenario` out.
 
 Every problem is reported as a :class:`ScenarioError` naming the field and
 what is allowed, so the command line can print one line and exit 2.  See
@@ -25,49 +25,31 @@ from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
-from probing.experiment.scenario_probe import _check_estimator
-from probing.experiment.scenario_schema import (
-    DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
-)
-from probing.experiment.scenario_schema import (
-    DRIFT_MODES,
+from probing.experiment.scenario.probe_signal import check_estimator
+from probing.experiment.scenario.schema import (
     GUST_KNOWING_DRIFTS,
-    MAX_PERIODS,
-    SECTIONS,
     TWIN_DRIFTS,
     ScenarioError,
     Simultaneous,
-    _check_keys,
-    _number,
-    field_label,
+    check_keys,
+    number,
 )
-from probing.experiment.scenario_schema import (
-    FAULT_TYPES as FAULT_TYPES,
-)
-from probing.experiment.scenario_sections import (
-    AMPLITUDE_MAX as AMPLITUDE_MAX,
-)
-from probing.experiment.scenario_sections import (
-    _aircraft,
-    _check_baseline,
-    _condition,
-    _disturbance,
-    _later_sections,
-    _nonlinearity,
-    _output,
-    _probe,
+from probing.experiment.scenario.sections import (
+    check_baseline,
+    later_sections,
+    parse_aircraft,
+    parse_condition,
+    parse_disturbance,
+    parse_nonlinearity,
+    parse_output,
+    parse_probe,
 )
 from probing.sim.flight import SPEED_KINDS, ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = [
-    "DRIFT_MODES",
-    "MAX_PERIODS",
-    "SECTIONS",
     "Scenario",
-    "ScenarioError",
     "check_name",
-    "field_label",
     "load_scenario",
     "parse_scenario",
     "read_toml",
@@ -258,7 +240,7 @@ class Scenario:
         if self.monitor is not None:
             return self.monitor
         settings = MonitorSettings()
-        _check_baseline(self, settings, given=None)
+        check_baseline(self, settings, given=None)
         return settings
 
     @property
@@ -446,16 +428,16 @@ def check_name(name: Any, source: str | None = None) -> str:
 def _parse(data: dict[str, Any], text: str, folder: Path | None = None) -> Scenario:
     """The scenario of ``data``, its sections read in file order (so the first error is
     always the same one)."""
-    _check_keys(data)
+    check_keys(data)
     name = check_name(data["name"])
-    model = _aircraft(data, folder)
-    condition = _condition(data["condition"])
-    dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
-    probe = _probe(data["probe"], dt)
-    nl_type, params = _nonlinearity(data["nonlinearity"])
-    output = _output(data["output"])
-    output["estimator"] = _check_estimator(probe["excitation"], output["estimator"])
-    disturbance = _disturbance(data.get("disturbance", {}), output["channels"])
+    model = parse_aircraft(data, folder)
+    condition = parse_condition(data["condition"])
+    dt = number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
+    probe = parse_probe(data["probe"], dt)
+    nl_type, params = parse_nonlinearity(data["nonlinearity"])
+    output = parse_output(data["output"])
+    output["estimator"] = check_estimator(probe["excitation"], output["estimator"])
+    disturbance = parse_disturbance(data.get("disturbance", {}), output["channels"])
     scn = Scenario(
         name=name,
         model=model,
@@ -468,7 +450,7 @@ def _parse(data: dict[str, Any], text: str, folder: Path | None = None) -> Scena
         **output,
         **disturbance,
     )
-    return _later_sections(data, scn)
+    return later_sections(data, scn)
 
 
 def read_toml(path: Path) -> tuple[dict[str, Any], str]:

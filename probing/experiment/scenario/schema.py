@@ -1,7 +1,7 @@
 """The scenario file's schema and the checks of one value: which sections and fields there
 are (:data:`SECTIONS`), :class:`ScenarioError`, the ``[simultaneous]`` settings, and the
 number, integer, choice and time checks every section parser uses
-(:mod:`probing.experiment.scenario_sections`)."""
+(:mod:`probing.experiment.scenario.sections`)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ TWIN_DRIFTS = ("reference", "oracle", "nominal")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
 #: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
-_MAX_DEG, _MAX_DEG_S = 90.0, 1e6
+MAX_DEG, MAX_DEG_S = 90.0, 1e6
 #: Section -> its fields (None: a top-level value).
 SECTIONS: dict[str, set[str] | None] = {
     "name": None,
@@ -134,7 +134,7 @@ def field_label(key: str) -> str:
     return key if key and key.isprintable() else repr(key)
 
 
-def _number(
+def number(
     data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
 ) -> float:
     name = f"{section}.{key}" if section else key
@@ -149,16 +149,16 @@ def _number(
     return value
 
 
-def _instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
+def instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
     """A time after trim (s) at which something starts: from 0 up to, not at, the run's end
     (a fault or a manoeuvre starting as the run ends would never act)."""
-    value = _number(data, section, key, lo=0, hi=duration_s)
+    value = number(data, section, key, lo=0, hi=duration_s)
     if value >= duration_s:
         raise ScenarioError(f"{section}.{key}", f"must be before the run ends ({duration_s:g} s)")
     return value
 
 
-def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
+def integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
     name = f"{section}.{key}"
     value = data[key]
     if isinstance(value, bool) or not isinstance(value, int):
@@ -168,7 +168,7 @@ def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
     return value
 
 
-def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
+def choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
     value = data[key]
     if not isinstance(value, str) or value not in allowed:
         raise ScenarioError(
@@ -177,7 +177,7 @@ def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str
     return value
 
 
-def _check_keys(data: dict[str, Any]) -> None:
+def check_keys(data: dict[str, Any]) -> None:
     for key, value in data.items():
         if key not in SECTIONS:
             raise ScenarioError(field_label(key), f"unknown field; allowed: {', '.join(SECTIONS)}")

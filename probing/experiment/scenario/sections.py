@@ -1,9 +1,8 @@
-"""The sections of a scenario file, each read and checked: the schema (:data:`SECTIONS`),
-:class:`ScenarioError`, the checks of one value, and one parser per section.
+"""The sections of a scenario file, each read and checked: one parser per section.
 
-:mod:`probing.experiment.scenario` builds the :class:`~probing.experiment.scenario.Scenario`
-from them; this module does not import it (a parser that needs the scenario read so far is
-given it as ``scn``).
+:mod:`probing.experiment.scenario.scenario` builds the
+:class:`~probing.experiment.scenario.Scenario` from them; this module does not import it (a
+parser that needs the scenario read so far is given it as ``scn``).
 """
 
 from __future__ import annotations
@@ -20,22 +19,22 @@ from probing.core.noise import ESTIMATOR_NAMES
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
 from probing.core.sensors import SENSOR_SUITES, Sensor, SensorSpecError, SensorSuite
-from probing.experiment.scenario_probe import _excitation
-from probing.experiment.scenario_schema import (
-    _MAX_DEG,
-    _MAX_DEG_S,
+from probing.experiment.scenario.probe_signal import parse_excitation
+from probing.experiment.scenario.schema import (
     DEFAULT_MAX_CROSSTALK,
     DRIFT_MODES,
     GUST_KNOWING_DRIFTS,
+    MAX_DEG,
+    MAX_DEG_S,
     MAX_PERIODS,
     SENSOR_FIELDS,
     ScenarioError,
     Simultaneous,
-    _choice,
-    _instant_in_run,
-    _integer,
-    _number,
+    choice,
     field_label,
+    instant_in_run,
+    integer,
+    number,
 )
 from probing.sim.aircraft import find_aircraft, is_path
 from probing.sim.channels import CHANNEL_NAMES
@@ -58,7 +57,7 @@ def _manoeuvre(section: dict[str, Any], scn: Any) -> Manoeuvre:
     and when; the loop must be closed, and the probe path linear."""
     if "hold" not in section:
         raise ScenarioError("manoeuvre.hold", f"missing (one of {', '.join(MANOEUVRE_HOLDS)})")
-    hold = _choice(section, "manoeuvre", "hold", tuple(MANOEUVRE_HOLDS))
+    hold = choice(section, "manoeuvre", "hold", tuple(MANOEUVRE_HOLDS))
     unit = MANOEUVRE_HOLDS[hold][0]
     own = {"hold", "start_s", f"change_{unit}", f"rate_{unit}_s"}
     for key in section:
@@ -70,10 +69,10 @@ def _manoeuvre(section: dict[str, Any], scn: Any) -> Manoeuvre:
         if key not in section:
             raise ScenarioError(f"manoeuvre.{key}", "missing")
     limit = 60.0 if unit == "deg" else 200.0
-    change = _number(section, "manoeuvre", f"change_{unit}", lo=-limit, hi=limit)
-    rate = _number(section, "manoeuvre", f"rate_{unit}_s", lo=0, hi=100, lo_open=True)
+    change = number(section, "manoeuvre", f"change_{unit}", lo=-limit, hi=limit)
+    rate = number(section, "manoeuvre", f"rate_{unit}_s", lo=0, hi=100, lo_open=True)
     duration_s = scn.total_steps * scn.dt_s
-    start = _instant_in_run(section, "manoeuvre", "start_s", duration_s)
+    start = instant_in_run(section, "manoeuvre", "start_s", duration_s)
     if scn.control is None or not getattr(scn.control, f"{hold}_hold"):
         raise ScenarioError(
             "manoeuvre.hold", f"a {hold} manoeuvre needs [control] {hold}_hold = true"
@@ -101,7 +100,7 @@ def _amplitude(probe: dict[str, Any], unit: str, surface: str) -> float:
         )
     if key not in probe:
         raise ScenarioError(f"probe.{key}", "missing")
-    return _number(probe, "probe", key, lo=0, hi=AMPLITUDE_MAX[unit], lo_open=True)
+    return number(probe, "probe", key, lo=0, hi=AMPLITUDE_MAX[unit], lo_open=True)
 
 
 def _alone(section: str, scn: Any, without: tuple[str, ...]) -> None:
@@ -126,7 +125,7 @@ def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
     for key in ("design", "also_surfaces", "also_amplitudes"):
         if key not in section:
             raise ScenarioError(f"simultaneous.{key}", "missing")
-    design = _choice(section, "simultaneous", "design", tuple(DESIGNS))
+    design = choice(section, "simultaneous", "design", tuple(DESIGNS))
     also, amplitudes = section["also_surfaces"], section["also_amplitudes"]
     surfaces = [scn.surface, *also] if isinstance(also, list) else []
     if (
@@ -149,12 +148,12 @@ def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
     for surface, value in zip(also, amplitudes, strict=True):
         hi = AMPLITUDE_MAX[SURFACES[surface].unit]  # each in its surface's unit
         levels.append(
-            _number(
+            number(
                 {surface: value}, "simultaneous.also_amplitudes", surface, lo=0, hi=hi, lo_open=True
             )
         )
     max_crosstalk = (
-        _number(section, "simultaneous", "max_crosstalk", lo=0, hi=0.5, lo_open=True)
+        number(section, "simultaneous", "max_crosstalk", lo=0, hi=0.5, lo_open=True)
         if "max_crosstalk" in section
         else DEFAULT_MAX_CROSSTALK
     )
@@ -167,7 +166,7 @@ def _simultaneous(data: dict[str, Any], scn: Any) -> Simultaneous:
     return Simultaneous(design, tuple(surfaces), tuple(levels), max_crosstalk)
 
 
-def _check_baseline(scn: Any, settings: MonitorSettings, given: bool | None) -> None:
+def check_baseline(scn: Any, settings: MonitorSettings, given: bool | None) -> None:
     """A monitor's baseline must leave one settled period of the run to test (its bound by
     ``windows`` is :class:`MonitorSettings`' own).  ``given``: the section gave it (True),
     left it to its default (False), or there is no ``[monitor]`` section at all (None)."""
@@ -195,7 +194,7 @@ def _monitor(monitor: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
     except SettingError as exc:
         default = "" if exc.field in monitor else " (the default)"
         raise ScenarioError(f"monitor.{exc.field}", f"{exc.message}{default}") from None
-    _check_baseline(scn, settings, given="baseline_periods" in monitor)
+    check_baseline(scn, settings, given="baseline_periods" in monitor)
     channel = scn.surface_channel
     if settings.surface and (channel not in scn.channels or len(scn.channels) < 2):
         raise ScenarioError(
@@ -219,11 +218,11 @@ def _control(control: dict[str, Any] | None) -> dict[str, Any]:
                 raise ScenarioError(f"control.{f.name}", f"must be true or false, got {value!r}")
             values[f.name] = value
         elif f.name == "damping":
-            values[f.name] = _number(control, "control", f.name, lo=0.1, hi=2.0)
+            values[f.name] = number(control, "control", f.name, lo=0.1, hi=2.0)
         elif f.name == "integral_time_s":
-            values[f.name] = _number(control, "control", f.name, lo=0, hi=1000)
+            values[f.name] = number(control, "control", f.name, lo=0, hi=1000)
         else:
-            values[f.name] = _number(control, "control", f.name, lo=0, hi=50, lo_open=True)
+            values[f.name] = number(control, "control", f.name, lo=0, hi=50, lo_open=True)
     return {"control": Control(**values)}
 
 
@@ -234,7 +233,7 @@ def _fault(fault: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
     model, duration_s = scn.model, scn.total_steps * scn.dt_s
     if "type" not in fault:
         raise ScenarioError("fault.type", f"missing (one of {', '.join(FAULTS)})")
-    kind = _choice(fault, "fault", "type", tuple(FAULTS))
+    kind = choice(fault, "fault", "type", tuple(FAULTS))
     entry = FAULTS[kind]
     named = [fault.get(f.name) for f in entry.fields if f.kind == "nonlinearity"]
     known = named and isinstance(named[0], str) and named[0] in NONLINEARITIES
@@ -246,18 +245,20 @@ def _fault(fault: dict[str, Any] | None, scn: Any) -> dict[str, Any]:
     for key in ("onset_s", *entry.names):
         if key not in fault:
             raise ScenarioError(f"fault.{key}", f"missing (required for {kind})")
-    onset = _instant_in_run(fault, "fault", "onset_s", duration_s)
+    onset = instant_in_run(fault, "fault", "onset_s", duration_s)
     values: dict[str, Any] = {}
     for f in entry.fields:
         if f.kind == "number":
-            values[f.name] = _number(fault, "fault", f.name, lo=f.lo, hi=f.hi)
+            values[f.name] = number(fault, "fault", f.name, lo=f.lo, hi=f.hi)
         elif f.kind == "damage_case":
             values[f.name] = _damage_case(fault, model, kind, f.name)
         elif f.kind == "channel":
             values[f.name] = _output_channel(fault, f.name, scn.channels)
         else:  # a nonlinearity: its type, and its own parameters beside it
             others = ("type", "onset_s", *(n for n in entry.names if n != f.name))
-            nl_type, params = _nonlinearity(fault, section="fault", type_key=f.name, others=others)
+            nl_type, params = parse_nonlinearity(
+                fault, section="fault", type_key=f.name, others=others
+            )
             if nl_type == "none":
                 raise ScenarioError(f"fault.{f.name}", "must name a nonlinearity, not none")
             values.update({f.name: nl_type, **params})
@@ -290,7 +291,7 @@ def _damage_case(fault: dict[str, Any], model: str, kind: str, key: str = "case"
     return int(case)
 
 
-def _nonlinearity(
+def parse_nonlinearity(
     nl_data: dict[str, Any],
     section: str = "nonlinearity",
     type_key: str = "type",
@@ -304,7 +305,7 @@ def _nonlinearity(
     is the class's own (:mod:`probing.core.nonlinearities`), whose error names the argument.
     ``others`` are the section's fields that are not the nonlinearity's.
     """
-    nl_type = _choice(nl_data, section, type_key, tuple(NONLINEARITIES))
+    nl_type = choice(nl_data, section, type_key, tuple(NONLINEARITIES))
     kind = NONLINEARITIES[nl_type]
     for key in nl_data:
         if key != type_key and key not in others and key not in kind.names:
@@ -316,8 +317,8 @@ def _nonlinearity(
     for p in kind.parameters:
         if p.name not in nl_data:
             raise ScenarioError(f"{section}.{p.name}", f"missing (required for {nl_type})")
-        hi = _MAX_DEG_S if p.unit == "deg/s" else _MAX_DEG
-        params[p.name] = _number(nl_data, section, p.name, lo=-hi, hi=hi)
+        hi = MAX_DEG_S if p.unit == "deg/s" else MAX_DEG
+        params[p.name] = number(nl_data, section, p.name, lo=-hi, hi=hi)
     try:
         kind.build(params)
     except ParameterError as exc:
@@ -339,7 +340,7 @@ def resolve_model(model: str, folder: Path | None) -> str:
     return str(((folder or Path.cwd()) / Path(model).expanduser()).resolve())
 
 
-def _aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
+def parse_aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
     """The ``[aircraft]`` section: a model found among the aircraft files, or the path of an
     aircraft folder, relative to ``folder`` (the scenario file's; else the current folder),
     returned absolute."""
@@ -354,16 +355,16 @@ def _aircraft(data: dict[str, Any], folder: Path | None = None) -> str:
     return model
 
 
-def _condition(cond: dict[str, Any]) -> dict[str, Any]:
+def parse_condition(cond: dict[str, Any]) -> dict[str, Any]:
     """The ``[condition]`` section: altitude, exactly one speed, flight-path angle and bank."""
-    altitude = _number(cond, "condition", "altitude_ft", lo=0, hi=60000, lo_open=True)
+    altitude = number(cond, "condition", "altitude_ft", lo=0, hi=60000, lo_open=True)
     speeds = [k for k in SPEED_KINDS if k in cond]
     if len(speeds) != 1:
         raise ScenarioError("condition", f"give exactly one of {', '.join(SPEED_KINDS)}")
     kind = speeds[0]
-    speed = _number(cond, "condition", kind, lo=0, hi=SPEED_KINDS[kind].upper, lo_open=True)
-    gamma = _number(cond, "condition", "gamma_deg", lo=-30, hi=30) if "gamma_deg" in cond else 0.0
-    bank = _number(cond, "condition", "bank_deg", lo=-80, hi=80) if "bank_deg" in cond else 0.0
+    speed = number(cond, "condition", kind, lo=0, hi=SPEED_KINDS[kind].upper, lo_open=True)
+    gamma = number(cond, "condition", "gamma_deg", lo=-30, hi=30) if "gamma_deg" in cond else 0.0
+    bank = number(cond, "condition", "bank_deg", lo=-80, hi=80) if "bank_deg" in cond else 0.0
     return {
         "altitude_ft": altitude,
         "speed_kind": kind,
@@ -373,14 +374,14 @@ def _condition(cond: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
+def parse_probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
     """The ``[probe]`` section: surface, order, bit duration (whole steps of ``dt``),
     amplitude and periods."""
     surface = (
-        _choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else DEFAULT_SURFACE
+        choice(probe, "probe", "surface", SURFACE_NAMES) if "surface" in probe else DEFAULT_SURFACE
     )
-    order = _integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
-    bit = _number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
+    order = integer(probe, "probe", "order", lo=MIN_ORDER, hi=MAX_ORDER)
+    bit = number(probe, "probe", "bit_duration_s", lo=0, hi=10, lo_open=True)
     try:
         steps_per_bit(bit, dt)  # the probe's own rule
     except ValueError:
@@ -389,8 +390,8 @@ def _probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
             f"must be an integer multiple of simulation.dt_s ({dt:g}), got {bit:g}",
         ) from None
     amplitude = _amplitude(probe, SURFACES[surface].unit, surface)
-    periods = _integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
-    settle = _integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)
+    periods = integer(probe, "probe", "periods", lo=2, hi=MAX_PERIODS)
+    settle = integer(probe, "probe", "settle_periods", lo=0, hi=periods - 1)
     return {
         "surface": surface,
         "order": order,
@@ -398,11 +399,11 @@ def _probe(probe: dict[str, Any], dt: float) -> dict[str, Any]:
         "amplitude_deg": amplitude,
         "periods": periods,
         "settle_periods": settle,
-        "excitation": _excitation(probe, order, bit),
+        "excitation": parse_excitation(probe, order, bit),
     }
 
 
-def _output(out: dict[str, Any]) -> dict[str, Any]:
+def parse_output(out: dict[str, Any]) -> dict[str, Any]:
     """The ``[output]`` section: channels, drift correction, detrending order, estimator."""
     channels = out["channels"]
     if (
@@ -415,14 +416,14 @@ def _output(out: dict[str, Any]) -> dict[str, Any]:
             "output.channels",
             f"must be a non-empty list of distinct names from {', '.join(CHANNEL_NAMES)}",
         )
-    drift = _choice(out, "output", "drift", DRIFT_MODES) if "drift" in out else "reference"
+    drift = choice(out, "output", "drift", DRIFT_MODES) if "drift" in out else "reference"
     detrend_order = (
-        _integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
+        integer(out, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in out else 1
     )
     estimator = (
-        _choice(out, "output", "estimator", ESTIMATOR_NAMES)
+        choice(out, "output", "estimator", ESTIMATOR_NAMES)
         if "estimator" in out
-        else None  # the signal's own (_check_estimator)
+        else None  # the signal's own (check_estimator)
     )
     return {
         "channels": tuple(channels),
@@ -432,15 +433,15 @@ def _output(out: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, Any]:
+def parse_disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, Any]:
     """The ``[disturbance]`` section: turbulence, its seed, and sensor noise on output
     channels."""
     turbulence = (
-        _choice(dist, "disturbance", "turbulence", tuple(TURBULENCE_SEVERITY))
+        choice(dist, "disturbance", "turbulence", tuple(TURBULENCE_SEVERITY))
         if "turbulence" in dist
         else "none"
     )
-    seed = _integer(dist, "disturbance", "seed", lo=0, hi=2**31 - 1) if "seed" in dist else 0
+    seed = integer(dist, "disturbance", "seed", lo=0, hi=2**31 - 1) if "seed" in dist else 0
     noise_in = dist.get("sensor_noise", {})
     if not isinstance(noise_in, dict):
         raise ScenarioError("disturbance.sensor_noise", "must be a table {channel = sigma}")
@@ -451,7 +452,7 @@ def _disturbance(dist: dict[str, Any], channels: tuple[str, ...]) -> dict[str, A
                 f"disturbance.sensor_noise.{field_label(ch)}",
                 f"not an output channel (channels: {', '.join(channels)})",
             )
-        noise[ch] = _number(noise_in, "disturbance.sensor_noise", ch, lo=0, hi=1e6)
+        noise[ch] = number(noise_in, "disturbance.sensor_noise", ch, lo=0, hi=1e6)
     return {"turbulence": turbulence, "sensor_noise": noise, "seed": seed}
 
 
@@ -461,7 +462,7 @@ def _sensors(section: dict[str, Any], scn: Any) -> dict[str, Any]:
     the suite's; then what it asks of the rest of the scenario (``docs/scenarios.md``)."""
     if "suite" not in section:
         raise ScenarioError("sensors.suite", f"missing (one of {', '.join(SENSOR_SUITES)})")
-    name = _choice(section, "sensors", "suite", tuple(SENSOR_SUITES))
+    name = choice(section, "sensors", "suite", tuple(SENSOR_SUITES))
     suite: SensorSuite = SENSOR_SUITES[name]
     overrides: dict[str, dict[str, float]] = {}
     for channel, table in section.items():
@@ -557,7 +558,7 @@ def _check_drift(scn: Any) -> None:
         )
 
 
-def _later_sections(data: dict[str, Any], scn: Any) -> Any:
+def later_sections(data: dict[str, Any], scn: Any) -> Any:
     """``scn`` (the scenario of the sections above) with the sections that depend on it:
     ``[fault]``, ``[control]``, ``[monitor]``, ``[simultaneous]``, ``[manoeuvre]`` and
     ``[sensors]``, and the drift modes' rules."""
