@@ -52,3 +52,13 @@ def check_estimator(excitation: Excitation, estimator: str | None) -> str:
             f'estimated from its spectrum: estimator = "{SPECTRAL}" (or leave it out)',
         )
     return SPECTRAL
+
+
+def signal_fields(excitation: Excitation) -> dict[str, Any]:
+    """``probe.signal`` and its fields as the file writes them; nothing for the PRBS (the
+    digests stay as they were before other signals existed)."""
+    if excitation.is_binary:
+        return {}
+    assert excitation.band_hz is not None
+    out: dict[str, Any] = {"signal": excitation.signal, "band_hz": list(excitation.band_hz)}
+    return {**out, "sweep": excitation.sweep} if excitation.signal == "chirp" else out

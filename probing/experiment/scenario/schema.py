@@ -1,13 +1,11 @@
 """The scenario file's schema and the checks of one value: which sections and fields there
-are (:data:`SECTIONS`), :class:`ScenarioError`, the ``[simultaneous]`` settings, and the
-number, integer, choice and time checks every section parser uses
-(:mod:`probing.experiment.scenario.sections`)."""
+are (:data:`SECTIONS`), :class:`ScenarioError`, and the number, integer, choice and time
+checks every section's parser uses (:mod:`probing.experiment.scenario.sections`)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 from typing import Any
 
 from probing.core.faults import FAULTS
@@ -30,8 +28,6 @@ GUST_KNOWING_DRIFTS = ("reference", "oracle")
 TWIN_DRIFTS = ("reference", "oracle", "nominal")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
-#: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
-MAX_DEG, MAX_DEG_S = 90.0, 1e6
 #: Section -> its fields (None: a top-level value).
 SECTIONS: dict[str, set[str] | None] = {
     "name": None,
@@ -94,38 +90,6 @@ class ScenarioError(ValueError):
 #: Largest cross-talk a simultaneous design may be predicted to leave, as a fraction of the
 #: largest response in the channel (``simultaneous.max_crosstalk``'s default).
 DEFAULT_MAX_CROSSTALK = 0.02
-
-
-@dataclass(frozen=True)
-class Simultaneous:
-    """The ``[simultaneous]`` section: several surfaces probed in one flight.
-
-    Attributes
-    ----------
-    design : str
-        A key of :data:`probing.core.multiplex.DESIGNS`.
-    surfaces : tuple of str
-        Every probed surface, ``probe.surface`` first.
-    amplitudes : tuple of float
-        Their probe amplitudes, each in its surface's unit (deg, or normalised).
-    max_crosstalk : float
-        The design is refused if the linearisation leaves more cross-talk than this fraction
-        of the largest response of a channel (its memory condition).
-    """
-
-    design: str
-    surfaces: tuple[str, ...]
-    amplitudes: tuple[float, ...]
-    max_crosstalk: float = DEFAULT_MAX_CROSSTALK
-
-    def to_dict(self) -> dict[str, Any]:
-        """The section in its file layout."""
-        return {
-            "design": self.design,
-            "also_surfaces": list(self.surfaces[1:]),
-            "also_amplitudes": list(self.amplitudes[1:]),
-            "max_crosstalk": self.max_crosstalk,
-        }
 
 
 # ------------------------------------------------------------------ checks
