@@ -83,7 +83,7 @@ MUTATIONS = [
         "tests/experiment/test_prediction.py::test_extra_noise_adds_to_the_sensor_noise",
     ),
     (
-        "probing/experiment/scenario_schema.py",
+        "probing/experiment/scenario/schema.py",
         "    if value >= duration_s:",
         "    if value > duration_s:",
         "tests/experiment/test_scenario.py::test_a_fault_onset_must_come_before_the_run_ends",

@@ -436,7 +436,7 @@ def _estimator(
     kind = target[0] if target else "gain"
     scores = {}
     for name in CANDIDATES[kind]:
-        candidate = replace(scn, estimator=name)
+        candidate = replace(scn, output_section=replace(scn.output_section, estimator=name))
         found = predict(candidate, extra_samples=gusts.of(candidate))[request.channel]
         scores[name] = _score(found, kind)
     if request.estimator is not None:

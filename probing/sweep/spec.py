@@ -42,7 +42,7 @@ from probing.experiment.scenario import (
     load_scenario,
     read_toml,
 )
-from probing.experiment.scenario_sections import resolve_model
+from probing.experiment.scenario.sections import resolve_model
 
 __all__ = [
     "MAX_POINTS",

@@ -128,7 +128,8 @@ def test_a_throttle_probe_is_exported_in_its_unit() -> None:
 
     root = Path(__file__).resolve().parents[2]
     scn = load_scenario(root / "scenarios" / "baseline-737.toml")
-    scn = dataclasses.replace(scn, surface="throttle", amplitude_deg=0.01)  # in norm
+    probe = dataclasses.replace(scn.probe_section, surface="throttle", amplitude_deg=0.01)  # norm
+    scn = dataclasses.replace(scn, probe_section=probe)
     assert probe_csv(scn).startswith("time_s,command_norm\n")
     assert "#define PROBE_AMPLITUDE_NORM 0.01" in probe_header(scn)
 

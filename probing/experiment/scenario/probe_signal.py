@@ -7,13 +7,13 @@ from typing import Any
 
 from probing.core.excitation import PRBS, SIGNALS, SPECTRAL, SWEEPS, Excitation
 from probing.core.prbs import Probe
-from probing.experiment.scenario_schema import ScenarioError, _choice
+from probing.experiment.scenario.schema import ScenarioError, choice
 
 
-def _excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
+def parse_excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
     """``probe.signal`` (the PRBS by default), with a multisine's or chirp's ``band_hz`` and
     a chirp's ``sweep``; the band checked against the period and the bits."""
-    signal = _choice(probe, "probe", "signal", tuple(SIGNALS)) if "signal" in probe else "prbs"
+    signal = choice(probe, "probe", "signal", tuple(SIGNALS)) if "signal" in probe else "prbs"
     if signal == "prbs":
         for key in ("band_hz", "sweep"):
             if key in probe:
@@ -30,7 +30,7 @@ def _excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
         raise ScenarioError("probe.band_hz", f"must be [low, high] in Hz, got {band!r}")
     if "sweep" in probe and signal != "chirp":
         raise ScenarioError("probe.sweep", "is for a chirp")
-    sweep = _choice(probe, "probe", "sweep", SWEEPS) if "sweep" in probe else "linear"
+    sweep = choice(probe, "probe", "sweep", SWEEPS) if "sweep" in probe else "linear"
     excitation = Excitation(signal, (float(band[0]), float(band[1])), sweep)
     try:
         Probe(order, bit_s, 1.0, excitation)  # builds the signal: the band's rules
@@ -39,7 +39,7 @@ def _excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitation:
     return excitation
 
 
-def _check_estimator(excitation: Excitation, estimator: str | None) -> str:
+def check_estimator(excitation: Excitation, estimator: str | None) -> str:
     """The estimator of the probe's signal: the PRBS's ``output.estimator`` (streaming by
     default, or cyclic, ac, spectral); a multisine's or chirp's is ``spectral`` (its spectrum
     over the input's), and another is refused."""
@@ -52,3 +52,13 @@ def _check_estimator(excitation: Excitation, estimator: str | None) -> str:
             f'estimated from its spectrum: estimator = "{SPECTRAL}" (or leave it out)',
         )
     return SPECTRAL
+
+
+def signal_fields(excitation: Excitation) -> dict[str, Any]:
+    """``probe.signal`` and its fields as the file writes them; nothing for the PRBS (the
+    digests stay as they were before other signals existed)."""
+    if excitation.is_binary:
+        return {}
+    assert excitation.band_hz is not None
+    out: dict[str, Any] = {"signal": excitation.signal, "band_hz": list(excitation.band_hz)}
+    return {**out, "sweep": excitation.sweep} if excitation.signal == "chirp" else out

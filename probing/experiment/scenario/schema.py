@@ -1,13 +1,11 @@
 """The scenario file's schema and the checks of one value: which sections and fields there
-are (:data:`SECTIONS`), :class:`ScenarioError`, the ``[simultaneous]`` settings, and the
-number, integer, choice and time checks every section parser uses
-(:mod:`probing.experiment.scenario_sections`)."""
+are (:data:`SECTIONS`), :class:`ScenarioError`, and the number, integer, choice and time
+checks every section's parser uses (:mod:`probing.experiment.scenario.sections`)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 from typing import Any
 
 from probing.core.faults import FAULTS
@@ -30,8 +28,6 @@ GUST_KNOWING_DRIFTS = ("reference", "oracle")
 TWIN_DRIFTS = ("reference", "oracle", "nominal")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
-#: Largest magnitude of a nonlinearity parameter in deg (and of a rate in deg/s / 1e4).
-_MAX_DEG, _MAX_DEG_S = 90.0, 1e6
 #: Section -> its fields (None: a top-level value).
 SECTIONS: dict[str, set[str] | None] = {
     "name": None,
@@ -96,45 +92,13 @@ class ScenarioError(ValueError):
 DEFAULT_MAX_CROSSTALK = 0.02
 
 
-@dataclass(frozen=True)
-class Simultaneous:
-    """The ``[simultaneous]`` section: several surfaces probed in one flight.
-
-    Attributes
-    ----------
-    design : str
-        A key of :data:`probing.core.multiplex.DESIGNS`.
-    surfaces : tuple of str
-        Every probed surface, ``probe.surface`` first.
-    amplitudes : tuple of float
-        Their probe amplitudes, each in its surface's unit (deg, or normalised).
-    max_crosstalk : float
-        The design is refused if the linearisation leaves more cross-talk than this fraction
-        of the largest response of a channel (its memory condition).
-    """
-
-    design: str
-    surfaces: tuple[str, ...]
-    amplitudes: tuple[float, ...]
-    max_crosstalk: float = DEFAULT_MAX_CROSSTALK
-
-    def to_dict(self) -> dict[str, Any]:
-        """The section in its file layout."""
-        return {
-            "design": self.design,
-            "also_surfaces": list(self.surfaces[1:]),
-            "also_amplitudes": list(self.amplitudes[1:]),
-            "max_crosstalk": self.max_crosstalk,
-        }
-
-
 # ------------------------------------------------------------------ checks
 def field_label(key: str) -> str:
     """A key as written into an error field: quoted if it could break the one-line message."""
     return key if key and key.isprintable() else repr(key)
 
 
-def _number(
+def number(
     data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
 ) -> float:
     name = f"{section}.{key}" if section else key
@@ -149,16 +113,16 @@ def _number(
     return value
 
 
-def _instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
+def instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
     """A time after trim (s) at which something starts: from 0 up to, not at, the run's end
     (a fault or a manoeuvre starting as the run ends would never act)."""
-    value = _number(data, section, key, lo=0, hi=duration_s)
+    value = number(data, section, key, lo=0, hi=duration_s)
     if value >= duration_s:
         raise ScenarioError(f"{section}.{key}", f"must be before the run ends ({duration_s:g} s)")
     return value
 
 
-def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
+def integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
     name = f"{section}.{key}"
     value = data[key]
     if isinstance(value, bool) or not isinstance(value, int):
@@ -168,7 +132,7 @@ def _integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
     return value
 
 
-def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
+def choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:
     value = data[key]
     if not isinstance(value, str) or value not in allowed:
         raise ScenarioError(
@@ -177,7 +141,7 @@ def _choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str
     return value
 
 
-def _check_keys(data: dict[str, Any]) -> None:
+def check_keys(data: dict[str, Any]) -> None:
     for key, value in data.items():
         if key not in SECTIONS:
             raise ScenarioError(field_label(key), f"unknown field; allowed: {', '.join(SECTIONS)}")

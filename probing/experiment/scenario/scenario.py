@@ -1,4 +1,4 @@
-"""Scenario files: TOML in, a validated, frozen :class:`Scenario` out.
+"""The scenario: TOML in, a validated, frozen :class:`Scenario` out.
 
 Every problem is reported as a :class:`ScenarioError` naming the field and
 what is allowed, so the command line can print one line and exit 2.  See
@@ -8,66 +8,52 @@ what is allowed, so the command line can print one line and exit 2.  See
 from __future__ import annotations
 
 import copy
-import functools
+import dataclasses
 import hashlib
 import json
 import re
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from probing.core.excitation import PRBS, Excitation
+from probing.core.excitation import Excitation
 from probing.core.faults import FAULTS, FaultType
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
-from probing.experiment.scenario_probe import _check_estimator
-from probing.experiment.scenario_schema import (
-    DEFAULT_MAX_CROSSTALK as DEFAULT_MAX_CROSSTALK,
-)
-from probing.experiment.scenario_schema import (
-    DRIFT_MODES,
+from probing.experiment.scenario.probe_signal import check_estimator
+from probing.experiment.scenario.rules import check_across, check_baseline
+from probing.experiment.scenario.schema import (
     GUST_KNOWING_DRIFTS,
-    MAX_PERIODS,
-    SECTIONS,
     TWIN_DRIFTS,
     ScenarioError,
+    check_keys,
+)
+from probing.experiment.scenario.sections import (
+    AircraftSection,
+    ConditionSection,
+    ControlSection,
+    DisturbanceSection,
+    FaultSection,
+    ManoeuvreSection,
+    MonitorSection,
+    NonlinearitySection,
+    OutputSection,
+    ProbeSection,
+    SensorsSection,
+    SimulationSection,
     Simultaneous,
-    _check_keys,
-    _number,
-    field_label,
-)
-from probing.experiment.scenario_schema import (
-    FAULT_TYPES as FAULT_TYPES,
-)
-from probing.experiment.scenario_sections import (
-    AMPLITUDE_MAX as AMPLITUDE_MAX,
-)
-from probing.experiment.scenario_sections import (
-    _aircraft,
-    _check_baseline,
-    _condition,
-    _disturbance,
-    _later_sections,
-    _nonlinearity,
-    _output,
-    _probe,
 )
 from probing.sim.flight import SPEED_KINDS, ActuatorFault, Control, Flight, Manoeuvre
-from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
+from probing.sim.surfaces import SURFACES
 
 __all__ = [
-    "DRIFT_MODES",
-    "MAX_PERIODS",
-    "SECTIONS",
     "Scenario",
-    "ScenarioError",
     "check_name",
-    "field_label",
     "load_scenario",
     "parse_scenario",
     "read_toml",
@@ -78,46 +64,176 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 
 @dataclass(frozen=True)
 class Scenario:
-    """A validated scenario (see ``docs/scenarios.md``); all values in the units of their names."""
+    """A validated scenario (see ``docs/scenarios.md``): its name, one object per section
+    of the file (:mod:`probing.experiment.scenario.sections`; None for an optional section
+    the file leaves out), and the file's text; all values in the units of their names.
+
+    A section's field is named ``<table>_section``: the plain names are the flat views
+    below (``scn.probe`` is the built :class:`~probing.core.prbs.Probe`, ``scn.sensors`` the
+    suite, ``scn.nonlinearity`` the type), which the rest of the code reads.  Change a
+    scenario with :meth:`replace` (validated), or by replacing a section object.
+    """
 
     name: str
-    model: str
-    altitude_ft: float
-    speed_kind: str  # a key of probing.sim.flight.SPEED_KINDS
-    speed: float
-    dt_s: float
-    order: int
-    bit_duration_s: float
-    amplitude_deg: float  # in the probed surface's unit: deg, or normalised for the throttle
-    periods: int
-    settle_periods: int
-    nonlinearity: str
-    nl_params: dict[str, float] = field(default_factory=dict)
-    channels: tuple[str, ...] = ("theta_rad",)
-    drift: str = "reference"
-    detrend_order: int = 1
-    estimator: str = "streaming"
-    turbulence: str = "none"
-    sensor_noise: dict[str, float] = field(default_factory=dict)
-    seed: int = 0
-    gamma_deg: float = 0.0  # flight-path angle of the trim (climb positive)
-    bank_deg: float = 0.0  # bank of a steady turn (0: straight)
-    fault_type: str = "none"  # "none" or one of FAULT_TYPES
-    fault_onset_s: float = 0.0  # time after the trim when the fault appears, s
-    # the fault's own fields as in [fault] (probing.core.faults.FAULTS), validated
-    fault_values: dict[str, Any] = field(default_factory=dict)
-    control: Control | None = None  # [control]: the autopilot (None: open loop)
-    monitor: MonitorSettings | None = None  # [monitor]: the detector's settings
-    surface: str = DEFAULT_SURFACE  # the probed surface (probing.sim.surfaces.SURFACES)
-    simultaneous: Simultaneous | None = None  # [simultaneous]: more surfaces probed at once
-    manoeuvre: Manoeuvre | None = None  # [manoeuvre]: an autopilot reference that moves
-    # [sensors]: the suite with its overrides applied (None: the aircraft's state is measured
-    # as it is, with disturbance.sensor_noise), and the overrides as written,
-    # {channel: {field: value}} (to write the section back)
-    sensors: SensorSuite | None = None
-    sensor_overrides: dict[str, dict[str, float]] = field(default_factory=dict)
-    excitation: Excitation = PRBS  # [probe] signal: the PRBS, a multisine or a chirp
+    aircraft_section: AircraftSection
+    condition_section: ConditionSection
+    simulation_section: SimulationSection
+    probe_section: ProbeSection
+    nonlinearity_section: NonlinearitySection
+    output_section: OutputSection
+    disturbance_section: DisturbanceSection
+    fault_section: FaultSection | None = None
+    control_section: ControlSection | None = None  # None: open loop
+    monitor_section: MonitorSection | None = None  # None: the detector's defaults
+    simultaneous_section: Simultaneous | None = None
+    manoeuvre_section: ManoeuvreSection | None = None
+    # None: the aircraft's state is measured as it is, with disturbance.sensor_noise
+    sensors_section: SensorsSection | None = None
     text: str = ""  # the scenario as written (TOML), kept for provenance
+
+    # ---------------------------------------------------------- flat views
+    # The sections' fields under the names the rest of the code reads them by, each read
+    # from its section.
+    # [aircraft], [condition], [simulation]
+    @property
+    def model(self) -> str:
+        return self.aircraft_section.model
+
+    @property
+    def altitude_ft(self) -> float:
+        return self.condition_section.altitude_ft
+
+    @property
+    def speed_kind(self) -> str:
+        return self.condition_section.speed_kind
+
+    @property
+    def speed(self) -> float:
+        return self.condition_section.speed
+
+    @property
+    def gamma_deg(self) -> float:
+        return self.condition_section.gamma_deg
+
+    @property
+    def bank_deg(self) -> float:
+        return self.condition_section.bank_deg
+
+    @property
+    def dt_s(self) -> float:
+        return self.simulation_section.dt_s
+
+    # [probe] (the amplitude in the probed surface's unit: deg, or normalised for the throttle)
+    @property
+    def surface(self) -> str:
+        return self.probe_section.surface
+
+    @property
+    def order(self) -> int:
+        return self.probe_section.order
+
+    @property
+    def bit_duration_s(self) -> float:
+        return self.probe_section.bit_duration_s
+
+    @property
+    def amplitude_deg(self) -> float:
+        return self.probe_section.amplitude_deg
+
+    @property
+    def periods(self) -> int:
+        return self.probe_section.periods
+
+    @property
+    def settle_periods(self) -> int:
+        return self.probe_section.settle_periods
+
+    @property
+    def excitation(self) -> Excitation:
+        return self.probe_section.excitation
+
+    @property
+    def probe(self) -> Probe:
+        return self.probe_section.probe
+
+    # [nonlinearity]: its type and parameters
+    @property
+    def nonlinearity(self) -> str:
+        return self.nonlinearity_section.type
+
+    @property
+    def nl_params(self) -> dict[str, float]:
+        return self.nonlinearity_section.params
+
+    # [output]
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return self.output_section.channels
+
+    @property
+    def drift(self) -> str:
+        return self.output_section.drift
+
+    @property
+    def detrend_order(self) -> int:
+        return self.output_section.detrend_order
+
+    @property
+    def estimator(self) -> str:
+        return self.output_section.estimator
+
+    # [disturbance]
+    @property
+    def turbulence(self) -> str:
+        return self.disturbance_section.turbulence
+
+    @property
+    def seed(self) -> int:
+        return self.disturbance_section.seed
+
+    @property
+    def sensor_noise(self) -> dict[str, float]:
+        return self.disturbance_section.sensor_noise
+
+    # [fault]: type "none", onset 0 and no values without one
+    @property
+    def fault_type(self) -> str:
+        return self.fault_section.type if self.fault_section else "none"
+
+    @property
+    def fault_onset_s(self) -> float:
+        return self.fault_section.onset_s if self.fault_section else 0.0
+
+    @property
+    def fault_values(self) -> dict[str, Any]:
+        return self.fault_section.values if self.fault_section else {}
+
+    # the optional sections' objects: None without the section
+    @property
+    def control(self) -> Control | None:
+        return self.control_section.control if self.control_section else None
+
+    @property
+    def monitor(self) -> MonitorSettings | None:
+        return self.monitor_section.settings if self.monitor_section else None
+
+    @property
+    def simultaneous(self) -> Simultaneous | None:
+        return self.simultaneous_section
+
+    @property
+    def manoeuvre(self) -> Manoeuvre | None:
+        return self.manoeuvre_section.manoeuvre if self.manoeuvre_section else None
+
+    # [sensors]: the suite with its overrides applied (None without the section), and the
+    # overrides as written, {channel: {field: value}}
+    @property
+    def sensors(self) -> SensorSuite | None:
+        return self.sensors_section.suite if self.sensors_section else None
+
+    @property
+    def sensor_overrides(self) -> dict[str, dict[str, float]]:
+        return self.sensors_section.overrides if self.sensors_section else {}
 
     # -------------------------------------------------------------- derived
     @property
@@ -130,12 +246,6 @@ class Scenario:
     def surface_channel(self) -> str:
         """The channel of the probed surface's position sensor (``elevator_deg``, ...)."""
         return SURFACES[self.surface].channel
-
-    @functools.cached_property
-    def probe(self) -> Probe:
-        """The probe of ``[probe]``: order, bit duration and amplitude (in the surface's
-        unit), built once."""
-        return Probe(self.order, self.bit_duration_s, self.amplitude_deg, self.excitation)
 
     @property
     def steps_per_bit(self) -> int:
@@ -155,7 +265,7 @@ class Scenario:
     @property
     def total_steps(self) -> int:
         """Simulation steps of the whole run (one aircraft)."""
-        return self.periods * self.bits_per_period * self.steps_per_bit
+        return self.probe_section.total_steps(self.dt_s)
 
     @property
     def uses_twin(self) -> bool:
@@ -258,7 +368,7 @@ class Scenario:
         if self.monitor is not None:
             return self.monitor
         settings = MonitorSettings()
-        _check_baseline(self, settings, given=None)
+        check_baseline(self, settings, given=None)
         return settings
 
     @property
@@ -280,77 +390,18 @@ class Scenario:
         """The nonlinearity's parameters as one short line (``"width b_l = 0.0025 deg"``)."""
         return NONLINEARITIES[self.nonlinearity].describe(self.nl_params)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The scenario in its file layout (sections and field names), without ``text``."""
-        nl: dict[str, Any] = {"type": self.nonlinearity, **self.nl_params}
-        disturbance: dict[str, Any] = {"turbulence": self.turbulence, "seed": self.seed}
-        if self.sensor_noise:
-            disturbance["sensor_noise"] = dict(self.sensor_noise)
-        out: dict[str, Any] = {"channels": list(self.channels), "drift": self.drift}
-        if self.detrends or self.detrend_order != 1:
-            out["detrend_order"] = self.detrend_order
-        if self.estimator != "streaming":  # the default is left out: digests stay as they were
-            out["estimator"] = self.estimator
+    def sections(self) -> dict[str, Any]:
+        """The sections the scenario has, by their name in the file, in the file's order."""
         return {
-            "name": self.name,
-            "aircraft": {"model": self.model},
-            "condition": self._condition(),
-            "simulation": {"dt_s": self.dt_s},
-            "probe": {
-                # the elevator is left out: digests stay as they were before surfaces existed
-                **({"surface": self.surface} if self.surface != DEFAULT_SURFACE else {}),
-                "order": self.order,
-                "bit_duration_s": self.bit_duration_s,
-                f"amplitude_{self.surface_unit}": self.amplitude_deg,
-                "periods": self.periods,
-                "settle_periods": self.settle_periods,
-                # the PRBS is left out: digests stay as they were before other signals
-                **self._signal(),
-            },
-            "nonlinearity": nl,
-            "output": out,
-            "disturbance": disturbance,
-            # no [fault] or [control] section without one: digests stay as they were
-            **({"fault": self._fault()} if self.fault_type != "none" else {}),
-            **({"control": self.control.to_dict()} if self.control is not None else {}),
-            **({"monitor": self.monitor.to_dict()} if self.monitor is not None else {}),
-            **(
-                {"simultaneous": self.simultaneous.to_dict()}
-                if self.simultaneous is not None
-                else {}
-            ),
-            **({"manoeuvre": self.manoeuvre.to_dict()} if self.manoeuvre is not None else {}),
-            **({"sensors": self._sensors()} if self.sensors is not None else {}),
+            f.name.removesuffix("_section"): getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if f.name.endswith("_section") and getattr(self, f.name) is not None
         }
 
-    def _signal(self) -> dict[str, Any]:
-        """``probe.signal`` and its fields; nothing for the PRBS."""
-        exc = self.excitation
-        if exc.is_binary:
-            return {}
-        assert exc.band_hz is not None
-        out: dict[str, Any] = {"signal": exc.signal, "band_hz": list(exc.band_hz)}
-        return {**out, "sweep": exc.sweep} if exc.signal == "chirp" else out
-
-    def _sensors(self) -> dict[str, Any]:
-        """The ``[sensors]`` section: the suite's name and the overrides as written."""
-        assert self.sensors is not None
-        overrides = {ch: dict(values) for ch, values in self.sensor_overrides.items()}
-        return {"suite": self.sensors.name, **overrides}
-
-    def _fault(self) -> dict[str, Any]:
-        """The ``[fault]`` section."""
-        return {"type": self.fault_type, "onset_s": self.fault_onset_s, **self.fault_values}
-
-    def _condition(self) -> dict[str, float]:
-        """The ``[condition]`` section; a straight-and-level trim leaves out its zero flight-path
-        and bank angles, so its digest is what it was before they existed."""
-        out = {"altitude_ft": self.altitude_ft, self.speed_kind: self.speed}
-        if self.gamma_deg:
-            out["gamma_deg"] = self.gamma_deg
-        if self.bank_deg:
-            out["bank_deg"] = self.bank_deg
-        return out
+    def to_dict(self) -> dict[str, Any]:
+        """The scenario in its file layout (sections and field names), without ``text``."""
+        sections = {name: section.to_dict() for name, section in self.sections().items()}
+        return {"name": self.name, **sections}
 
     def to_json(self) -> str:
         """Canonical JSON of :meth:`to_dict` (sorted keys), used for hashing and metadata."""
@@ -444,31 +495,56 @@ def check_name(name: Any, source: str | None = None) -> str:
 
 
 def _parse(data: dict[str, Any], text: str, folder: Path | None = None) -> Scenario:
-    """The scenario of ``data``, its sections read in file order (so the first error is
-    always the same one)."""
-    _check_keys(data)
+    """The scenario of ``data``: its sections read in file order, then the rules between
+    them (so the first error is always the same one)."""
+    check_keys(data)
     name = check_name(data["name"])
-    model = _aircraft(data, folder)
-    condition = _condition(data["condition"])
-    dt = _number(data["simulation"], "simulation", "dt_s", lo=0, hi=0.1, lo_open=True)
-    probe = _probe(data["probe"], dt)
-    nl_type, params = _nonlinearity(data["nonlinearity"])
-    output = _output(data["output"])
-    output["estimator"] = _check_estimator(probe["excitation"], output["estimator"])
-    disturbance = _disturbance(data.get("disturbance", {}), output["channels"])
+    aircraft = AircraftSection.parse(data["aircraft"], folder)
+    condition = ConditionSection.parse(data["condition"])
+    simulation = SimulationSection.parse(data["simulation"])
+    dt_s = simulation.dt_s
+    probe = ProbeSection.parse(data["probe"], dt_s=dt_s)
+    duration_s = probe.total_steps(dt_s) * dt_s
+    nonlinearity = NonlinearitySection.parse(data["nonlinearity"])
+    output = OutputSection.parse(data["output"])
+    # the estimator left out is the probe signal's own
+    estimator = check_estimator(probe.excitation, data["output"].get("estimator"))
+    output = dataclasses.replace(output, estimator=estimator)
+    disturbance = DisturbanceSection.parse(data.get("disturbance", {}))
+    fault = data.get("fault")
+    control, monitor = data.get("control"), data.get("monitor")
+    simultaneous, manoeuvre = data.get("simultaneous"), data.get("manoeuvre")
+    sensors = data.get("sensors")
     scn = Scenario(
         name=name,
-        model=model,
-        dt_s=dt,
-        nonlinearity=nl_type,
-        nl_params=params,
+        aircraft_section=aircraft,
+        condition_section=condition,
+        simulation_section=simulation,
+        probe_section=probe,
+        nonlinearity_section=nonlinearity,
+        output_section=output,
+        disturbance_section=disturbance,
+        # an empty [fault] table is no fault
+        fault_section=FaultSection.parse(fault, duration_s=duration_s) if fault else None,
+        control_section=ControlSection.parse(control) if control is not None else None,
+        monitor_section=MonitorSection.parse(monitor) if monitor is not None else None,
+        simultaneous_section=(
+            Simultaneous.parse(
+                simultaneous, surface=probe.surface, amplitude_deg=probe.amplitude_deg
+            )
+            if simultaneous is not None
+            else None
+        ),
+        manoeuvre_section=(
+            ManoeuvreSection.parse(manoeuvre, duration_s=duration_s)
+            if manoeuvre is not None
+            else None
+        ),
+        sensors_section=SensorsSection.parse(sensors, dt_s=dt_s) if sensors is not None else None,
         text=text,
-        **condition,
-        **probe,
-        **output,
-        **disturbance,
     )
-    return _later_sections(data, scn)
+    check_across(scn, data)
+    return scn
 
 
 def read_toml(path: Path) -> tuple[dict[str, Any], str]:
