@@ -25,6 +25,14 @@ from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
+from probing.experiment.scenario.flight_sections import (
+    ControlSection,
+    FaultSection,
+    ManoeuvreSection,
+    MonitorSection,
+    SensorsSection,
+    Simultaneous,
+)
 from probing.experiment.scenario.probe_signal import check_estimator
 from probing.experiment.scenario.rules import check_across, check_baseline
 from probing.experiment.scenario.schema import (
@@ -36,17 +44,11 @@ from probing.experiment.scenario.schema import (
 from probing.experiment.scenario.sections import (
     AircraftSection,
     ConditionSection,
-    ControlSection,
     DisturbanceSection,
-    FaultSection,
-    ManoeuvreSection,
-    MonitorSection,
     NonlinearitySection,
     OutputSection,
     ProbeSection,
-    SensorsSection,
     SimulationSection,
-    Simultaneous,
 )
 from probing.sim.flight import SPEED_KINDS, ActuatorFault, Control, Flight, Manoeuvre
 from probing.sim.surfaces import SURFACES
