@@ -26,7 +26,8 @@ import pyarrow.parquet as pq
 
 from probing.experiment.layouts import AUTOPILOT_COLUMNS
 from probing.experiment.monitor import ReplayError
-from probing.experiment.onboard import LOG_DRIFTS, log_columns
+from probing.experiment.onboard import log_columns
+from probing.experiment.references import REFERENCES, realisable_drifts
 from probing.experiment.scenario import Scenario, ScenarioError
 from probing.experiment.storage import provenance
 from probing.sim.channels import CHANNEL_NAMES
@@ -202,7 +203,7 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
         The map (:func:`read_map`).
     scn : Scenario
         The aircraft, probe and monitor settings; its drift must be one of
-        :data:`~probing.experiment.onboard.LOG_DRIFTS`.
+        :func:`~probing.experiment.references.realisable_drifts`.
 
     Returns
     -------
@@ -219,10 +220,10 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
         that is not the scenario's, a log shorter than the monitor's baseline needs.
     """
     log = Path(log)
-    if scn.drift not in LOG_DRIFTS:
+    if not REFERENCES[scn.drift].realisable:
         raise ReplayError(
             f"{log}: drift {scn.drift} needs the simulation; a log recorded elsewhere is "
-            f"monitored with {', '.join(LOG_DRIFTS)}"
+            f"monitored with {', '.join(realisable_drifts())}"
         )
     table = _read_table(log)
     probe = f"probe_{scn.surface_unit}"

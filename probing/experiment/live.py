@@ -43,7 +43,7 @@ from probing.experiment.flight_computer import FlightComputer, folder_of
 from probing.experiment.monitor import Monitor, MonitorResult
 from probing.experiment.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.progress import Progress, progress_bar
-from probing.experiment.references import REALISABLE_DRIFTS
+from probing.experiment.references import REFERENCES, realisable_drifts
 from probing.experiment.run import scenario_provenance
 from probing.experiment.runners import runner_of
 from probing.experiment.scenario import Scenario
@@ -61,7 +61,6 @@ from probing.sim.world import JSBSimWorld
 
 __all__ = [
     "LIVE_CHUNK_PERIODS",
-    "LIVE_DRIFTS",
     "LiveError",
     "LiveResult",
     "SocketWorld",
@@ -70,21 +69,19 @@ __all__ = [
     "live_monitor",
 ]
 
-#: The drift modes a live flight supports: every realisable one (``oracle`` and
-#: ``reference`` fly a twin through the simulator's own turbulence, which no flight computer
-#: knows).
-LIVE_DRIFTS = REALISABLE_DRIFTS
-
 #: The periods a live flight logs and estimates at a time: one, so each period's estimate and
 #: the monitor's state are known (and reported) as the period ends.  The log's footer records
 #: it (``probing.chunk_periods``): its replay chunks the rows alike, so its tables are equal
 #: bit for bit (a flight in this process chunks by ``probing.experiment.run.CHUNK_STEPS``).
 LIVE_CHUNK_PERIODS = 1
 
-SUPPORTED = (
-    "probing live flies every scenario probing monitor flies with a realisable reference "
-    f"(output.drift {', '.join(LIVE_DRIFTS)}), trimmed without damage"
-)
+
+def supported() -> str:
+    """What a live flight supports, for its refusals."""
+    return (
+        "probing live flies every scenario probing monitor flies with a realisable reference "
+        f"(output.drift {', '.join(realisable_drifts())}), trimmed without damage"
+    )
 
 
 def at_trim_frame(time_s: float, dt_s: float) -> bool:
@@ -107,12 +104,12 @@ def check_live(scn: Scenario) -> None:
     if refusal is not None:
         raise LiveError(f"{scn.name}: {refusal}")
     reasons = []
-    if scn.drift not in LIVE_DRIFTS:
+    if not REFERENCES[scn.drift].realisable:
         reasons.append(f"output.drift is {scn.drift}")
     if scn.flight.trimmed_damage:
         reasons.append(f"it is trimmed with damage case {scn.flight.trimmed_damage}")
     if reasons:
-        raise LiveError(f"{scn.name}: {'; '.join(reasons)}: {SUPPORTED}")
+        raise LiveError(f"{scn.name}: {'; '.join(reasons)}: {supported()}")
 
 
 @dataclass

@@ -35,7 +35,7 @@ from probing.core.gust import GUST_SENSORS, GustEstimator
 from probing.core.trajectory import trajectory_features
 from probing.experiment.drift import drift_correction
 from probing.experiment.layouts import AUTOPILOT_COLUMNS
-from probing.experiment.references import REALISABLE_DRIFTS, REFERENCES
+from probing.experiment.references import REFERENCES
 from probing.experiment.scenario import Scenario
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.errors import DivergenceError
@@ -45,7 +45,6 @@ from probing.sim.plant import Plant, make_plant
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = [
-    "LOG_DRIFTS",
     "Estimated",
     "FollowSource",
     "GustSource",
@@ -198,11 +197,6 @@ def reference_source(
         assert twin is not None, "a twin reference needs its twin"
         return TwinSource(twin)
     return None
-
-
-#: The drift modes a log recorded elsewhere can be monitored with: the realisable ones (the
-#: others fly the simulated atmosphere).
-LOG_DRIFTS = REALISABLE_DRIFTS
 
 
 def log_columns(scn: Scenario) -> tuple[str, ...]:

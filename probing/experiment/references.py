@@ -20,6 +20,7 @@ __all__ = [
     "REFERENCE_KINDS",
     "TWIN_DRIFTS",
     "Reference",
+    "realisable_drifts",
 ]
 
 #: What a reference is: ``twin`` (a precomputed twin's outputs, step by step), ``log`` (computed
@@ -111,5 +112,12 @@ GUST_KNOWING_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.knows_gusts)
 #: The references that subtract a precomputed twin.
 TWIN_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.kind == "twin")
 #: The references a flight computer can compute: what a live flight and a log recorded
-#: elsewhere can use.
+#: elsewhere can use (the table's, as the project ships it: :func:`realisable_drifts` reads
+#: the table as it is now).
 REALISABLE_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.realisable)
+
+
+def realisable_drifts() -> tuple[str, ...]:
+    """The references a flight computer can compute, read from :data:`REFERENCES` now (so a
+    reference added to the table is offered at once)."""
+    return tuple(n for n, r in REFERENCES.items() if r.realisable)

@@ -12,6 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 from test_live import SCENARIO, _fly_live, _table
 
 from probing.cli import main
@@ -19,9 +20,10 @@ from probing.cli import run as run_cli
 from probing.core.faults import FAULTS, FaultField, FaultType, onset_step
 from probing.core.sensors import SENSOR_SUITES, SensorSpec, SensorSuite
 from probing.experiment import monitor as monitor_module
-from probing.experiment import runners, truth
+from probing.experiment import onboard, runners, truth
 from probing.experiment.live import LiveError, check_live
 from probing.experiment.monitor import monitor_scenario, replay_monitor
+from probing.experiment.references import REFERENCES, Reference
 from probing.experiment.runners import Runner
 from probing.experiment.scenario import load_scenario
 from probing.sim.channels import CHANNELS, Channel
@@ -310,3 +312,91 @@ def test_design_simultaneous_checks_what_the_simultaneous_runner_flies(capsys, m
     code = main(["design", "--simultaneous", str(shift)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "is flown by crosstalk" in err, err
+
+
+# ------------------------------------------------------------------ a reference
+#: The low-pass's time constant, s: far beyond the probe's period (0.62 s), so what the
+#: reference leaves is the probe's response and the fast part of the drift.
+LOWPASS_S = 20.0
+
+
+class LowPass:
+    """A new reference computed from the log: each channel's measurement through a
+    first-order low-pass, started at the first row (a source of
+    :data:`probing.experiment.onboard.SOURCES`: ``next(log)`` -> the rows' reference)."""
+
+    def __init__(self, scn, plant) -> None:
+        self.channels = list(scn.channels)
+        a = scn.dt_s / LOWPASS_S
+        self.b, self.a = [a], [1.0, a - 1.0]
+        self.state: np.ndarray | None = None
+
+    def next(self, log):
+        y = np.column_stack([log[c] for c in self.channels])
+        if self.state is None:
+            self.state = (1.0 - self.b[0]) * y[0][None, :]  # lfilter's state at rest on y[0]
+        out, self.state = lfilter(self.b, self.a, y, axis=0, zi=self.state)
+        return out
+
+
+LOWPASS = Reference(
+    "lowpass", "log", description="each channel's measurement low-passed (the test's own)"
+)
+
+
+@pytest.fixture(scope="module")
+def lowpass(tmp_path_factory):
+    """The reference added to REFERENCES and its source to SOURCES; a flight with it live and
+    in this process, and the live log replayed."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(REFERENCES, "lowpass", LOWPASS)
+        mp.setitem(onboard.SOURCES, "lowpass", LowPass)
+        base = tmp_path_factory.mktemp("lowpass")
+        text = _with(SHORT, "lowpass").replace('drift = "detrend"', 'drift = "lowpass"')
+        scn, live, here = _fly_both(base, text)
+        replayed = replay_monitor(live / "sensors.parquet", base / "replay", progress=False)
+        yield SimpleNamespace(
+            scn=scn,
+            live=live,
+            here=here,
+            replay_probing=_table(replayed.out_dir, "probing.parquet"),
+        )
+
+
+def test_a_new_reference_is_a_drift_mode_offered_live(lowpass):
+    assert lowpass.scn.drift == "lowpass" and lowpass.scn.to_dict()["output"]["drift"] == "lowpass"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(REFERENCES, "lowpass", LOWPASS)
+        check_live(lowpass.scn)  # realisable: offered live
+
+
+def test_a_new_references_source_carries_its_state_across_chunks(lowpass):
+    """The source computed chunk by chunk, as the flight computer calls it, is the low-pass
+    of the whole log at once (scipy's lfilter over every row)."""
+    log = _table(lowpass.here, "sensors.parquet")
+    columns = {c: log[c].to_numpy() for c in lowpass.scn.channels}
+    whole = LowPass(lowpass.scn, None).next(columns)
+    source = LowPass(lowpass.scn, None)
+    parts = [
+        source.next({c: v[i : i + 100] for c, v in columns.items()})
+        for i in range(0, len(log), 100)
+    ]
+    np.testing.assert_allclose(np.vstack(parts), whole, rtol=1e-12, atol=1e-15)
+    assert np.abs(whole - np.column_stack(list(columns.values()))).max() > 0
+
+
+def test_a_new_reference_flies_live_as_in_this_process(lowpass):
+    """Every period's estimate within 5e-4 of the largest tap, live and in this process."""
+    a = _table(lowpass.live, "probing.parquet")
+    b = _table(lowpass.here, "probing.parquet")
+    for channel in lowpass.scn.channels:
+        ha = a[a.channel == channel].h_est.to_numpy()
+        hb = b[b.channel == channel].h_est.to_numpy()
+        ok = np.isfinite(ha) & np.isfinite(hb)
+        assert ok.sum() > 0
+        assert np.abs(ha[ok] - hb[ok]).max() <= 5e-4 * np.abs(hb[ok]).max(), channel
+
+
+def test_a_live_flight_with_a_new_reference_replays_bit_for_bit(lowpass):
+    live = _table(lowpass.live, "probing.parquet")
+    assert len(live) > 0 and live.equals(lowpass.replay_probing)

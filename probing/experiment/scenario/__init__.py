@@ -3,10 +3,13 @@
 The package's modules: the schema, :class:`ScenarioError` and the checks of one value
 (:mod:`~probing.experiment.scenario.schema`), the probe's signal
 (:mod:`~probing.experiment.scenario.probe_signal`), one parser per section
-(:mod:`~probing.experiment.scenario.sections`), and the scenario itself
+(:mod:`~probing.experiment.scenario.sections`, those a flight adds in
+:mod:`~probing.experiment.scenario.flight_sections`), the rules between sections
+(:mod:`~probing.experiment.scenario.rules`), and the scenario itself
 (:mod:`~probing.experiment.scenario.scenario`).
 """
 
+from probing.experiment.references import DRIFT_MODES
 from probing.experiment.scenario.scenario import (
     Scenario,
     check_name,
@@ -16,7 +19,6 @@ from probing.experiment.scenario.scenario import (
 )
 from probing.experiment.scenario.schema import (
     DEFAULT_MAX_CROSSTALK,
-    DRIFT_MODES,
     FAULT_TYPES,
     MAX_PERIODS,
     SECTIONS,

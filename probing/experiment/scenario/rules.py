@@ -12,7 +12,8 @@ from typing import Any
 from probing.core.gust import GUST_REFERENCE_SENSORS
 from probing.core.monitor import MonitorSettings
 from probing.core.sensors import SensorSuite
-from probing.experiment.scenario.schema import GUST_KNOWING_DRIFTS, ScenarioError, field_label
+from probing.experiment.references import REFERENCES
+from probing.experiment.scenario.schema import ScenarioError, field_label
 from probing.sim.flight import DAMAGE_MODEL, LOOP_SENSORS
 
 
@@ -117,7 +118,8 @@ def _check_simultaneous(scn: Any) -> None:
     """``[simultaneous]`` alone on a linear path, with the cyclic estimator and a drift
     correction it offers."""
     _alone("simultaneous", scn, ("nonlinearity", "fault", "control", "monitor"))
-    if scn.drift not in (*GUST_KNOWING_DRIFTS, "none") or scn.estimator != "cyclic":
+    offered = REFERENCES[scn.drift].knows_gusts or scn.drift == "none"
+    if not offered or scn.estimator != "cyclic":
         raise ScenarioError(
             "simultaneous",
             'needs output.estimator = "cyclic" and output.drift = "reference", "oracle" or "none"',

@@ -25,6 +25,7 @@ from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
+from probing.experiment.references import REFERENCES
 from probing.experiment.scenario.flight_sections import (
     ControlSection,
     FaultSection,
@@ -36,8 +37,6 @@ from probing.experiment.scenario.flight_sections import (
 from probing.experiment.scenario.probe_signal import check_estimator
 from probing.experiment.scenario.rules import check_across, check_baseline
 from probing.experiment.scenario.schema import (
-    GUST_KNOWING_DRIFTS,
-    TWIN_DRIFTS,
     ScenarioError,
     check_keys,
 )
@@ -276,14 +275,14 @@ class Scenario:
         ``nominal`` (the nominal aircraft in calm air, flying its own autopilot).  ``gust``
         is not one: its twin is flown from the sensor stream, through the gust estimated
         from it."""
-        return self.drift in TWIN_DRIFTS
+        return REFERENCES[self.drift].kind == "twin"
 
     @property
     def twin_knows_gusts(self) -> bool:
         """True if the twin flies the same gusts as the aircraft (``reference``, ``oracle``):
         a simulation-only upper bound, since no real aircraft knows the gusts it flies
         through.  In calm air every twin is the same aircraft."""
-        return self.drift in GUST_KNOWING_DRIFTS
+        return REFERENCES[self.drift].knows_gusts
 
     @property
     def follows(self) -> bool:

@@ -18,14 +18,6 @@ from probing.sim.flight import (
     Control,
 )
 
-#: ``output.drift``'s values (``docs/scenarios.md``): the twins ``reference``, ``oracle`` (both
-#: fly the aircraft's own gusts) and ``nominal`` (calm air), ``gust`` (calm air through the
-#: gust estimated from the sensors), ``follow``, ``detrend`` and ``none``.
-DRIFT_MODES = ("reference", "follow", "detrend", "none", "oracle", "nominal", "gust")
-#: Drift modes whose twin flies the same gusts as the aircraft (simulation only).
-GUST_KNOWING_DRIFTS = ("reference", "oracle")
-#: Drift modes that subtract a precomputed unprobed twin.
-TWIN_DRIFTS = ("reference", "oracle", "nominal")
 #: Most periods a scenario may ask for.
 MAX_PERIODS = 100_000
 #: Section -> its fields (None: a top-level value).

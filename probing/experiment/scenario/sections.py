@@ -23,9 +23,9 @@ from probing.core.excitation import PRBS, Excitation
 from probing.core.noise import ESTIMATOR_NAMES
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, Probe, steps_per_bit
+from probing.experiment.references import REFERENCES
 from probing.experiment.scenario.probe_signal import parse_excitation, signal_fields
 from probing.experiment.scenario.schema import (
-    DRIFT_MODES,
     MAX_PERIODS,
     ScenarioError,
     choice,
@@ -301,7 +301,8 @@ class OutputSection:
                 "output.channels",
                 f"must be a non-empty list of distinct names from {', '.join(CHANNEL_NAMES)}",
             )
-        drift = choice(table, "output", "drift", DRIFT_MODES) if "drift" in table else "reference"
+        references = tuple(REFERENCES)  # read when parsed: a reference added is offered
+        drift = choice(table, "output", "drift", references) if "drift" in table else "reference"
         detrend_order = (
             integer(table, "output", "detrend_order", lo=0, hi=3) if "detrend_order" in table else 1
         )
