@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
 from probing.sim.plant import make_plant
 

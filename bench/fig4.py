@@ -77,7 +77,7 @@ def _fig4_once(cwd: Path, then: Callable[[Path, str], None] | None = None) -> fl
 
 def run(args: argparse.Namespace) -> dict:
     """``probing fig4`` end to end in a fresh process vs bare stepping of its steps."""
-    from probing.experiment.fig4 import run_set
+    from probing.experiment.studies.fig4 import run_set
 
     walls, sim_walls, replots, main_walls = [], [], [], []
     found: dict[str, object] = {}

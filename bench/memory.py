@@ -9,7 +9,7 @@ import time
 
 from bench.common import child_json, flight, peak_rss_kib, twin_cache_dir
 from bench.report import Rendered, Row
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.sim.plant import make_plant
 
 

@@ -19,9 +19,9 @@ from pathlib import Path
 
 from bench.common import child_json, peak_rss_kib
 from bench.report import Rendered, Row
-from probing.experiment import monitor as monitor_module
-from probing.experiment.monitor import monitor_scenario
-from probing.experiment.run import run_scenario
+from probing.experiment.flight import monitor as monitor_module
+from probing.experiment.flight.monitor import monitor_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -2,7 +2,7 @@
 on JSBSim itself, for the conditions of the noise sweeps (``scenarios/sweeps/noise-*.toml``).
 
 Measured: a noise-free run 100 periods longer than the scenario, the mean of its settled
-periods minus that of its last 10 (:func:`probing.experiment.noise.measured_bias`).
+periods minus that of its last 10 (:func:`probing.experiment.design.noise.measured_bias`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from bench.report import Rendered, Row
-from probing.experiment.noise import measured_bias, predict
+from probing.experiment.design.noise import measured_bias, predict
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -80,7 +80,8 @@ def render_noise_bias(r: dict) -> tuple[list[tuple[str, str, str, str]], list[st
         "",
         "The bias of the mean settled h_est (RMS over taps, channel unit per deg) that the "
         "run's start from trim leaves: predicted from JSBSim's linearisation with the model's "
-        "actuator (`probing.experiment.noise.predict`), measured on a noise-free run 100 periods "
+        "actuator (`probing.experiment.design.noise.predict`), measured on a noise-free run "
+        "100 periods "
         "longer (settled mean minus the mean of the last 10 periods). "
         f"{r['wall_s']:.0f} s.",
         "",

@@ -2,7 +2,7 @@
 
 *Before* is the path every run took until issue [3/6]: each point loads and trims its own
 aircraft (``run_scenario`` without an aircraft, or ``PROBING_FORK=0`` for the command line).
-*After* is the grouped path (:mod:`probing.experiment.batch`): one load and trim per group,
+*After* is the grouped path (:mod:`probing.experiment.flight.batch`): one load and trim per group,
 one forked child per point.  Both are measured in the same run, one worker, each repeat with
 a fresh twin cache (the group's one twin is simulated in both).
 """
@@ -27,8 +27,8 @@ from bench.common import (
     twin_cache_dir,
 )
 from bench.report import Rendered, Row
-from probing.experiment.batch import run_grouped
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.batch import run_grouped
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -259,7 +259,7 @@ def render_per_point(r: dict) -> tuple[list[dict], list[str]]:
         "default 737 scenario), one worker, a fresh twin cache each repeat, medians of "
         "interleaved repeats. *Before*: every point loads and trims its aircraft (the path of "
         "every run until issue [3/6]). *After*: one load and trim per group, one forked child "
-        "per point (`probing.experiment.batch`). Stepping: bare `fdm.run()` of the points' "
+        "per point (`probing.experiment.flight.batch`). Stepping: bare `fdm.run()` of the points' "
         "steps and the group's one twin, timed in every repeat just before its runs. The "
         "seconds are those of the repeat with the median ratio of after to stepping; the "
         "speed-up is the median of the repeats' before/after.",

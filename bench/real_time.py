@@ -13,16 +13,16 @@ import time
 
 from bench.common import DEFAULT_SCENARIO, ROOT, bare_loop, median_time, twin_cache_dir
 from bench.report import Rendered, Row
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
+from probing.experiment.output.storage import provenance
 from probing.experiment.scenario import load_scenario
-from probing.experiment.storage import provenance
 from probing.sim.plant import make_plant
 
 #: Run in a fresh interpreter: import time, then the default scenario twice (twin simulated).
 FIRST_RUN_CODE = """
 import json, sys, tempfile, time
 t0 = time.perf_counter()
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import load_scenario
 imported = time.perf_counter() - t0
 walls = []

@@ -10,7 +10,7 @@ import tempfile
 from bench.common import bare_loop, flight, twin_cache_dir
 from bench.profiling import profile, render_profile
 from bench.report import Rendered, Row
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 
 
 def run(args: argparse.Namespace) -> dict:

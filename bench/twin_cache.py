@@ -9,7 +9,7 @@ import tempfile
 
 from bench.common import flight, twin_cache_dir
 from bench.report import Rendered, Row
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 
 
 def run(args: argparse.Namespace) -> dict:

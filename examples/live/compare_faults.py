@@ -19,8 +19,8 @@ import time
 from pathlib import Path
 
 from probing.data import SCENARIOS
-from probing.experiment.live import live_monitor
-from probing.experiment.monitor import monitor_scenario
+from probing.experiment.flight.live import live_monitor
+from probing.experiment.flight.monitor import monitor_scenario
 from probing.experiment.scenario import load_scenario
 from probing.sim.live_sim import write_sim
 

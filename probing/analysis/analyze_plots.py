@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from probing.analysis.figures import RC, save_figure
-from probing.experiment.storage import read_footer, read_table
+from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = ["auto_max_lag_s", "draw_bounds", "per_label"]
 

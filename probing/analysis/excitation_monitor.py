@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.monitoring import FAULTS, evaluate, fault_table, load_study
-from probing.experiment.storage import read_table
+from probing.experiment.output.storage import read_table
 
 __all__ = ["CASES", "SIGNALS", "gain_changes", "monitor_table", "signal_of"]
 

@@ -8,7 +8,7 @@ For each aircraft and signal (:func:`collect`):
 * **accuracy in calm air** without a nonlinearity: the settled estimate against JSBSim's
   linearisation (one step's delay), superposed over the signal's own history and estimated
   by its own estimator: the linearised truth over the signal's harmonics
-  (:func:`probing.experiment.drift.predicted_probing`), and against the whole linearised
+  (:func:`probing.experiment.flight.drift.predicted_probing`), and against the whole linearised
   pulse response (folded over the period): what the band leaves out;
 * **the gain's scatter over seeds**: the least-squares gain of each noisy baseline against
   the noise-free one (white sensor noise, same seeds for every signal);
@@ -36,10 +36,10 @@ from probing.analysis import fig4
 from probing.core.excitation import band_limited, crest_factor
 from probing.core.metrics import gain_and_shape, harmonic_ratio, through_nonlinearity
 from probing.core.nonlinearities import NoApparentFormError, compensate
-from probing.experiment.drift import predicted_probing
-from probing.experiment.fig4_set import PANELS
+from probing.experiment.flight.drift import predicted_probing
+from probing.experiment.output.storage import read_settled
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import read_settled
+from probing.experiment.studies.fig4_set import PANELS
 
 __all__ = ["CHANNELS", "Study", "collect", "summary_markdown"]
 

@@ -20,8 +20,8 @@ from probing.analysis.excitations import Study, ac, predicted_estimate
 from probing.analysis.figures import RC, save_figure
 from probing.core.metrics import gain_and_shape, harmonic_ratio
 from probing.core.recorded import tap_bounds
-from probing.experiment.fig4_set import PANELS
-from probing.experiment.layouts import BOUNDS_LEVEL
+from probing.experiment.output.layouts import BOUNDS_LEVEL
+from probing.experiment.studies.fig4_set import PANELS
 
 __all__ = ["draw"]
 

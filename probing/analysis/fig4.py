@@ -1,6 +1,7 @@
 """The numbers of the paper's Fig. 4, read from a results folder: no simulation.
 
-``probing fig4`` runs a set (:mod:`probing.experiment.fig4`), then this module reads the runs'
+``probing fig4`` runs a set (:mod:`probing.experiment.studies.fig4`), then this module reads the
+runs'
 Parquet files and ``manifest.json`` (:func:`collect`) and writes the summary
 (:func:`write_summary`); :mod:`probing.analysis.fig4_plots` draws the figures from the same data.
 ``probing plot fig4 RESULTS_DIR`` does the last two alone.
@@ -35,9 +36,9 @@ from probing.core.correlator import StreamingCorrelator
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import NoApparentFormError, RateLimit, compensate
 from probing.core.prbs import Probe
-from probing.experiment.fig4_set import BASELINE, CHANNEL, OFFSET_TWIN, PANELS
+from probing.experiment.output.storage import read_schema, read_settled
 from probing.experiment.scenario import Scenario, parse_scenario
-from probing.experiment.storage import read_schema, read_settled
+from probing.experiment.studies.fig4_set import BASELINE, CHANNEL, OFFSET_TWIN, PANELS
 
 __all__ = [
     "Fig4Data",

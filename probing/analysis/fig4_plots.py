@@ -25,7 +25,7 @@ from probing.analysis.figures import RC, place_clear_of_data, save_figure
 from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
 from probing.core.recorded import tap_bounds
-from probing.experiment.layouts import BOUNDS_LEVEL
+from probing.experiment.output.layouts import BOUNDS_LEVEL
 
 __all__ = ["draw", "figures"]
 MRAD = 1e3  # rad -> mrad

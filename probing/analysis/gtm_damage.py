@@ -1,6 +1,6 @@
 """NASA's Example 6 from its stored time histories: the summary table and one figure per case.
 
-``probing gtm-damage`` flies the cases (:func:`probing.experiment.gtm_damage.run_example6`);
+``probing gtm-damage`` flies the cases (:func:`probing.experiment.studies.gtm_damage.run_example6`);
 this module reads the Parquet files back, writes ``summary.csv`` (one row per case, case 0
 the undamaged flight) and ``trim.csv`` (the turn trim every case starts from: JSBSim's turn
 trim, sideslip free, and the zero-sideslip one flown) and draws
@@ -19,8 +19,8 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
-from probing.experiment.gtm_damage_set import case_file
-from probing.experiment.storage import read_table
+from probing.experiment.output.storage import read_table
+from probing.experiment.studies.gtm_damage_set import case_file
 from probing.sim.flight import DAMAGE_CASES
 
 __all__ = ["SUMMARY_VARIABLES", "UNWRAPPED", "draw", "load", "summary", "trim_table"]

@@ -1,6 +1,6 @@
 """The GTM's mode table and figure (``docs/gtm.md``, ``figures/gtm_modes.png``).
 
-``probing modes`` computes the points (:func:`probing.experiment.modes.mode_table`: trim
+``probing modes`` computes the points (:func:`probing.experiment.studies.modes.mode_table`: trim
 and linearise the GTM at 800 ft for equivalent airspeeds 60, 70, ..., 130 kt) and this
 module writes ``docs/gtm.md`` whole and draws the figure; nothing is simulated here.
 
@@ -17,7 +17,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from probing.analysis.figures import save_figure
-from probing.experiment.modes_set import DamagePoint, ModePoint
+from probing.experiment.studies.modes_set import DamagePoint, ModePoint
 
 __all__ = ["figure", "mode_table", "save", "write_doc"]
 

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
-from probing.experiment.storage import read_table
+from probing.experiment.output.storage import read_table
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 

@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from probing.core.faults import FAULTS as FAULT_TYPES
-from probing.experiment.storage import read_footer, read_table
+from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = [
     "CHECK_RATE_PER_HOUR",

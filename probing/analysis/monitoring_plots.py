@@ -11,7 +11,7 @@ import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
 from probing.analysis.monitoring import FAULTS, roc
-from probing.experiment.storage import read_table
+from probing.experiment.output.storage import read_table
 
 __all__ = [
     "amplitude_figure",

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import save_figure
-from probing.experiment.storage import read_footer, read_table
+from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = [
     "GOAL_RATIO",

@@ -4,14 +4,15 @@ measured scatter and bias of the estimates against the noise model's predictions
 Points that differ only in their seed form a group.  For each group and output channel:
 
 * **h, z scatter**: the standard deviation over seeds of the mean settled h_est (z), RMS over
-  taps; predicted by :mod:`probing.experiment.noise` (stored by each point in ``point.json``).
+  taps; predicted by :mod:`probing.experiment.design.noise` (stored by each point in
+  ``point.json``).
 * **gain scatter**: the standard deviation over seeds of the least-squares gain of each
   seed's h against the group's seed mean; predicted by the noise model for that same
   reference (:meth:`probing.core.noise.NoiseModel.gain_std`).
 
 The bias is not measured here: the seed mean still carries the scatter / sqrt(S), and the
 steady state it would be compared with is known only as well as the linearisation.  It is
-checked on long noise-free runs instead (:func:`probing.experiment.noise.measured_bias`).
+checked on long noise-free runs instead (:func:`probing.experiment.design.noise.measured_bias`).
 
 With S seeds a measured standard deviation has a relative sampling error of about
 1 / sqrt(2 (S - 1)) (10 % at S = 50), drawn as error bars.
@@ -28,7 +29,7 @@ import numpy as np
 
 from probing.analysis.tables import fmt
 from probing.core.noise import noise_model, white
-from probing.experiment.storage import read_settled
+from probing.experiment.output.storage import read_settled
 
 __all__ = ["SEED", "GroupStats", "has_seeds", "seed_statistics", "seed_table"]
 

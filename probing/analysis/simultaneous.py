@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
-from probing.experiment.storage import read_schema, read_table
+from probing.experiment.output.storage import read_schema, read_table
 
 __all__ = ["draw", "figure", "load_runs", "summary_markdown"]
 

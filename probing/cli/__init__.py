@@ -5,8 +5,8 @@ Exit codes: 0 success; 2 bad input (a scenario, sweep or option that is refused,
 folder or file that cannot be written, a Dask scheduler that does not answer, an aircraft
 folder of the user's that JSBSim cannot load or trim), with one line on stderr (argparse's
 own errors too) and nothing written: every output folder and file is checked before any work
-(:func:`probing.experiment.storage.check_output_folder` and
-:func:`~probing.experiment.storage.check_output_file`); 1 a run that failed (trim failure,
+(:func:`probing.experiment.output.storage.check_output_folder` and
+:func:`~probing.experiment.output.storage.check_output_file`); 1 a run that failed (trim failure,
 divergence), a sweep with failed points or a sweep folder in use by another process; 130
 interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up; 141 its output went
 into a pipe the reader had closed (``probing examples | head``), nothing on stderr.
@@ -150,7 +150,7 @@ def _main(argv: Sequence[str] | None) -> int:
     except UsageError as exc:
         return print_error(str(exc), 2)
     except ValueError as exc:  # a stored file that cannot be read, wherever it is read
-        from probing.experiment.storage import StoredFileError
+        from probing.experiment.output.storage import StoredFileError
         from probing.sim.errors import CacheFolderError
 
         # a cache folder that is not one, wherever the cache is resolved (probing.sim.aircraft)

@@ -31,13 +31,13 @@ def _order(text: str) -> int:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    from probing.experiment.analyze import (
+    from probing.experiment.recorded.analyze import (
         AnalysisRequest,
         analyze,
         convention_lines,
         write_analysis,
     )
-    from probing.experiment.record import RecordError
+    from probing.experiment.recorded.record import RecordError
 
     out_folder(args.out, "--out")
     if not args.file.is_file():
@@ -60,7 +60,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     except RecordError as exc:
         raise UsageError(str(exc)) from None
     from probing.analysis.analyze_plots import draw_bounds
-    from probing.experiment.staging import staged_output
+    from probing.experiment.output.staging import staged_output
 
     with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing
         written = write_analysis(result, staging)

@@ -23,8 +23,8 @@ def print_error(message: str, code: int) -> int:
 
 
 def out_folder(path: Path, option: str) -> Path:
-    """``path`` after :func:`probing.experiment.storage.check_output_folder` (UsageError)."""
-    from probing.experiment.storage import OutputPathError, check_output_folder
+    """``path`` after :func:`probing.experiment.output.storage.check_output_folder` (UsageError)."""
+    from probing.experiment.output.storage import OutputPathError, check_output_folder
 
     try:
         return check_output_folder(path, option)
@@ -33,8 +33,8 @@ def out_folder(path: Path, option: str) -> Path:
 
 
 def out_file(path: Path, option: str) -> Path:
-    """``path`` after :func:`probing.experiment.storage.check_output_file` (UsageError)."""
-    from probing.experiment.storage import OutputPathError, check_output_file
+    """``path`` after :func:`probing.experiment.output.storage.check_output_file` (UsageError)."""
+    from probing.experiment.output.storage import OutputPathError, check_output_file
 
     try:
         return check_output_file(path, option)

@@ -30,8 +30,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return _check_simultaneous(args.simultaneous)
     request = _request(args)
     _check_exports(args)
-    from probing.experiment.design import DesignError, DesignInputError, recommend
-    from probing.experiment.storage import strict_json
+    from probing.experiment.design.design import DesignError, DesignInputError, recommend
+    from probing.experiment.output.storage import strict_json
 
     def job() -> int:
         try:
@@ -64,7 +64,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
 def _check_exports(args: argparse.Namespace) -> None:
     """``--export-probe`` and ``--save-scenario``: writable files of a known kind, checked
     before the design starts (UsageError)."""
-    from probing.experiment.probe_export import EXPORT_SUFFIXES
+    from probing.experiment.design.probe_export import EXPORT_SUFFIXES
 
     args.export_probe = args.export_probe or []
     for path in args.export_probe:
@@ -86,8 +86,8 @@ def _check_exports(args: argparse.Namespace) -> None:
 def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> list[Path]:
     """Write the designed probe (``--export-probe``) and the scenario (``--save-scenario``);
     the files written, in order."""
-    from probing.experiment.probe_export import export_probe
-    from probing.experiment.storage import write_text_atomic
+    from probing.experiment.design.probe_export import export_probe
+    from probing.experiment.output.storage import write_text_atomic
 
     written = [export_probe(scn, path) for path in args.export_probe]
     if args.save_scenario is not None:
@@ -98,8 +98,8 @@ def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> list[Path]:
 
 def _check_simultaneous(path: Path) -> int:
     """``probing design --simultaneous``: the design's memory condition, or its refusal."""
-    from probing.experiment.runners import runner_of
-    from probing.experiment.simultaneous import SeparationError, check_separation
+    from probing.experiment.flight.runners import runner_of
+    from probing.experiment.studies.simultaneous import SeparationError, check_separation
 
     scn = scenario_arg(path)
     runner = runner_of(scn).name
@@ -176,9 +176,9 @@ def register(sub: Subcommands) -> None:
 
 
 def _request(args: argparse.Namespace) -> Any:
-    """The :class:`~probing.experiment.design_request.DesignRequest` the options give
+    """The :class:`~probing.experiment.design.design_request.DesignRequest` the options give
     (UsageError naming the required ones missing)."""
-    from probing.experiment.design_request import DesignRequest
+    from probing.experiment.design.design_request import DesignRequest
 
     fields = dataclasses.fields(DesignRequest)
     required = [f.name for f in fields if f.default is dataclasses.MISSING]
@@ -199,8 +199,8 @@ def _flag(name: str) -> str:
 
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
     """``--simultaneous``, an option per DesignRequest field (its default and help from the
-    field, :func:`~probing.experiment.design_request._option`), and ``--json``."""
-    from probing.experiment.design_request import DesignRequest
+    field, :func:`~probing.experiment.design.design_request._option`), and ``--json``."""
+    from probing.experiment.design.design_request import DesignRequest
 
     parser.add_argument(
         "--simultaneous",

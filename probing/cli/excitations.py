@@ -20,8 +20,8 @@ from probing.cli.fig4 import BOUNDS_HELP
 
 
 def _cmd_excitations(args: argparse.Namespace) -> int:
-    from probing.experiment.excitations import planned, run_study
     from probing.experiment.scenario import ScenarioError
+    from probing.experiment.studies.excitations import planned, run_study
 
     t_start = time.perf_counter()
     try:
@@ -50,7 +50,7 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
 
 def _finish(args: argparse.Namespace, t_start: float) -> int:
     from probing.analysis import excitations, excitations_plots
-    from probing.experiment.storage import StoredFileError
+    from probing.experiment.output.storage import StoredFileError
 
     study = excitations.collect(args.out)
     monitor = None

@@ -25,8 +25,8 @@ BOUNDS_HELP = (
 
 
 def _cmd_fig4(args: argparse.Namespace) -> int:
-    from probing.experiment.fig4 import load_set, run_set
     from probing.experiment.scenario import ScenarioError
+    from probing.experiment.studies.fig4 import load_set, run_set
 
     t_start = time.perf_counter()
     scen_dir = args.scenarios
@@ -35,19 +35,19 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         raise UsageError(str(exc)) from None
     results = args.out if args.out is not None else Path("results") / scen_dir.resolve().name
-    _check_fig4_outputs(results, args)
+    check_fig4_outputs(results, args)
     out_file(results / "manifest.json", "--out")
     _check_fig4_runs(scen_dir, results, args.force)
     print(f"probing fig4: {scen_dir} -> {results}")
 
     def job() -> int:
         run_set(scen_dir, results, force=args.force)
-        return _finish_fig4(results, args, t_start)
+        return finish_fig4(results, args, t_start)
 
     return simulating(job, str(scen_dir))
 
 
-def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
+def check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "--out") -> None:
     out_folder(results, option)
     for name in ("summary.csv", "summary.md"):
         out_file(results / name, option)
@@ -59,9 +59,9 @@ def _check_fig4_outputs(results: Path, args: argparse.Namespace, option: str = "
 def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
     """Every run folder of the set can be written, and (without ``--force``) every stored
     run that would be reused can be read."""
-    from probing.experiment.fig4 import is_stored, planned_runs
+    from probing.experiment.output.storage import StoredFileError
     from probing.experiment.scenario import ScenarioError
-    from probing.experiment.storage import StoredFileError
+    from probing.experiment.studies.fig4 import is_stored, planned_runs
 
     try:
         runs = planned_runs(scen_dir, results)
@@ -76,9 +76,9 @@ def _check_fig4_runs(scen_dir: Path, results: Path, force: bool) -> None:
                 raise UsageError(f"{exc}; delete it, or rerun with --force") from None
 
 
-def _finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
+def finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
     from probing.analysis import fig4, fig4_plots
-    from probing.experiment.storage import StoredFileError
+    from probing.experiment.output.storage import StoredFileError
 
     try:
         data = fig4.collect(results)

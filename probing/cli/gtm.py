@@ -14,7 +14,7 @@ def _cmd_modes(args: argparse.Namespace) -> int:
 
     def job() -> int:
         from probing.analysis import gtm_modes
-        from probing.experiment.modes import damage_table, mode_table
+        from probing.experiment.studies.modes import damage_table, mode_table
 
         points = mode_table()
         damage = damage_table()
@@ -39,7 +39,7 @@ def _cmd_gtm_damage(args: argparse.Namespace) -> int:
 
     def job() -> int:
         from probing.analysis import gtm_damage
-        from probing.experiment.gtm_damage import run_example6
+        from probing.experiment.studies.gtm_damage import run_example6
 
         run_example6(args.out)
         cases = gtm_damage.load(args.out)

@@ -30,8 +30,8 @@ DEFAULT_PORT = 5139
 
 
 def _cmd_live(args: argparse.Namespace) -> int:
-    from probing.experiment.live import LiveError, check_live
-    from probing.experiment.sim_socket import PORTS_TEXT, is_port
+    from probing.experiment.flight.live import LiveError, check_live
+    from probing.experiment.flight.sim_socket import PORTS_TEXT, is_port
 
     if (args.connect is None) == (args.write_sim is None):
         raise UsageError("live: give --connect HOST:PORT or --write-sim DIR (one of them)")
@@ -67,8 +67,8 @@ def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
 
 def _connect(scn: Scenario, args: argparse.Namespace) -> int:
     """``--connect HOST:PORT``: the live flight (the output folder checked first)."""
-    from probing.experiment.live import LiveError, live_monitor
-    from probing.experiment.sim_socket import SimConnectionError, is_loopback, parse_address
+    from probing.experiment.flight.live import LiveError, live_monitor
+    from probing.experiment.flight.sim_socket import SimConnectionError, is_loopback, parse_address
 
     try:
         host, port = parse_address(args.connect)

@@ -17,7 +17,7 @@ from probing.cli.common import (
     out_folder,
     path_arg,
 )
-from probing.cli.fig4 import BOUNDS_HELP, _check_fig4_outputs, _finish_fig4
+from probing.cli.fig4 import BOUNDS_HELP, check_fig4_outputs, finish_fig4
 from probing.cli.sweep import plot_sweep_folder
 
 
@@ -41,8 +41,8 @@ def _default(text: str, results: Path) -> Path:
 
 def _plot_fig4(args: argparse.Namespace) -> int:
     """Fig. 4's figures, and its summary.csv and .md in RESULTS, from the stored runs."""
-    _check_fig4_outputs(args.results, args, "RESULTS")  # summary.csv and .md go there
-    return _finish_fig4(args.results, args, time.perf_counter())
+    check_fig4_outputs(args.results, args, "RESULTS")  # summary.csv and .md go there
+    return finish_fig4(args.results, args, time.perf_counter())
 
 
 def _plot_sweep(args: argparse.Namespace) -> int:
@@ -94,7 +94,7 @@ def _plot_study(
     figures, summary = args.figures, args.summary
     out_folder(figures, "--figures")
     out_file(summary, "--summary")
-    from probing.experiment.storage import StoredFileError
+    from probing.experiment.output.storage import StoredFileError
 
     try:
         study = load(args.results)

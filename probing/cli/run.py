@@ -19,7 +19,7 @@ from probing.cli.common import (
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from probing.experiment.runners import runner_of
+    from probing.experiment.flight.runners import runner_of
 
     scn = _one_surface(scenario_arg(args.scenario), args.scenario, "run")
     check_run_folder(args.out, scn)
@@ -28,8 +28,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return handler(scn, args)
 
     def job() -> int:
-        from probing.experiment.run import run_scenario
-        from probing.experiment.truth import TruthFiles
+        from probing.experiment.flight.run import run_scenario
+        from probing.experiment.studies.truth import TruthFiles
 
         truth = TruthFiles(scn) if args.truth else None  # one run's files: run and truth
         result = run_scenario(scn, args.out, progress=None, observer=truth)
@@ -47,7 +47,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
     """``probing run`` of a ``[simultaneous]`` scenario: ``responses.parquet``; with
     ``--truth`` each surface is flown alone too and the measured cross-talk printed."""
-    from probing.experiment.simultaneous import SeparationError, run_simultaneous
+    from probing.experiment.studies.simultaneous import SeparationError, run_simultaneous
 
     def job() -> int:
         try:
@@ -69,7 +69,7 @@ def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
 def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
     """``probing run`` of a ``[manoeuvre]`` scenario: ``manoeuvre.parquet``, the probing
     output period by period with its single-pulse truth (so ``--truth`` adds nothing)."""
-    from probing.experiment.manoeuvre import run_manoeuvre
+    from probing.experiment.studies.manoeuvre import run_manoeuvre
 
     def job() -> int:
         result = run_manoeuvre(scn, args.out, progress=None)
@@ -87,7 +87,7 @@ def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
 
 
 #: ``probing run``'s handler of each runner but the steady one
-#: (:data:`probing.experiment.runners.RUNNERS`): ``handler(scn, args)``, the exit code.
+#: (:data:`probing.experiment.flight.runners.RUNNERS`): ``handler(scn, args)``, the exit code.
 RUN_HANDLERS: dict[str, Callable[[Any, argparse.Namespace], int]] = {
     "simultaneous": _run_simultaneous,
     "manoeuvre": _run_manoeuvre,
@@ -95,16 +95,16 @@ RUN_HANDLERS: dict[str, Callable[[Any, argparse.Namespace], int]] = {
 
 
 def _print_truth(scn: Any, out: Path) -> None:
-    from probing.experiment.truth import compute_truth
+    from probing.experiment.studies.truth import compute_truth
 
     print(f"{scn.name}: ground truth -> {compute_truth(scn, out)}")
 
 
 def _one_surface(scn: Any, path: Path, command: str) -> Any:
     """``scn``, unless its runner does not offer ``command``
-    (:meth:`probing.experiment.runners.Runner.refuses`: a [simultaneous] or a [manoeuvre]
+    (:meth:`probing.experiment.flight.runners.Runner.refuses`: a [simultaneous] or a [manoeuvre]
     scenario is flown by ``probing run`` only)."""
-    from probing.experiment.runners import runner_of
+    from probing.experiment.flight.runners import runner_of
 
     refusal = runner_of(scn).refuses(command)
     if refusal is not None:
@@ -142,7 +142,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     check_run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.experiment.monitor import monitor_scenario
+        from probing.experiment.flight.monitor import monitor_scenario
 
         result = monitor_scenario(scn, args.out, timeseries=args.timeseries)
         print(f"{scn.name}: {result.line()} -> {result.out_dir / 'monitor.parquet'}")
@@ -159,13 +159,13 @@ NEEDS_MAP = (
 
 def _replay(args: argparse.Namespace) -> int:
     """``probing monitor --replay LOG``: the monitor recomputed from a flight's log."""
-    from probing.experiment.monitor import (
+    from probing.experiment.flight.monitor import (
         NotAFlightLog,
         ReplayError,
         logged_scenario,
         replay_monitor,
     )
-    from probing.experiment.storage import StoredFileError, read_footer
+    from probing.experiment.output.storage import StoredFileError, read_footer
 
     if args.timeseries:
         raise UsageError("monitor --replay: a log has no timeseries to write")
@@ -182,7 +182,7 @@ def _replay(args: argparse.Namespace) -> int:
     check_run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.experiment.staging import staged_output
+        from probing.experiment.output.staging import staged_output
 
         folder = args.out / scn.name
         with staged_output(folder) as staging:  # an interrupt at any moment leaves nothing
@@ -195,9 +195,9 @@ def _replay(args: argparse.Namespace) -> int:
 
 def _foreign(args: argparse.Namespace) -> Any:
     """``--replay LOG --map MAP`` with a scenario: the log recorded elsewhere, translated
-    (:func:`probing.experiment.foreign_log.foreign_log`; UsageError)."""
-    from probing.experiment.foreign_log import foreign_log, read_map
-    from probing.experiment.monitor import ReplayError
+    (:func:`probing.experiment.recorded.foreign_log.foreign_log`; UsageError)."""
+    from probing.experiment.flight.monitor import ReplayError
+    from probing.experiment.recorded.foreign_log import foreign_log, read_map
 
     scn = _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
     try:

@@ -51,7 +51,7 @@ GUST_SENSORS = (
 )
 
 #: What a gust reference reads from the recorded stream: the estimate's sensors, and the
-#: roll rate and altitude its twin's observers follow (``probing.experiment.onboard``).
+#: roll rate and altitude its twin's observers follow (``probing.experiment.flight.onboard``).
 GUST_REFERENCE_SENSORS = (*GUST_SENSORS, "p_rad_s", "h_ft")
 
 

@@ -70,7 +70,7 @@ def remove_dead_writers_files(folder: Path, suffix: str, folders: bool = False) 
         (a leading dot) with a writer's tag are considered.
     folders : bool
         Also remove such folders, with what they hold (a command's staging folder,
-        :func:`probing.experiment.staging.staged_output`).
+        :func:`probing.experiment.output.staging.staged_output`).
 
     Returns
     -------

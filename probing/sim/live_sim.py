@@ -56,7 +56,7 @@ def write_sim(flight: Flight, folder: Path, port: int, end_s: float) -> list[str
     flight : Flight
         The scenario's flight: model, condition, dt (trimmed undamaged: checked by the
         caller; its turbulence and a damage case in flight are written by the flight
-        computer's side over the socket, :class:`probing.experiment.live.SocketWorld`).
+        computer's side over the socket, :class:`probing.experiment.flight.live.SocketWorld`).
     folder : pathlib.Path
         The root to write (created; its ``aircraft``, ``engine``, ``systems`` and ``scripts``
         are replaced).

@@ -6,7 +6,7 @@ channel's :class:`~probing.core.sensors.Sensor` (noise, bias, scale factor, lag,
 rate).  The autopilot (:class:`probing.sim.control.ClosedLoop`) flies on these
 measurements, and they are what a flight records (``sensors.parquet``): nothing else of the
 simulation reaches the flight computer.  A :class:`SensorBank` is the same sensors, seeded
-alike, on true values handed in: a live flight (:mod:`probing.experiment.live`) applies
+alike, on true values handed in: a live flight (:mod:`probing.experiment.flight.live`) applies
 them on the flight computer's side to what the separate simulator gives.
 """
 

@@ -15,7 +15,7 @@
     per cent on the GTM's 6.7 rad/s short period at 100 Hz (docs/truth.md).
 
 Writing them beside a run, with the probing output they predict, is
-:func:`probing.experiment.truth.compute_truth`.
+:func:`probing.experiment.studies.truth.compute_truth`.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 and sensors, stepped by the one stepping function of the project.
 
 The flight computer (:class:`probing.sim.autopilot.Autopilot`, owned by
-:class:`probing.experiment.flight_computer.FlightComputer`) and the world meet once per step,
+:class:`probing.experiment.flight.flight_computer.FlightComputer`) and the world meet once per step,
 as ArduPilot's flight code meets its simulator: the computer hands the step's demands
 (:data:`probing.sim.autopilot.Demand`), the world realises them through its actuator (the
 probed surface's fault, :class:`~probing.sim.flight.ActuatorFault`, from its onset on; the

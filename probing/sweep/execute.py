@@ -24,9 +24,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from probing.core.forked import INTERRUPTS, STOPS
-from probing.experiment.progress import progress_bar
+from probing.experiment.output.progress import progress_bar
+from probing.experiment.output.storage import write_json_atomic
 from probing.experiment.scenario import Scenario
-from probing.experiment.storage import write_json_atomic
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 from probing.sweep.summary import predictions, settled_stats, summarise, write_summary
 
@@ -112,8 +112,8 @@ def _fly_task(
     task: _Task, final: Path, tmp: Path, aircraft: TrimmedAircraft | None
 ) -> tuple[Any, Any]:
     """Fly a task's scenario into ``tmp``: the run's result, and the monitor's (or None)."""
-    from probing.experiment.monitor import monitor_scenario
-    from probing.experiment.run import run_scenario
+    from probing.experiment.flight.monitor import monitor_scenario
+    from probing.experiment.flight.run import run_scenario
 
     if task.monitor:
         monitored = monitor_scenario(
@@ -164,7 +164,7 @@ def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
     without a record (killed) gives an ``error`` record and no ``failed/`` file, so the run
     is tried again by the next invocation.
     """
-    from probing.experiment.batch import run_grouped
+    from probing.experiment.flight.batch import run_grouped
 
     _import_task_code()
 
@@ -193,9 +193,9 @@ def _import_task_code() -> None:
     """Import what :func:`execute_task` imports when it runs, here, before the runs fork: a
     module imported in a forked child is imported (and, without bytecode files, compiled)
     again in every child, ~8 ms a run for the monitor alone."""
-    import probing.experiment.monitor
-    import probing.experiment.noise
-    import probing.experiment.run
+    import probing.experiment.design.noise
+    import probing.experiment.flight.monitor
+    import probing.experiment.flight.run
     import probing.sim.errors  # noqa: F401
 
 
@@ -207,7 +207,7 @@ def _shared_predictions(scenarios: list[Scenario], aircraft: TrimmedAircraft) ->
     """Compute, before the chunk's children fork, what their predictions share: the
     linearisation at the trim (of a copy of the chunk's trimmed aircraft) and its step
     response; each child would otherwise compute them again."""
-    from probing.experiment.noise import linear_model
+    from probing.experiment.design.noise import linear_model
 
     first = scenarios[0]
     try:
@@ -521,7 +521,7 @@ def _execute(
     if not todo:
         with progress_bar(0, name, "runs", stream, progress, lines=True, intro=intro):
             return
-    from probing.experiment.batch import chunked_groups
+    from probing.experiment.flight.batch import chunked_groups
 
     chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
     workers = min(pool.jobs, len(chunks))  # the ETA: runs' wall time over the workers

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from probing.experiment.runners import runner_of
+from probing.experiment.flight.runners import runner_of
 from probing.experiment.scenario import (
     SECTIONS,
     Scenario,

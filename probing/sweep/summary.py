@@ -18,8 +18,7 @@ import numpy as np
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import RateLimit
 from probing.core.tempfiles import remove_dead_writers_files, writer_tag
-from probing.experiment.scenario import Scenario
-from probing.experiment.storage import (
+from probing.experiment.output.storage import (
     PER_DEG,
     Settled,
     metadata,
@@ -27,6 +26,7 @@ from probing.experiment.storage import (
     read_settled,
     units,
 )
+from probing.experiment.scenario import Scenario
 from probing.sweep.spec import POINT_FILE, Sweep, SweepPoint, point_folder, sweep_folders
 
 __all__ = [
@@ -110,10 +110,11 @@ def settled_stats(folder: Path, scn: Scenario, settled: Settled | None = None) -
 
 
 def predictions(scn: Scenario) -> dict[str, Any]:
-    """The noise model's predictions for every channel (:func:`probing.experiment.noise.predict`):
+    """The noise model's predictions for every channel
+    (:func:`probing.experiment.design.noise.predict`):
     the four numbers and the expected steady-state h (a list), for point.json; a prediction
     that cannot be made (no linearised trim) is recorded as its error."""
-    from probing.experiment.noise import predict  # the linearisation: JSBSim
+    from probing.experiment.design.noise import predict  # the linearisation: JSBSim
 
     try:
         found = predict(scn)
@@ -150,7 +151,7 @@ def summarise(sweep: Sweep, sweep_dir: str | Path) -> Any:
     reference's), ``h_rms``, ``h_stderr`` (the spread over the settled periods / sqrt(P), RMS
     over taps), ``h_stderr_naive`` (sigma / (a sqrt(M P))), the noise model's
     ``predicted_z_stderr``, ``predicted_h_stderr``, ``predicted_gain_stderr`` and
-    ``predicted_h_bias`` (:mod:`probing.experiment.noise`), ``wall_s``,
+    ``predicted_h_bias`` (:mod:`probing.experiment.design.noise`), ``wall_s``,
     ``steps_simulated``, ``reference_id``.
     """
     import pandas as pd

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
+from probing.experiment.output.storage import read_settled
 from probing.experiment.scenario import Scenario, parse_scenario
-from probing.experiment.storage import read_settled
 
 
 def settled_h(folder: Path, scn: Scenario, channel: str = "theta_rad") -> np.ndarray:

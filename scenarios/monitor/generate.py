@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from probing.core.faults import sweep_fields
-from probing.experiment.design import DesignRequest, recommend
+from probing.experiment.design.design import DesignRequest, recommend
 from probing.sweep.spec import sweep_toml
 
 HERE = Path(__file__).resolve().parent

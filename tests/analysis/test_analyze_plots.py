@@ -96,7 +96,7 @@ def test_a_flights_bounds_draw_too(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     """A run's bounds.parquet has no probing.input: the scenario names the figure."""
     from conftest import base_scenario
 
-    from probing.experiment.run import run_scenario
+    from probing.experiment.flight.run import run_scenario
     from probing.experiment.scenario import parse_scenario
 
     scn = parse_scenario(base_scenario()).replace(

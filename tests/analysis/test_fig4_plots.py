@@ -18,8 +18,8 @@ from probing.analysis import fig4, fig4_plots
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import compensate
 from probing.core.recorded import tap_bounds
-from probing.experiment.fig4_set import PANELS
 from probing.experiment.scenario import load_scenario
+from probing.experiment.studies.fig4_set import PANELS
 
 ROOT = Path(__file__).resolve().parents[2]
 SET = ROOT / "scenarios" / "fig4-737"

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from probing.analysis import gtm_modes
-from probing.experiment.modes import ModePoint
+from probing.experiment.studies.modes import ModePoint
 from probing.sim.linear import LongitudinalModes
 
 G_M_S2 = 9.80665

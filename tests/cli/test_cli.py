@@ -271,7 +271,7 @@ def test_sweep_reports_each_point_on_stderr(
 
 
 def test_progress_comes_from_tqdm() -> None:
-    import probing.experiment.progress as progress
+    import probing.experiment.output.progress as progress
 
     assert progress.tqdm.__module__.startswith("tqdm")
     assert not (ROOT / "probing" / "progress.py").exists()
@@ -332,26 +332,26 @@ MONITORED = ROOT / "scenarios" / "monitor" / "base.toml"  # name gtm-monitored, 
 def no_work(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every command's work fails the test: a refusal must come before any of it."""
     import probing.analysis.fig4
-    import probing.experiment.design
-    import probing.experiment.fig4
-    import probing.experiment.gtm_damage
-    import probing.experiment.modes
-    import probing.experiment.monitor
-    import probing.experiment.run
-    import probing.experiment.truth
+    import probing.experiment.design.design
+    import probing.experiment.flight.monitor
+    import probing.experiment.flight.run
+    import probing.experiment.studies.fig4
+    import probing.experiment.studies.gtm_damage
+    import probing.experiment.studies.modes
+    import probing.experiment.studies.truth
     import probing.sweep
 
     def work(*args: object, **kwargs: object) -> None:
         raise AssertionError("work started before the output paths were checked")
 
     for module, name in [
-        (probing.experiment.run, "run_scenario"),
-        (probing.experiment.design, "recommend"),
-        (probing.experiment.truth, "compute_truth"),
-        (probing.experiment.monitor, "monitor_scenario"),
-        (probing.experiment.fig4, "run_set"),
-        (probing.experiment.modes, "mode_table"),
-        (probing.experiment.gtm_damage, "run_example6"),
+        (probing.experiment.flight.run, "run_scenario"),
+        (probing.experiment.design.design, "recommend"),
+        (probing.experiment.studies.truth, "compute_truth"),
+        (probing.experiment.flight.monitor, "monitor_scenario"),
+        (probing.experiment.studies.fig4, "run_set"),
+        (probing.experiment.studies.modes, "mode_table"),
+        (probing.experiment.studies.gtm_damage, "run_example6"),
         (probing.sweep, "run_sweep"),
         (probing.analysis.fig4, "collect"),
     ]:
@@ -588,7 +588,7 @@ def test_top_level_help_lists_every_command_once() -> None:
 
 # ------------------------------------------------------------------ 15. strict JSON
 def test_json_files_are_strict_json_with_null_for_nan(tmp_path: Path) -> None:
-    from probing.experiment.storage import write_json_atomic
+    from probing.experiment.output.storage import write_json_atomic
 
     def refuse(name: str) -> None:
         raise ValueError(f"not JSON: {name}")
@@ -603,7 +603,7 @@ def test_json_files_are_strict_json_with_null_for_nan(tmp_path: Path) -> None:
 def test_a_sweep_points_record_with_nan_is_strict_json_and_reads_back(tmp_path: Path) -> None:
     """A monitor point that never alarmed (first_alarm_s, alpha NaN) and a prediction that
     is NaN: point.json holds null, and the summary reads them back as NaN."""
-    from probing.experiment.storage import write_json_atomic
+    from probing.experiment.output.storage import write_json_atomic
     from probing.sweep import load_sweep
     from probing.sweep.summary import summarise
 
@@ -750,7 +750,7 @@ def test_every_design_option_defaults_to_its_design_request_field() -> None:
     import dataclasses
 
     import probing.cli.design as design_command
-    from probing.experiment.design_request import DesignRequest
+    from probing.experiment.design.design_request import DesignRequest
 
     design = _subcommands()["design"]
     actions = {a.dest: a for a in design._actions}
@@ -775,7 +775,7 @@ def test_every_design_option_reaches_the_request() -> None:
     import dataclasses
 
     import probing.cli.design as design_command
-    from probing.experiment.design_request import DesignRequest
+    from probing.experiment.design.design_request import DesignRequest
 
     given = DesignRequest(
         aircraft="gtm_t2",

@@ -27,7 +27,7 @@ from scipy import signal
 
 from probing.cli import main as cli_main
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, mls
-from probing.experiment.analyze import AnalysisRequest, _deviations
+from probing.experiment.recorded.analyze import AnalysisRequest, _deviations
 
 ORDER, M, AMPLITUDE, SIGMA, DT_S = 8, 255, 0.5, 0.01, 0.05
 SYSTEM = (  # a lightly damped second-order discrete system (poles 0.85 +- 0.3j) plus a D term

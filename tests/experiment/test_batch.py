@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 from conftest import base_scenario
 
-import probing.experiment.run as run_module
+import probing.experiment.flight.run as run_module
 from probing.core.forked import forked_map
-from probing.experiment.batch import chunked_groups, group_indices, run_grouped
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.batch import chunked_groups, group_indices, run_grouped
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import Scenario, parse_scenario
 from probing.sim.errors import TrimError
 from probing.sim.flight import Flight
@@ -115,7 +115,7 @@ def test_the_next_chunk_of_a_group_reuses_the_trimmed_aircraft(
     """A sweep worker runs a large group chunk after chunk: the aircraft is loaded and
     trimmed for the first chunk only, and the later chunks' runs (forked from an aircraft
     that has served other runs) are still the bytes of runs on their own."""
-    import probing.experiment.batch as batch
+    import probing.experiment.flight.batch as batch
 
     built: list[str] = []
 

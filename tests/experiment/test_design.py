@@ -17,14 +17,14 @@ import pandas as pd
 import pytest
 
 from probing.cli import main as cli_main
-from probing.experiment.design import (
+from probing.experiment.design.design import (
     DesignError,
     DesignRequest,
     detectable_stderr,
     fewest_periods,
     probe_shape,
 )
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import parse_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -266,7 +266,7 @@ def scatter_over_seeds(toml: str, seeds: int) -> dict[str, float]:
     baseline learns: the apparent response, a~/a of the linear one behind a dead band), and
     that of h (RMS over taps).  Built here, not taken from the design's code, so that a
     design projecting on anything else fails."""
-    from probing.experiment.batch import run_grouped
+    from probing.experiment.flight.batch import run_grouped
 
     scn = parse_scenario(tomllib.loads(toml))
     calm = scn.replace(
@@ -332,11 +332,11 @@ def test_design_gain_se_is_the_monte_carlo_scatter_across_aircraft_and_noise(cas
 
 @pytest.mark.jsbsim
 def test_design_check_measures_what_the_monte_carlo_test_measures(tmp_path, capsys):
-    """``python -m probing.experiment.design_check`` on a design without a window: its gain
+    """``python -m probing.experiment.design.design_check`` on a design without a window: its gain
     and h scatter over seeds 0..5 are :func:`scatter_over_seeds`' (the design's reference
     is the scenario's own noise-free run, built here independently), and it prints them
     against the design's predictions."""
-    from probing.experiment import design_check
+    from probing.experiment.design import design_check
 
     args = ["design", "--aircraft", "737", "--altitude-ft", "15000", "--speed-kcas", "280"]
     args += ["--deadband-deg", "-0.002", "0.002", "--deadband-margin", "2.5"]

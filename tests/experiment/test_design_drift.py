@@ -11,8 +11,8 @@ import json
 import pytest
 
 from probing.cli import main as cli_main
-from probing.experiment.design_check import measured
-from probing.experiment.design_window import window_stderr
+from probing.experiment.design.design_check import measured
+from probing.experiment.design.design_window import window_stderr
 
 CONDITION = ["design", "--aircraft", "gtm_t2", "--altitude-ft", "800", "--speed-kcas", "75"]
 STUDY = ["--turbulence", "light", "--sensors", "nasa_t2", "--closed-loop", "--estimator", "ac"]
@@ -155,7 +155,7 @@ def test_a_calm_air_design_says_its_reference_is_a_calm_twin_whatever_drift(caps
 def test_the_reference_the_design_flies_and_whether_it_has_noise() -> None:
     """Both sides of each boundary: calm air and no suite (every twin alike), then
     turbulence or a suite; no noise at all, then sensor noise, turbulence or a suite."""
-    from probing.experiment.design_request import DesignRequest
+    from probing.experiment.design.design_request import DesignRequest
 
     calm = DesignRequest(aircraft="737", altitude_ft=15000, speed_kcas=280, drift="gust")
     assert calm.every_twin_alike and calm.noiseless

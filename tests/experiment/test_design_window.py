@@ -9,7 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from probing.experiment.design_window import period_gain_std, smallest_amplitude, window_stderr
+from probing.experiment.design.design_window import (
+    period_gain_std,
+    smallest_amplitude,
+    window_stderr,
+)
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

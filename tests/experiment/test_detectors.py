@@ -10,7 +10,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from probing.experiment.monitor import DETECTORS, monitor_scenario
+from probing.experiment.flight.monitor import DETECTORS, monitor_scenario
 from probing.experiment.scenario import load_scenario
 
 pytestmark = pytest.mark.jsbsim

@@ -11,9 +11,9 @@ import pytest
 from conftest import base_scenario
 
 from probing.core.excitation import band_limited
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import parse_scenario
-from probing.experiment.truth import compute_truth, predicted_probing
+from probing.experiment.studies.truth import compute_truth, predicted_probing
 
 pytestmark = pytest.mark.jsbsim
 
@@ -131,8 +131,8 @@ def test_the_study_measures_what_the_paper_predicts(study: Path) -> None:
 
 @pytest.mark.slow
 def test_a_second_run_flies_nothing(study: Path, capsys) -> None:
-    from probing.experiment.excitations import run_study
     from probing.experiment.scenario import load_scenario  # noqa: F401  (the sets are valid)
+    from probing.experiment.studies.excitations import run_study
 
     run_study(Path("scenarios"), study / "results", log=print)
     assert "0 to fly" in capsys.readouterr().out

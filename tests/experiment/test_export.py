@@ -16,10 +16,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import probing.experiment.design
+import probing.experiment.design.design
 from probing.cli import main as cli_main
 from probing.core.prbs import mls
-from probing.experiment.probe_export import probe_header
+from probing.experiment.design.probe_export import probe_header
 from probing.experiment.scenario import parse_scenario
 
 pytestmark = pytest.mark.jsbsim
@@ -123,7 +123,7 @@ def test_the_saved_scenario_runs(exported: dict, tmp_path: Path) -> None:
 
 
 def test_a_throttle_probe_is_exported_in_its_unit() -> None:
-    from probing.experiment.probe_export import probe_csv
+    from probing.experiment.design.probe_export import probe_csv
     from probing.experiment.scenario import load_scenario
 
     root = Path(__file__).resolve().parents[2]
@@ -140,7 +140,7 @@ def test_a_throttle_probe_is_exported_in_its_unit() -> None:
 def test_the_csv_times_are_exact_decimals_of_the_step(dt_s, steps, decimals) -> None:
     """k t0 as decimal text at the simulation step's decimals: bit 510 of 0.01 s bits starts
     at 5.10 s, not 5.1000000000000005 (the float product)."""
-    from probing.experiment.probe_export import probe_csv
+    from probing.experiment.design.probe_export import probe_csv
     from probing.experiment.scenario import load_scenario
 
     root = Path(__file__).resolve().parents[2]
@@ -160,7 +160,7 @@ def no_design(monkeypatch: pytest.MonkeyPatch) -> None:
     def work(*args: object, **kwargs: object) -> None:
         raise AssertionError("the design started before the output paths were checked")
 
-    monkeypatch.setattr(probing.experiment.design, "recommend", work)
+    monkeypatch.setattr(probing.experiment.design.design, "recommend", work)
 
 
 @pytest.mark.parametrize(

@@ -14,9 +14,9 @@ from probing.analysis import fig4
 from probing.cli import main as cli_main
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import RateLimit
-from probing.experiment import fig4 as fig4_runs
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import load_scenario
+from probing.experiment.studies import fig4 as fig4_runs
 
 ROOT = Path(__file__).resolve().parents[2]
 SETS = {"gtm": ROOT / "scenarios" / "fig4", "737": ROOT / "scenarios" / "fig4-737"}

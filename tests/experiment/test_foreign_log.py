@@ -17,8 +17,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from probing.cli import main as cli_main
-from probing.experiment.foreign_log import foreign_log, read_map
-from probing.experiment.monitor import ReplayError, monitor_scenario, replay_monitor
+from probing.experiment.flight.monitor import ReplayError, monitor_scenario, replay_monitor
+from probing.experiment.recorded.foreign_log import foreign_log, read_map
 from probing.experiment.scenario import load_scenario
 
 pytestmark = pytest.mark.jsbsim
@@ -287,8 +287,8 @@ def test_a_map_needs_the_scenario_and_the_log(flown: dict, tmp_path: Path, capsy
 
 
 def test_the_shipped_example_maps_every_column_its_scenario_reads() -> None:
-    from probing.experiment.onboard import log_columns
-    from probing.experiment.references import REALISABLE_DRIFTS
+    from probing.experiment.flight.onboard import log_columns
+    from probing.experiment.scenario.references import REALISABLE_DRIFTS
 
     example = ROOT / "examples" / "foreign-log"
     how = read_map(example / "map.toml")

@@ -13,7 +13,7 @@ from conftest import BLAS_KERNELS, run_with_blas_kernel
 
 from probing.analysis import gtm_damage
 from probing.cli import main as cli_main
-from probing.experiment.gtm_damage import EXAMPLE6, fly_case, run_example6
+from probing.experiment.studies.gtm_damage import EXAMPLE6, fly_case, run_example6
 from probing.sim.flight import Flight
 
 pytestmark = pytest.mark.jsbsim
@@ -265,7 +265,7 @@ def test_damage_table_sees_half_the_elevator_gone() -> None:
     reference (gain 1, shape 0) and losing the two left elevator panels halves the
     elevator-to-pitch pulse response (the right panels' share, 0.5; 0.54 measured, the trim
     having moved)."""
-    from probing.experiment.modes import damage_table
+    from probing.experiment.studies.modes import damage_table
 
     table = {p.case: p for p in damage_table()}
     assert all(p.modes is not None for p in table.values()), [p.message for p in table.values()]
@@ -287,7 +287,7 @@ def test_a_scenario_can_be_flown_in_a_climbing_turn(tmp_path: Path) -> None:
     scenario keeps its digest (the zero angles are left out of its condition)."""
     import json
 
-    from probing.experiment.run import run_scenario
+    from probing.experiment.flight.run import run_scenario
     from probing.experiment.scenario import load_scenario
     from probing.sim.fork import trim_key
 
@@ -321,8 +321,8 @@ def test_a_fault_appears_in_flight_for_the_probed_aircraft_and_its_twin(
     twin alike (the twin flies the same fault, so it keeps removing what the probe did not
     cause); after it both change. Grouped runs forked from one trimmed aircraft give the
     same bytes as runs on their own (the onset is counted per run, not per process)."""
-    from probing.experiment.batch import run_grouped
-    from probing.experiment.run import run_scenario
+    from probing.experiment.flight.batch import run_grouped
+    from probing.experiment.flight.run import run_scenario
     from probing.experiment.scenario import load_scenario
 
     monkeypatch.setenv("PROBING_TWIN_CACHE", str(tmp_path / "twins"))

@@ -19,13 +19,14 @@ from probing.cli import main
 from probing.cli import run as run_cli
 from probing.core.faults import FAULTS, FaultField, FaultType, onset_step
 from probing.core.sensors import SENSOR_SUITES, SensorSpec, SensorSuite
-from probing.experiment import monitor as monitor_module
-from probing.experiment import onboard, runners, truth
-from probing.experiment.live import LiveError, check_live
-from probing.experiment.monitor import monitor_scenario, replay_monitor
-from probing.experiment.references import REFERENCES, Reference
-from probing.experiment.runners import Runner
+from probing.experiment.flight import monitor as monitor_module
+from probing.experiment.flight import onboard, runners
+from probing.experiment.flight.live import LiveError, check_live
+from probing.experiment.flight.monitor import monitor_scenario, replay_monitor
+from probing.experiment.flight.runners import Runner
 from probing.experiment.scenario import load_scenario
+from probing.experiment.scenario.references import REFERENCES, Reference
+from probing.experiment.studies import truth
 from probing.sim.channels import CHANNELS, Channel
 
 pytestmark = pytest.mark.jsbsim
@@ -323,7 +324,7 @@ LOWPASS_S = 20.0
 class LowPass:
     """A new reference computed from the log: each channel's measurement through a
     first-order low-pass, started at the first row (a source of
-    :data:`probing.experiment.onboard.SOURCES`: ``next(log)`` -> the rows' reference)."""
+    :data:`probing.experiment.flight.onboard.SOURCES`: ``next(log)`` -> the rows' reference)."""
 
     def __init__(self, scn, plant) -> None:
         self.channels = list(scn.channels)

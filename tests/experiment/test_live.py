@@ -24,13 +24,13 @@ import pyarrow.parquet as pq
 import pytest
 
 from probing.cli import main
-from probing.experiment import live as live_module
-from probing.experiment.flight_computer import FlightComputer
-from probing.experiment.live import LIVE_CHUNK_PERIODS, LiveError, check_live, live_monitor
-from probing.experiment.monitor import logged_chunk_periods, monitor_scenario, replay_monitor
-from probing.experiment.run import CHUNK_STEPS
+from probing.experiment.flight import live as live_module
+from probing.experiment.flight.flight_computer import FlightComputer
+from probing.experiment.flight.live import LIVE_CHUNK_PERIODS, LiveError, check_live, live_monitor
+from probing.experiment.flight.monitor import logged_chunk_periods, monitor_scenario, replay_monitor
+from probing.experiment.flight.run import CHUNK_STEPS
+from probing.experiment.output.storage import read_footer
 from probing.experiment.scenario import load_scenario
-from probing.experiment.storage import read_footer
 from probing.sim.channels import CHANNELS
 from probing.sim.live_sim import write_sim
 

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from probing.experiment.manoeuvre import run_manoeuvre
 from probing.experiment.scenario import load_scenario
+from probing.experiment.studies.manoeuvre import run_manoeuvre
 from probing.sim.flight import Manoeuvre
 
 ROOT = Path(__file__).resolve().parents[2]

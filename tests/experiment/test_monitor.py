@@ -19,10 +19,10 @@ import pytest
 
 from probing.core.nonlinearities import NONLINEARITIES
 from probing.core.prbs import Probe
-from probing.experiment.monitor import monitor_scenario
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.monitor import monitor_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import parse_scenario, read_toml
-from probing.experiment.truth import compute_truth
+from probing.experiment.studies.truth import compute_truth
 
 pytestmark = pytest.mark.jsbsim
 
@@ -445,7 +445,7 @@ def test_the_first_alarms_row_ends_at_the_reported_first_alarm(flights):
 )  # fmt: skip
 def test_the_result_line_says_none_without_a_period(alarm_s, period, detector, ended, expected):
     """No alarm: "first alarm: none", not "(period None)"; an alarm keeps its period."""
-    from probing.experiment.monitor import MonitorResult
+    from probing.experiment.flight.monitor import MonitorResult
 
     result = MonitorResult(None, alarm_s, period, "none", 0.01, ended, alarm_detector=detector)
     assert result.line() == expected

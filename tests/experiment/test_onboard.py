@@ -11,8 +11,8 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-import probing.experiment.onboard as onboard
-from probing.experiment.monitor import monitor_scenario
+import probing.experiment.flight.onboard as onboard
+from probing.experiment.flight.monitor import monitor_scenario
 from probing.experiment.scenario import load_scenario
 
 pytestmark = pytest.mark.jsbsim

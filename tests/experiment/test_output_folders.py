@@ -16,7 +16,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from probing.experiment.storage import RUN_FILES, metadata, output_folder
+from probing.experiment.output.storage import RUN_FILES, metadata, output_folder
 
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = pa.schema([("x", pa.float64())])

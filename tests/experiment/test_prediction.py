@@ -1,6 +1,6 @@
 """The deterministic part of the noise model against JSBSim itself: the expected settled
 estimate (bias included) of a noise-free run, and the bias measured on a run 100 periods
-longer (:func:`probing.experiment.noise.measured_bias`).  The seed-to-seed scatter is checked
+longer (:func:`probing.experiment.design.noise.measured_bias`).  The seed-to-seed scatter is checked
 against Monte Carlo in ``tests/core/test_noise.py`` and ``tests/sweep/test_noise_sweep.py``."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import pytest
 from probing.core.correlator import StreamingCorrelator
 from probing.core.noise import cyclic_estimates
 from probing.core.prbs import Probe, mls
-from probing.experiment.noise import measured_bias, predict
-from probing.experiment.run import run_scenario
-from probing.experiment.scatter import scatter_models
+from probing.experiment.design.noise import measured_bias, predict
+from probing.experiment.flight.run import run_scenario
+from probing.experiment.output.scatter import scatter_models
 from probing.experiment.scenario import Scenario, load_scenario
 from probing.sim.linear import LinearResponse
 

@@ -6,7 +6,7 @@ import io
 
 import pytest
 
-from probing.experiment import progress
+from probing.experiment.output import progress
 
 
 def test_eta_of_chunks_finishing_together_is_the_time_left(

@@ -16,8 +16,8 @@ import pytest
 from conftest import interrupt_when
 
 from probing.core.sensors import SENSOR_SUITES
-from probing.experiment.layouts import AUTOPILOT_COLUMNS
-from probing.experiment.monitor import ReplayError, monitor_scenario, replay_monitor
+from probing.experiment.flight.monitor import ReplayError, monitor_scenario, replay_monitor
+from probing.experiment.output.layouts import AUTOPILOT_COLUMNS
 from probing.experiment.scenario import load_scenario
 from probing.sim import plant as plant_module
 

@@ -14,10 +14,10 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import base_scenario
 
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
+from probing.experiment.output.storage import AtomicParquetWriter
 from probing.experiment.scenario import parse_scenario
-from probing.experiment.storage import AtomicParquetWriter
-from probing.experiment.truth import compute_truth, predicted_probing
+from probing.experiment.studies.truth import compute_truth, predicted_probing
 from probing.sim.errors import DivergenceError
 
 pytestmark = pytest.mark.jsbsim
@@ -284,7 +284,7 @@ def test_chunked_post_processing_matches_period_by_period(
     The time series are bit-identical; the probing outputs agree to rounding (the FFT
     block of the correlator follows the chunk size).
     """
-    import probing.experiment.run as run_module
+    import probing.experiment.flight.run as run_module
 
     scn = scenario(
         **{
@@ -383,7 +383,7 @@ def test_kept_settled_periods_are_what_read_settled_reads_back(
     """A sweep takes the first channel's settled periods from the run instead of reading
     its file again: they must be the file's, bit for bit, with the same periods left out
     (before settling, or not finite at every tap: a NaN sample in ``dead_period``)."""
-    from probing.experiment.storage import read_settled
+    from probing.experiment.output.storage import read_settled
 
     _dead_sensor(monkeypatch, period=dead_period, channel=0)
     scn = scenario(
@@ -512,8 +512,8 @@ def test_bounds_file_is_tap_bounds_of_the_settled_periods_of_probing_parquet(
     whose settled periods are not finite: NaN, its dof -1), with the level and the degrees
     of freedom in its metadata, in ``probing analyze``'s layout."""
     from probing.core.recorded import tap_bounds
-    from probing.experiment.layouts import BOUNDS_SCHEMA
-    from probing.experiment.storage import read_settled
+    from probing.experiment.output.layouts import BOUNDS_SCHEMA
+    from probing.experiment.output.storage import read_settled
 
     _dead_sensor(monkeypatch, period=dead_period, channel=1)  # q_rad_s
     scn = scenario(
@@ -557,7 +557,7 @@ def test_bounds_file_leaves_probing_parquet_as_it_was(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Writing ``bounds.parquet`` changes no byte of ``probing.parquet``."""
-    import probing.experiment.bounds as bounds_module
+    import probing.experiment.output.bounds as bounds_module
 
     scn = scenario(**{"probe.order": 5, "probe.periods": 3, "probe.settle_periods": 1})
     with_bounds = run_scenario(scn, tmp_path / "with", progress=False)
@@ -583,7 +583,7 @@ def test_bounds_carry_the_noise_models_prediction_where_it_covers_the_run(tmp_pa
     """Open loop in calm air with white sensor noise: ``h_model_sd`` is the noise model's
     standard deviation of the settled mean (scatter_models), for the scenario's own
     estimator; in turbulence the model does not cover the run and the column is NaN."""
-    from probing.experiment.scatter import model_covers, scatter_models
+    from probing.experiment.output.scatter import model_covers, scatter_models
 
     noisy = scenario(
         **{
@@ -618,7 +618,7 @@ def test_a_detrended_runs_bounds_are_its_settled_periods_pinned_by_their_tail(
     each channel got, and a reference run says ``reference``."""
     from probing.core.pinning import pin_settled_tail, tail_taps
     from probing.core.recorded import tap_bounds
-    from probing.experiment.storage import read_settled
+    from probing.experiment.output.storage import read_settled
 
     base = {"probe.order": 6, "probe.periods": 6, "probe.settle_periods": 2}
     scn = scenario(**base, **{"output.drift": "detrend", "output.estimator": "cyclic"})

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from probing.experiment.runners import RUNNERS, runner_of
+from probing.experiment.flight.runners import RUNNERS, runner_of
 from probing.experiment.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -16,7 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from probing.experiment.scenario import load_scenario
-from probing.experiment.simultaneous import (
+from probing.experiment.studies.simultaneous import (
     SeparationError,
     check_separation,
     run_simultaneous,

@@ -9,15 +9,15 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from probing.experiment.run import run_scenario
-from probing.experiment.scenario import load_scenario
-from probing.experiment.storage import (
+from probing.experiment.flight.run import run_scenario
+from probing.experiment.output.storage import (
     MONITOR_SCHEMA,
     AtomicParquetWriter,
     metadata,
     output_folder,
 )
-from probing.experiment.truth import compute_truth
+from probing.experiment.scenario import load_scenario
+from probing.experiment.studies.truth import compute_truth
 
 ROOT = Path(__file__).resolve().parents[2]
 FILES = (
@@ -89,7 +89,7 @@ def test_timeseries_has_each_column_once_with_every_channel_and_surface(surface:
     """The surface's realised position and its own sensor channel are two columns: every
     channel measured, with reference and autopilot columns, names no column twice (the
     monitor's scenarios measure elevator_deg while probing the elevator)."""
-    from probing.experiment.storage import timeseries_schema
+    from probing.experiment.output.storage import timeseries_schema
     from probing.sim.channels import CHANNELS
     from probing.sim.surfaces import SURFACES
 
@@ -104,7 +104,7 @@ def test_a_writer_refuses_a_schema_that_names_a_column_twice(tmp_path: Path) -> 
     """A schema with a repeated column name is refused before any file is opened."""
     import pyarrow as pa
 
-    from probing.experiment.storage import AtomicParquetWriter
+    from probing.experiment.output.storage import AtomicParquetWriter
 
     schema = pa.schema([("a_deg", pa.float64()), ("a_deg", pa.float64())])
     with pytest.raises(ValueError, match=r"given twice: \['a_deg'\]"):
@@ -184,7 +184,7 @@ def test_a_row_group_is_written_once_it_is_full(
 
 
 def test_check_output_file_refuses_what_cannot_be_a_written_file(tmp_path: Path) -> None:
-    from probing.experiment.storage import OutputFileError, check_output_file
+    from probing.experiment.output.storage import OutputFileError, check_output_file
 
     (tmp_path / "a-file").write_text("mine")
     (tmp_path / "a-folder").mkdir()
@@ -203,7 +203,7 @@ def test_check_output_file_refuses_what_cannot_be_a_written_file(tmp_path: Path)
 
 
 def test_a_stored_file_that_is_not_parquet_is_named(tmp_path: Path) -> None:
-    from probing.experiment.storage import StoredFileError, read_schema, read_settled
+    from probing.experiment.output.storage import StoredFileError, read_schema, read_settled
 
     bad = tmp_path / "probing.parquet"
     bad.write_bytes(b"garbage" * 20)
@@ -220,7 +220,7 @@ def test_each_file_of_a_run_is_laid_out_and_described_as_the_registry_says(
 ) -> None:
     """Every file a run (with its truth) writes is an OUTPUT_FILES entry: its description is
     the entry's and its columns the entry's schema (timeseries: laid out per run)."""
-    from probing.experiment.storage import OUTPUT_FILES
+    from probing.experiment.output.storage import OUTPUT_FILES
 
     names = sorted(p.name for p in run_folder.glob("*.parquet"))
     assert names == sorted(
@@ -259,8 +259,8 @@ def test_a_logs_keys_added_early_or_late_survive_a_read_and_write(tmp_path: Path
     import pandas as pd
     import pyarrow as pa
 
-    from probing.experiment.layouts import sensors_schema
-    from probing.experiment.storage import output_folder, read_footer
+    from probing.experiment.output.layouts import sensors_schema
+    from probing.experiment.output.storage import output_folder, read_footer
 
     schema = sensors_schema(["theta_rad"], False)
     with output_folder(tmp_path / "run", {b"probing.scenario": b"{}"}) as folder:

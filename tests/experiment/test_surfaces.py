@@ -12,10 +12,10 @@ import pandas as pd
 import pytest
 from conftest import base_scenario
 
-from probing.experiment.batch import run_grouped
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.batch import run_grouped
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import ScenarioError, parse_scenario
-from probing.experiment.truth import compute_truth, predicted_probing
+from probing.experiment.studies.truth import compute_truth, predicted_probing
 from probing.sim.plant import make_plant
 from probing.sim.surfaces import SURFACES
 from probing.sim.world import JSBSimWorld

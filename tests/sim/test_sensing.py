@@ -83,7 +83,7 @@ def test_the_same_seed_measures_the_same_bits_and_another_seed_does_not(flight):
 
 
 def test_a_sensor_bank_on_the_same_true_values_measures_the_same_bits():
-    """What a live flight does on the flight computer's side (probing.experiment.live): the
+    """What a live flight does on the flight computer's side (probing.experiment.flight.live): the
     suite's sensors, seeded alike and started at the same true trim, on the true values
     handed in (in chunks of any size) measure what the sensors on the plant measured."""
     plant = make_plant(FLIGHT)

@@ -11,7 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import base_scenario
 
-from probing.experiment.run import run_scenario
+from probing.experiment.flight.run import run_scenario
 from probing.experiment.scenario import parse_scenario
 from probing.sim.errors import DivergenceError
 from probing.sim.plant import make_plant

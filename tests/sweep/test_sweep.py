@@ -213,7 +213,7 @@ def test_sweep_gains_match_closed_form(reference_run: Path) -> None:
 def test_points_are_the_same_bytes_as_runs_on_their_own(reference_run: Path, tmp_path: Path):
     """The sweep forks its points from one trimmed aircraft per chunk; each point's files
     equal, byte for byte, a run that loads and trims for itself."""
-    from probing.experiment.run import run_scenario
+    from probing.experiment.flight.run import run_scenario
 
     for p in load_sweep(SMALL).points:
         alone = run_scenario(p.scenario, tmp_path, progress=False, twin_cache=False).out_dir

@@ -9,7 +9,7 @@ The package's modules: the schema, :class:`ScenarioError` and the checks of one 
 (:mod:`~probing.experiment.scenario.scenario`).
 """
 
-from probing.experiment.references import DRIFT_MODES
+from probing.experiment.scenario.references import DRIFT_MODES
 from probing.experiment.scenario.scenario import (
     Scenario,
     check_name,

@@ -12,7 +12,7 @@ from typing import Any
 from probing.core.gust import GUST_REFERENCE_SENSORS
 from probing.core.monitor import MonitorSettings
 from probing.core.sensors import SensorSuite
-from probing.experiment.references import REFERENCES
+from probing.experiment.scenario.references import REFERENCES
 from probing.experiment.scenario.schema import ScenarioError, field_label
 from probing.sim.flight import DAMAGE_MODEL, LOOP_SENSORS
 

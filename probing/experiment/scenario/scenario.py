@@ -25,7 +25,6 @@ from probing.core.nonlinearities import NONLINEARITIES, Nonlinearity
 from probing.core.prbs import Probe
 from probing.core.sensors import SensorSuite
 from probing.core.trend import window_periods
-from probing.experiment.references import REFERENCES
 from probing.experiment.scenario.flight_sections import (
     ControlSection,
     FaultSection,
@@ -35,6 +34,7 @@ from probing.experiment.scenario.flight_sections import (
     Simultaneous,
 )
 from probing.experiment.scenario.probe_signal import check_estimator
+from probing.experiment.scenario.references import REFERENCES
 from probing.experiment.scenario.rules import check_across, check_baseline
 from probing.experiment.scenario.schema import (
     ScenarioError,

@@ -23,8 +23,8 @@ from probing.core.excitation import PRBS, Excitation
 from probing.core.noise import ESTIMATOR_NAMES
 from probing.core.nonlinearities import NONLINEARITIES, ParameterError
 from probing.core.prbs import MAX_ORDER, MIN_ORDER, Probe, steps_per_bit
-from probing.experiment.references import REFERENCES
 from probing.experiment.scenario.probe_signal import parse_excitation, signal_fields
+from probing.experiment.scenario.references import REFERENCES
 from probing.experiment.scenario.schema import (
     MAX_PERIODS,
     ScenarioError,
