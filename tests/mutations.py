@@ -41,7 +41,7 @@ MUTATIONS = [
         "tests/core/test_noise.py::test_sample_autocovariance_averages_each_lag_over_the_products_it_has",
     ),
     (
-        "probing/sim/control.py",
+        "probing/sim/world.py",
         "if step >= onset >= 0:",
         "if step > onset >= 0:",
         "tests/sim/test_control.py::test_an_actuator_fault_acts_from_the_exact_step_of_its_onset",
@@ -77,7 +77,7 @@ MUTATIONS = [
         "tests/experiment/test_design.py::test_the_order_is_the_smallest_whose_period_covers_the_short_period",
     ),
     (
-        "probing/experiment/design/noise.py",
+        "probing/experiment/output/scatter.py",
         "acov[: extra.size] += extra",
         "acov[: extra.size] = extra",
         "tests/experiment/test_prediction.py::test_extra_noise_adds_to_the_sensor_noise",
@@ -146,7 +146,7 @@ MUTATIONS = [
         "probing/analysis/excitations.py",
         "float(gains.std(ddof=1))",
         "float(gains.std(ddof=0))",
-        "tests/analysis/test_excitations.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
+        "tests/analysis/test_excitation_table.py::test_the_gain_scatter_over_seeds_is_the_sample_standard_deviation",
     ),
     (
         "probing/analysis/monitoring.py",

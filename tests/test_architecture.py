@@ -279,3 +279,23 @@ def test_the_package_size_rule_can_fail(tmp_path: Path) -> None:
             (tmp_path / "pkg" / folder / f"{name}.py").write_text("")
     (tmp_path / "pkg" / "__init__.py").write_text("")
     assert _crowded(tmp_path / "pkg") == {"over": 16}
+
+
+def test_every_mutation_of_the_probe_list_still_applies() -> None:
+    """tests/mutations.py's list is kept with the code: each mutated text is still in its
+    file, once, and each named test exists (a moved or renamed one leaves it probing
+    nothing)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    try:
+        import mutations
+    finally:
+        sys.path.remove(str(ROOT / "tests"))
+    stale = []
+    for path, text, _, tests in mutations.MUTATIONS:
+        if (ROOT / path).read_text(encoding="utf-8").count(text) != 1:
+            stale.append(f"{path}: {text}")
+        for test in tests.split():
+            file, _, name = test.partition("::")
+            if f"def {name.split('[')[0]}(" not in (ROOT / file).read_text(encoding="utf-8"):
+                stale.append(test)
+    assert stale == []
