@@ -80,15 +80,20 @@ def trim_of(world: JSBSimWorld) -> AutopilotTrim:
 
 
 def autopilot_for(
-    world: JSBSimWorld,
+    world: Any,
     control: Control,
     power: ControlPower | None,
     manoeuvre: Manoeuvre | None = None,
+    *,
+    trim: AutopilotTrim | None = None,
 ) -> Autopilot:
-    """The autopilot of ``world``'s aircraft: its trim, its probed surface's map, flying on
-    its sensors (:meth:`JSBSimWorld.reader`), its references read now (at the trim)."""
+    """The autopilot of ``world``'s aircraft, flying on its sensors (its ``reader(channel)``,
+    a :class:`JSBSimWorld`'s or a separate simulator's), its references read now (at the
+    trim); its trim and probed surface's map ``trim``, by default the world's own
+    (:func:`trim_of`)."""
     reads = {c: world.reader(c) for c in LOOP_CHANNELS}
-    return Autopilot(control, power, trim_of(world), reads, world.dt_s, manoeuvre)
+    trim = trim if trim is not None else trim_of(world)
+    return Autopilot(control, power, trim, reads, world.dt_s, manoeuvre)
 
 
 class ClosedLoop:

@@ -28,14 +28,43 @@ import numpy as np
 
 from probing.core.faults import onset_step
 from probing.sim.autopilot import Autopilot, Demand
+from probing.sim.drive import SurfaceDrive
 from probing.sim.flight import ActuatorFault
 from probing.sim.plant import Plant
 from probing.sim.sensing import Sensing
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
-__all__ = ["INTEGRATORS", "JSBSimWorld", "actuator_pulse_response"]
+__all__ = ["INTEGRATORS", "JSBSimWorld", "actuator_pulse_response", "flight_plan"]
 
 _AILERON = SURFACES["aileron"].command
+
+
+def flight_plan(
+    autopilot: Autopilot | None,
+    drive: SurfaceDrive,
+    first_step: int,
+    n: int,
+    probe: np.ndarray | None,
+    *,
+    record_control: bool = False,
+    record_commands: bool = False,
+) -> tuple[Callable[[int], Demand] | None, np.ndarray | None]:
+    """How a flight computer's demands for ``n`` steps from ``first_step`` on are flown, in
+    every world: ``(law, None)``, its autopilot's law step by step
+    (:meth:`Autopilot.law`, keeping what ``record_*`` ask), or where the aircraft has none
+    ``(None, commands)``, the probed surface's normalised commands for the span at once
+    (its trim plus ``probe`` through its map; None without a probe: the commands held)."""
+    if autopilot is None:
+        asked = None if probe is None else drive.command(drive.trim_position + probe)
+        return None, asked
+    law = autopilot.law(
+        first_step,
+        n,
+        probe.tolist() if probe is not None else None,
+        record_control=record_control,
+        record_commands=record_commands,
+    )
+    return law, None
 
 
 class JSBSimWorld:
@@ -165,20 +194,20 @@ class JSBSimWorld:
             (a gust twin's wind and rotational gusts).
         """
         n = out.shape[0]
-        if autopilot is None:
-            if inputs is not None or control is not None or commands is not None:
-                raise ValueError("inputs, control and commands need an autopilot")
-            drive = self.drive
-            asked = None if probe is None else drive.command(drive.trim_position + probe)
-            self.fly_commands(asked, nodes, out, position)
-            return
-        law = autopilot.law(
+        law, asked = flight_plan(
+            autopilot,
+            self.drive,
             self.plant.steps_run,
             n,
-            probe.tolist() if probe is not None else None,
+            probe,
             record_control=control is not None,
             record_commands=commands is not None,
         )
+        if law is None:
+            if inputs is not None or control is not None or commands is not None:
+                raise ValueError("inputs, control and commands need an autopilot")
+            self.fly_commands(asked, nodes, out, position)
+            return
         table, setters = None, []
         if inputs is not None:
             setters = [node.set_double_value for node in inputs[0]]

@@ -20,7 +20,7 @@ process (:mod:`probing.experiment.flight.live`), or a recorded log
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -33,7 +33,9 @@ from probing.experiment.output.bounds import EstimatesFile
 from probing.experiment.output.layouts import AUTOPILOT_COLUMNS, sensors_schema
 from probing.experiment.output.storage import OutputFolder, metadata
 from probing.experiment.scenario import Scenario
-from probing.sim.autopilot import Autopilot, Demand
+from probing.sim.autopilot import Autopilot, AutopilotTrim, ControlPower
+from probing.sim.control import autopilot_for
+from probing.sim.flight import Control
 
 __all__ = ["FlightComputer", "ProbePathFault", "RunObserver"]
 
@@ -89,8 +91,8 @@ class FlightComputer:
     scn : Scenario
         The flight's scenario.
     autopilot : Autopilot or None
-        The control law, flying on the world's measurements; None: the probed surface is
-        demanded at its trim plus the probe, a period at a time (:meth:`surface_demand`).
+        The control law, flying on the world's measurements (:func:`flight_autopilot`);
+        None: the probed surface is demanded at its trim plus the probe, a period at a time.
     baseline : numpy.ndarray
         ``(channels,)``: the trim as measured (what is subtracted without a reference).
     source : ReferenceSource or None
@@ -133,28 +135,6 @@ class FlightComputer:
         if self.nl:
             q, self._nl_state = self.nl.process(self.x_period, self.scn.dt_s, self._nl_state)
         return self.fault.apply(q, period)
-
-    def law(
-        self, first_step: int, q: np.ndarray, *, record_commands: bool = False
-    ) -> Callable[[int], Demand]:
-        """The autopilot's law for the steps of ``q`` from ``first_step`` on (it keeps its
-        command of the probed surface, and the commands flown with ``record_commands``)."""
-        assert self.autopilot is not None
-        return self.autopilot.law(
-            first_step, len(q), q.tolist(), record_control=True, record_commands=record_commands
-        )
-
-    @property
-    def control_record(self) -> list[float]:
-        """The last :meth:`law`'s command of the probed surface at each step (from trim)."""
-        assert self.autopilot is not None
-        return self.autopilot.control_record
-
-    @property
-    def commands_record(self) -> list[tuple[float, float, float]]:
-        """The last :meth:`law`'s commands flown (elevator deg from trim, aileron, throttle)."""
-        assert self.autopilot is not None
-        return self.autopilot.commands_record
 
     # ------------------------------------------------------------ per chunk
     def log(
@@ -221,15 +201,28 @@ class FlightComputer:
         (``probing.ended`` on every file) and the monitor's last rows."""
         assert self.estimates is not None
         self.estimates.finish()
-        if ended is not None:
-            value = ended if isinstance(ended, bytes) else None
+        if ended is not None:  # as a flight wrote it (a replay), or a divergence's message
+            meta = {b"probing.ended": ended} if isinstance(ended, bytes) else metadata(ended=ended)
             for writer in outputs.writers:
-                if value is not None:
-                    writer.add_metadata({b"probing.ended": value})
-                else:
-                    writer.add_metadata(metadata(ended=ended))
+                writer.add_metadata(meta)
         if self.monitor is not None:
             self.monitor.finish()
+
+
+def flight_autopilot(
+    scn: Scenario,
+    world: Any,
+    power: ControlPower | None,
+    trim: AutopilotTrim | None = None,
+) -> Autopilot | None:
+    """The flight computer's autopilot, flying on ``world``'s measurements
+    (:func:`probing.sim.control.autopilot_for`), or None where it computes nothing step by
+    step: the one rule, for every world (a loop, an actuator fault or sensors act between
+    the probe and the surface).  ``trim``: its trim and actuator map where the world is not
+    a :class:`~probing.sim.world.JSBSimWorld` that knows them."""
+    if not (scn.stepped_one_by_one or scn.sensors is not None):
+        return None
+    return autopilot_for(world, scn.control or Control(), power, trim=trim)
 
 
 def folder_of(out: str | Path, name: str, folder: str | Path | None) -> Path:

@@ -40,7 +40,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from probing.core.faults import onset_step
-from probing.experiment.flight.flight_computer import FlightComputer, folder_of
+from probing.experiment.flight.flight_computer import FlightComputer, flight_autopilot, folder_of
 from probing.experiment.flight.monitor import Monitor, MonitorResult
 from probing.experiment.flight.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.flight.run import scenario_provenance
@@ -54,11 +54,11 @@ from probing.sim.autopilot import LOOP_CHANNELS, Autopilot, Demand
 from probing.sim.channels import CHANNELS
 from probing.sim.control import control_power, trim_of
 from probing.sim.errors import DivergenceError
-from probing.sim.flight import Control, disturbance_properties
+from probing.sim.flight import disturbance_properties
 from probing.sim.plant import DAMAGE_PROPERTY, Plant, make_plant
 from probing.sim.sensing import ChannelNoise, SensorBank
 from probing.sim.surfaces import SURFACES
-from probing.sim.world import JSBSimWorld
+from probing.sim.world import JSBSimWorld, flight_plan
 
 __all__ = [
     "LIVE_CHUNK_PERIODS",
@@ -241,6 +241,11 @@ class SocketWorld:
         self.start = time.perf_counter()
         self.slept_s = 0.0  # the pacing's sleeps (realtime), s
 
+    @property
+    def dt_s(self) -> float:
+        """The step, s."""
+        return self.scn.dt_s
+
     def reader(self, channel: str) -> Callable[[], float]:
         """A callable giving the latest measurement of ``channel`` (NaN if nothing measures
         it: a loop flying on it is refused when the scenario is read)."""
@@ -283,6 +288,22 @@ class SocketWorld:
                 pause = max(0.0, due - time.perf_counter())
                 time.sleep(pause)
                 self.slept_s += pause
+
+    def fly_probe(
+        self, autopilot: Autopilot | None, probe: np.ndarray, commands: np.ndarray | None = None
+    ) -> None:
+        """Fly the steps of ``probe`` (the probe path's deflection of each step): through
+        ``autopilot`` step by step, or where the aircraft has none, the probed surface at its
+        trim plus the probe (:func:`probing.sim.world.flight_plan`, the choice
+        :meth:`probing.sim.world.JSBSimWorld.fly_probe` makes); ``commands`` ``(n, 3)``
+        receives the autopilot's commands."""
+        n = len(probe)
+        law, asked = flight_plan(
+            autopilot, self.drive, self.steps, n, probe, record_commands=commands is not None
+        )
+        self.fly(n, law=law, commands=asked)
+        if commands is not None:
+            commands[:] = autopilot.commands_record
 
     def _demand(self, demand: Demand, probed: list[str], elevator: list[str]) -> dict:
         """The property writes of one step's demands, through the actuator and its fault."""
@@ -419,12 +440,9 @@ def flight_computer(
     """The flight computer of a live flight: the same as a flight in this process builds,
     its autopilot flying on ``world``'s measurements, its actuator's maps and trim those of
     ``plant`` (a trimmed copy in this process)."""
-    autopilot = None
-    if scn.stepped_one_by_one or scn.sensors is not None:
-        power = control_power(scn.flight) if scn.flight.closed_loop else None
-        reads = {c: world.reader(c) for c in LOOP_CHANNELS}
-        trim = trim_of(JSBSimWorld(plant, scn.surface))
-        autopilot = Autopilot(scn.control or Control(), power, trim, reads, scn.dt_s)
+    power = control_power(scn.flight) if scn.flight.closed_loop else None
+    trim = trim_of(JSBSimWorld(plant, scn.surface))  # the rig's copy knows the maps
+    autopilot = flight_autopilot(scn, world, power, trim)
     twin = open_reference_twin(scn, nominal=True)
     source = reference_source(scn, twin)
     return FlightComputer(scn, autopilot, world.trim_measured, source, LIVE_CHUNK_PERIODS, monitor)
@@ -469,13 +487,8 @@ def _chunks(world: SocketWorld, computer: FlightComputer) -> Iterator[tuple[int,
         count = min(LIVE_CHUNK_PERIODS, scn.periods - first)
         commands = np.empty((count * n, 3)) if computer.autopilot is not None else None
         for i in range(count):
-            q = computer.probe_path(first + i)
-            if computer.autopilot is None:
-                drive = world.drive
-                world.fly(n, commands=drive.command(drive.trim_position + q))
-            else:
-                world.fly(n, law=computer.law(world.steps, q, record_commands=True))
-                commands[i * n : (i + 1) * n] = computer.commands_record
+            flown = commands[i * n : (i + 1) * n] if commands is not None else None
+            world.fly_probe(computer.autopilot, computer.probe_path(first + i), flown)
         if done is not None:
             yield done[0], _log(world, computer, *done)
         done = (first, count, commands)

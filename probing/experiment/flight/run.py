@@ -28,7 +28,12 @@ import numpy as np
 
 from probing.core.forked import INTERRUPTS
 from probing.core.prbs import Probe
-from probing.experiment.flight.flight_computer import FlightComputer, RunObserver, folder_of
+from probing.experiment.flight.flight_computer import (
+    FlightComputer,
+    RunObserver,
+    flight_autopilot,
+    folder_of,
+)
 from probing.experiment.flight.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.flight.runners import runner_of
 from probing.experiment.output.progress import progress_bar
@@ -42,9 +47,8 @@ from probing.experiment.output.storage import (
 )
 from probing.experiment.scenario import Scenario
 from probing.sim.autopilot import Autopilot
-from probing.sim.control import autopilot_for, control_power
+from probing.sim.control import control_power
 from probing.sim.errors import DivergenceError
-from probing.sim.flight import Control
 from probing.sim.fork import TrimmedAircraft, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
 from probing.sim.sensing import ChannelNoise, Sensing
@@ -136,9 +140,7 @@ class _Rig:
         if scn.sensors is not None:
             sensing = Sensing(plant, scn.sensors, scn.seed, scn.build_fault("sensor"))
         world = JSBSimWorld(plant, scn.surface, fault=scn.actuator_fault, sensing=sensing)
-        autopilot = None
-        if scn.stepped_one_by_one or sensing is not None:
-            autopilot = autopilot_for(world, scn.control or Control(), power)
+        autopilot = flight_autopilot(scn, world, power)
         nodes = plant.channel_nodes(list(scn.channels))
         if sensing is not None:  # the sensors' reading of the trim
             y_trim = np.array([sensing.current[sensing.index(c)] for c in scn.channels])
