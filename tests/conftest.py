@@ -20,6 +20,9 @@ from typing import Any
 
 import pytest
 
+# Figures are drawn into files: no window, whatever display the machine has.
+os.environ.setdefault("MPLBACKEND", "Agg")
+
 LOCK = Path(__file__).resolve().parents[1] / "requirements.lock"
 #: The packages whose numbers the results depend on, named first in the session header.
 NUMERIC = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "dask")

@@ -154,6 +154,30 @@ MUTATIONS = [
         "CHECK_RATE_PER_HOUR * f.period_s / 3600.0)",
         "tests/analysis/test_monitoring.py::test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels",
     ),
+    (
+        "probing/api/flight.py",
+        "(staging / name).write_bytes(self._files[name])",
+        "(staging / name).write_bytes(self._files[name][:-1])",
+        "tests/api/test_api.py::test_a_saved_flight_is_probing_run_byte_for_byte[a_deadband]",
+    ),
+    (
+        "probing/api/calls.py",
+        "timeseries=how.timeseries is not False,",
+        "timeseries=bool(how.timeseries),",
+        "tests/api/test_api.py::test_a_saved_flight_is_probing_run_byte_for_byte[a_deadband]",
+    ),
+    (
+        "probing/analysis/analyze_plots.py",
+        '& (prediction["period"] >= settle_periods)',
+        '& (prediction["period"] > settle_periods)',
+        "tests/api/test_api.py::test_plot_draws_each_channel_with_its_bounds_and_the_truth_once_computed",
+    ),
+    (
+        "probing/experiment/output/staging.py",
+        'remove_dead_writers_files(place, ".tmp", folders=True)',
+        "None",
+        "tests/experiment/test_work_folder.py::test_a_dead_writers_work_folder_is_removed_and_a_live_ones_kept",
+    ),
 ]
 
 

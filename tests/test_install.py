@@ -5,6 +5,7 @@ folder outside the repository."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -73,6 +74,8 @@ def test_the_wheel_ships_the_gtm_the_scenarios_and_the_examples(tmp_path: Path) 
     # one top-level package, the project's own: no "analysis" to shadow a user's analysis.py
     assert {n.split("/")[0] for n in names if ".dist-info" not in n} == {"probing"}
     assert "probing/analysis/fig4.py" in names
+    assert "probing/py.typed" in names and "probing/api/flight.py" in names
+    assert "probing/data/examples/notebooks/quickstart.ipynb" in names
 
 
 def short(path: Path, periods: int = 3) -> None:
@@ -132,3 +135,34 @@ def test_installed_in_a_fresh_venv_it_runs_outside_the_repository(tmp_path: Path
         assert (outside / "results" / run / "probing.parquet").is_file()
     info = probing("cache", "info")
     assert str(tmp_path / "cache") in info
+
+    # the Python API, from the installed package: a shipped example, and the copied scenario
+    # flown and saved byte for byte as `probing run` saved it
+    script = (
+        "import json, probing\n"
+        "example = probing.example_path('fig4/a_deadband')\n"
+        "flight = probing.fly(probing.load('copied/scenarios/fig4/a_deadband.toml'))\n"
+        "folder = flight.save('api')\n"
+        "back = probing.read(folder)\n"
+        "print(json.dumps({'example': str(example), 'files': list(flight.files),\n"
+        "    'equal': bool(back.bounds.equals(flight.bounds)),\n"
+        "    'units': flight.bounds.attrs['units']['h_est'], 'all': sorted(probing.__all__)}))\n"
+    )
+    res = subprocess.run(
+        [str(venv / "bin" / "python"), "-c", script],
+        capture_output=True,
+        text=True,
+        cwd=outside,
+        env=env,
+        timeout=600,
+    )
+    assert res.returncode == 0, res.stderr
+    got = json.loads(res.stdout.splitlines()[-1])
+    assert got["example"].startswith(str(venv)) and got["equal"]
+    assert got["units"] == {"theta_rad": "rad/deg", "q_rad_s": "rad/s/deg"}
+    assert {"fly", "load", "read", "Flight", "Probe"} <= set(got["all"])
+    for name in got["files"]:
+        cli_file = outside / "results" / "fig4-a-deadband" / name
+        assert (outside / "api" / "fig4-a-deadband" / name).read_bytes() == cli_file.read_bytes()
+    site = next(venv.glob("lib/python*/site-packages/probing"))
+    assert (site / "py.typed").is_file()

@@ -4,15 +4,23 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 
 
-def test_readme_example_runs() -> None:
+def _python_block(marker: str) -> str:
+    """The README's Python example that holds ``marker``."""
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
-    assert blocks, "README lost its Python example"
+    found = [b for b in blocks if marker in b]
+    assert len(found) == 1, f"README lost its Python example with {marker}"
+    return found[0]
+
+
+def test_readme_example_runs() -> None:
     namespace: dict = {}
-    exec(compile(blocks[0], "README.md", "exec"), namespace)  # our own README
+    block = _python_block("StreamingCorrelator")
+    exec(compile(block, "README.md", "exec"), namespace)  # our own README
     a = namespace["probe"].amplitude_deg
     np.testing.assert_allclose(namespace["nl"].apparent(a), (2 * a / 3, 0.0), rtol=1e-12)
     ratio = namespace["corr"].pulse_response(average=2) / namespace["h"]
@@ -41,3 +49,16 @@ def test_documented_commands_write_under_the_ignored_results_folder() -> None:
                 if not folder.startswith("results/") and folder != "results":
                     outside.append(f"{page.name}:{number}: --out {folder}")
     assert not outside, outside
+
+
+@pytest.mark.jsbsim
+def test_readme_api_example_runs_and_saves_what_it_says(tmp_path, monkeypatch) -> None:
+    """The README's Python API example flies, draws and saves under results/ (ignored)."""
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(_python_block("probing.fly"), "README.md", "exec"), namespace)
+    flight = namespace["flight"]
+    assert flight.scenario.amplitude_deg == 0.01
+    assert len(namespace["figure"].axes) == 2
+    saved = tmp_path / "results" / "python" / flight.name
+    assert sorted(p.name for p in saved.iterdir()) == list(sorted(flight.files))

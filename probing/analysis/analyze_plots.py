@@ -10,11 +10,13 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, detached_figure, save_figure
 from probing.experiment.output.storage import read_footer, read_table
 
-__all__ = ["auto_max_lag_s", "draw_bounds", "per_label"]
+__all__ = ["auto_max_lag_s", "bounds_figure", "draw_bounds", "per_label", "predicted_mean"]
 
 #: What each convention of h_est means, for the panel's title.
 CONVENTION_TEXT = {
@@ -24,6 +26,8 @@ CONVENTION_TEXT = {
     "zero mean": "response less sum(h)/M: tail not settled",
     "ac": "response less sum(h)/(M+1) (ac estimator)",
 }
+#: What the prediction drawn with the estimate is (prediction.parquet).
+PREDICTION_LABEL = "truth: the single pulse's probing output, linear (no nonlinearity)"
 #: The automatic zoom shows the lag up to this multiple of the last tap that stands out.
 ZOOM_MARGIN = 1.5
 #: A tap stands out where |h| exceeds its bound's half-width and this share of the peak.
@@ -94,10 +98,39 @@ def draw_bounds(bounds: Path, stem: Path, max_lag_s: float | None = None) -> Pat
     pathlib.Path
         The PNG written (the same bounds give the same bytes).
     """
-    table = read_table(bounds).to_pandas()
-    meta = read_footer(bounds)
+    figure = bounds_figure(read_table(bounds).to_pandas(), read_footer(bounds), max_lag_s)
+    return save_figure(figure, stem)[0]
+
+
+def bounds_figure(
+    table: pd.DataFrame,
+    meta: dict[bytes, bytes],
+    max_lag_s: float | None = None,
+    prediction: pd.DataFrame | None = None,
+    settle_periods: int | None = None,
+) -> Figure:
+    """The figure of a ``bounds.parquet``: each channel's h_est and its interval.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The file's rows (channel, lag_s, h_est, h_low, h_high).
+    meta : dict
+        The file's key-value metadata (its confidence, units, conventions, source).
+    max_lag_s : float, optional
+        As for :func:`draw_bounds`.
+    prediction : pandas.DataFrame, optional
+        A ``prediction.parquet`` (the probing output the single-pulse truth predicts): its
+        h_est averaged over the periods from ``settle_periods`` on is drawn too.
+    settle_periods : int, optional
+        The periods the prediction's average leaves out (None: none).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     conf = _meta(meta, "confidence")
-    source = _meta(meta, "input").get("file") or _meta(meta, "scenario").get("name") or bounds
+    source = _meta(meta, "input").get("file") or _meta(meta, "scenario").get("name") or "?"
     units = _meta(meta, "units").get("h_est", {})
     conventions = _meta(meta, "convention").get("h_est", {})
     channels = list(dict.fromkeys(table["channel"]))
@@ -110,14 +143,11 @@ def draw_bounds(bounds: Path, stem: Path, max_lag_s: float | None = None) -> Pat
     right = max_lag_s if max_lag_s is not None else zoom if zoom is not None else period_s
     dof = conf.get("dof")
     periods = {c: (dof[c] if isinstance(dof, dict) else dof) for c in channels}
+    # made before the style's context: a notebook's backend, loaded by the first figure,
+    # turns interactive mode on, which the context would turn off again on its way out
+    fig = detached_figure(figsize=(6.0, 2.3 * len(channels) + 0.5), layout="constrained")
     with plt.rc_context(RC):
-        fig, axes = plt.subplots(
-            len(channels),
-            1,
-            figsize=(6.0, 2.3 * len(channels) + 0.5),
-            squeeze=False,
-            layout="constrained",
-        )
+        axes = fig.subplots(len(channels), 1, squeeze=False)
         for ax, channel in zip(axes[:, 0], channels, strict=True):
             r = rows[channel]
             ax.fill_between(
@@ -130,6 +160,9 @@ def draw_bounds(bounds: Path, stem: Path, max_lag_s: float | None = None) -> Pat
                 label=f"{conf.get('level', 0.95):.0%} Student-t bounds of the mean",
             )
             ax.plot(lag, r["h_est"].to_numpy(), color="C0", label="h_est, mean over periods")
+            if prediction is not None:
+                truth = predicted_mean(prediction, channel, settle_periods or 0, len(lag))
+                ax.plot(lag, truth, "k--", lw=1.0, label=PREDICTION_LABEL)
             ax.axhline(0.0, color="0.5", linewidth=0.5)
             unit = units.get(channel) if isinstance(units, dict) else None
             ax.set_ylabel(per_label(unit) if unit else f"{channel} per probe unit")
@@ -151,4 +184,15 @@ def draw_bounds(bounds: Path, stem: Path, max_lag_s: float | None = None) -> Pat
         fig.suptitle(f"pulse response from {source}", fontsize=RC["axes.titlesize"])
         handles, labels = axes[0, 0].get_legend_handles_labels()
         fig.legend(handles, labels, loc="outside lower center", ncols=2, frameon=False)
-    return save_figure(fig, stem)[0]
+    return fig
+
+
+def predicted_mean(
+    prediction: pd.DataFrame, channel: str, settle_periods: int, m: int
+) -> np.ndarray:
+    """The mean h_est of a ``prediction.parquet`` over one channel's periods from
+    ``settle_periods`` on, by tap, shape (m,): what the single-pulse truth predicts the
+    settled estimate to be."""
+    rows = prediction[(prediction["channel"] == channel) & (prediction["period"] >= settle_periods)]
+    h = rows.sort_values(["period", "tap"])["h_est"].to_numpy().reshape(-1, m)
+    return h.mean(axis=0)

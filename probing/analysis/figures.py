@@ -14,9 +14,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.path import Path as MplPath
@@ -26,6 +23,7 @@ __all__ = [
     "RC",
     "clipped_texts",
     "covers_data",
+    "detached_figure",
     "legends_over_data",
     "place_clear_of_data",
     "save_figure",
@@ -43,6 +41,20 @@ RC = {
     "axes.grid": True,
     "grid.alpha": 0.3,
 }
+
+
+def detached_figure(**kwargs: Any) -> Any:
+    """A new figure made by pyplot's backend, then let go of by pyplot: a figure a function
+    returns, which a notebook shows once (as the cell's result) and a script keeps until
+    it drops it, with no window and no figure left in pyplot's list.
+
+    ``kwargs`` go to :func:`matplotlib.pyplot.figure` (``figsize``, ``layout``).
+    """
+    fig = plt.figure(**kwargs)
+    canvas = type(fig.canvas)  # the backend's: Agg, or a notebook's inline one
+    plt.close(fig)  # which leaves the figure a bare canvas
+    canvas(fig)  # drawn by the backend's again (a renderer, the notebook's formatter)
+    return fig
 
 
 def save_figure(

@@ -31,42 +31,33 @@ def _order(text: str) -> int:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    from probing.experiment.recorded.analyze import (
-        AnalysisRequest,
-        analyze,
-        convention_lines,
-        write_analysis,
-    )
+    """``probing analyze``: ``analyze(...).save(out)`` (:func:`probing.api.analyze`)."""
+    from probing.api import analyze
+    from probing.api.flight import FIGURE_NAME
+    from probing.experiment.recorded.analyze import convention_lines
     from probing.experiment.recorded.record import RecordError
 
     out_folder(args.out, "--out")
-    if not args.file.is_file():
-        raise UsageError(f"FILE {args.file}: no such file")
-    req = AnalysisRequest(
-        path=args.file,
-        input=args.input,
-        outputs=tuple(args.output),
-        order=args.order,
-        bit_duration_s=args.bit_duration_s,
-        time=args.time,
-        dt_s=args.dt_s,
-        amplitude=args.amplitude,
-        drift=args.drift,
-        reference=args.reference,
-        settled_after_s=args.settled_after_s,
-    )
     try:
-        result = analyze(req)
+        record = analyze(
+            args.file,
+            input=args.input,
+            outputs=args.output,
+            order=args.order,
+            bit_duration_s=args.bit_duration_s,
+            time=args.time,
+            dt_s=args.dt_s,
+            amplitude=args.amplitude,
+            drift=args.drift,
+            reference=args.reference,
+            settled_after_s=args.settled_after_s,
+            max_lag_s=args.max_lag_s,
+            scratch=args.out,
+        )
     except RecordError as exc:
         raise UsageError(str(exc)) from None
-    from probing.analysis.analyze_plots import draw_bounds
-    from probing.experiment.output.staging import staged_output
-
-    with staged_output(args.out) as staging:  # an interrupt at any moment leaves nothing
-        written = write_analysis(result, staging)
-        figure = draw_bounds(
-            staging / "bounds.parquet", staging / "pulse_response", max_lag_s=args.max_lag_s
-        )
+    record.save(args.out, hold_interrupts=True)  # an interrupt at any moment leaves nothing
+    result = record.result
     f = result.found
     print(
         f"{args.file.name}: sequence shift {f['sequence_shift_bits']} bits, bit boundary at "
@@ -76,8 +67,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     )
     for line in convention_lines(result):
         print(line)
-    for path in (*written, figure):
-        print(f"-> {args.out / path.name}")
+    for name in (*record.files, f"{FIGURE_NAME}.png"):
+        print(f"-> {args.out / name}")
     return 0
 
 

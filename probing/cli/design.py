@@ -30,18 +30,20 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return _check_simultaneous(args.simultaneous)
     request = _request(args)
     _check_exports(args)
-    from probing.experiment.design.design import DesignError, DesignInputError, recommend
+    from probing.api import design
+    from probing.experiment.design.design import DesignError, DesignInputError
     from probing.experiment.output.storage import strict_json
 
     def job() -> int:
         try:
-            d, modes, scn = recommend(request)
+            rec = design(request)
         except DesignInputError as exc:
             raise UsageError(str(exc)) from None
         except DesignError as exc:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
             return print_error(f"infeasible: {exc}", 2)
+        d, modes, scn = rec.design, rec.modes, rec.scenario
         written = _write_exports(args, d, scn)
         if args.json:
             fields = {k: v for k, v in asdict(d).items() if k != "window" or v}  # if found
@@ -97,19 +99,19 @@ def _write_exports(args: argparse.Namespace, d: Any, scn: Any) -> list[Path]:
 
 
 def _check_simultaneous(path: Path) -> int:
-    """``probing design --simultaneous``: the design's memory condition, or its refusal."""
-    from probing.experiment.flight.runners import runner_of
-    from probing.experiment.studies.simultaneous import SeparationError, check_separation
+    """``probing design --simultaneous``: the design's memory condition, or its refusal
+    (:func:`probing.api.check_simultaneous`)."""
+    from probing.api import check_simultaneous
+    from probing.experiment.scenario import ScenarioError
+    from probing.experiment.studies.simultaneous import SeparationError
 
     scn = scenario_arg(path)
-    runner = runner_of(scn).name
-    if runner != "simultaneous":
-        why = "has no [simultaneous] section" if runner == "steady" else f"is flown by {runner}"
-        raise UsageError(f"{path}: {why}; design --simultaneous checks a simultaneous design")
 
     def job() -> int:
         try:
-            check = check_separation(scn)
+            check = check_simultaneous(scn)
+        except ScenarioError as exc:
+            raise UsageError(f"{path}: {exc.message}") from None
         except SeparationError as exc:
             raise UsageError(f"{path}: {exc}") from None
         if not check.ok:

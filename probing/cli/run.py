@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,79 +19,74 @@ from probing.cli.common import (
 )
 
 
+def _tty() -> bool:
+    """A progress bar on stderr: when it is a terminal (the API's own default is a notebook)."""
+    return sys.stderr.isatty()
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    """``probing run``: ``fly(scn).save(out)`` (:func:`probing.api.fly`), then one line."""
     from probing.experiment.flight.runners import runner_of
 
     scn = _one_surface(scenario_arg(args.scenario), args.scenario, "run")
     check_run_folder(args.out, scn)
-    handler = RUN_HANDLERS.get(runner_of(scn).name)
-    if handler is not None:
-        return handler(scn, args)
+    line = RUN_LINES.get(runner_of(scn).name, _steady_line)
 
     def job() -> int:
-        from probing.experiment.flight.run import run_scenario
-        from probing.experiment.studies.truth import TruthFiles
+        from probing.api import fly
+        from probing.experiment.studies.simultaneous import SeparationError
 
-        truth = TruthFiles(scn) if args.truth else None  # one run's files: run and truth
-        result = run_scenario(scn, args.out, progress=None, observer=truth)
-        print(
-            f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
-            f"{result.wall_s:.2f} s -> {result.out_dir}"
-        )
-        if args.truth:
-            print(f"{scn.name}: ground truth -> {result.out_dir / 'truth.parquet'}")
-        return 0
-
-    return simulating(job, str(args.scenario), scn.model)
-
-
-def _run_simultaneous(scn: Any, args: argparse.Namespace) -> int:
-    """``probing run`` of a ``[simultaneous]`` scenario: ``responses.parquet``; with
-    ``--truth`` each surface is flown alone too and the measured cross-talk printed."""
-    from probing.experiment.studies.simultaneous import SeparationError, run_simultaneous
-
-    def job() -> int:
         try:
-            result = run_simultaneous(scn, args.out, truth=args.truth, progress=None)
+            flight = fly(
+                scn, progress=_tty(), truth=args.truth, monitor=False, scratch=args.out / scn.name
+            )
         except SeparationError as exc:
             raise UsageError(f"{args.scenario}: {exc}") from None
-        print(
-            f"{scn.name}: {len(scn.simultaneous.surfaces)} surfaces together "
-            f"({scn.simultaneous.design}), {result.steps_simulated} steps in "
-            f"{result.wall_s:.2f} s -> {result.out_dir}"
-        )
-        if result.crosstalk:
-            print(result.table())
+        folder = flight.save(args.out, hold_interrupts=True)
+        print(line(scn, flight.result, folder, args.truth))
         return 0
 
     return simulating(job, str(args.scenario), scn.model)
 
 
-def _run_manoeuvre(scn: Any, args: argparse.Namespace) -> int:
-    """``probing run`` of a ``[manoeuvre]`` scenario: ``manoeuvre.parquet``, the probing
-    output period by period with its single-pulse truth (so ``--truth`` adds nothing)."""
-    from probing.experiment.studies.manoeuvre import run_manoeuvre
-
-    def job() -> int:
-        result = run_manoeuvre(scn, args.out, progress=None)
-        worst = ", ".join(
-            f"{c} {100 * e[scn.settle_periods :].max():.1f} %" for c, e in result.errors.items()
-        )
-        print(
-            f"{scn.name}: {scn.periods} periods through a {scn.manoeuvre.hold} manoeuvre, "
-            f"{result.steps_simulated} steps in {result.wall_s:.2f} s -> {result.out_dir}; "
-            f"largest error against the single pulse after settling: {worst}"
-        )
-        return 0
-
-    return simulating(job, str(args.scenario), scn.model)
+def _steady_line(scn: Any, result: Any, folder: Path, truth: bool) -> str:
+    line = (
+        f"{scn.name}: {scn.periods} periods, {result.steps_simulated} steps in "
+        f"{result.wall_s:.2f} s -> {folder}"
+    )
+    return f"{line}\n{scn.name}: ground truth -> {folder / 'truth.parquet'}" if truth else line
 
 
-#: ``probing run``'s handler of each runner but the steady one
-#: (:data:`probing.experiment.flight.runners.RUNNERS`): ``handler(scn, args)``, the exit code.
-RUN_HANDLERS: dict[str, Callable[[Any, argparse.Namespace], int]] = {
-    "simultaneous": _run_simultaneous,
-    "manoeuvre": _run_manoeuvre,
+def _simultaneous_line(scn: Any, result: Any, folder: Path, truth: bool) -> str:
+    """``probing run`` of a ``[simultaneous]`` scenario (``responses.parquet``; with
+    ``--truth`` each surface is flown alone too and the measured cross-talk printed)."""
+    line = (
+        f"{scn.name}: {len(scn.simultaneous.surfaces)} surfaces together "
+        f"({scn.simultaneous.design}), {result.steps_simulated} steps in "
+        f"{result.wall_s:.2f} s -> {folder}"
+    )
+    return f"{line}\n{result.table()}" if result.crosstalk else line
+
+
+def _manoeuvre_line(scn: Any, result: Any, folder: Path, truth: bool) -> str:
+    """``probing run`` of a ``[manoeuvre]`` scenario (``manoeuvre.parquet``, the probing
+    output period by period with its single-pulse truth, so ``--truth`` adds nothing)."""
+    worst = ", ".join(
+        f"{c} {100 * e[scn.settle_periods :].max():.1f} %" for c, e in result.errors.items()
+    )
+    return (
+        f"{scn.name}: {scn.periods} periods through a {scn.manoeuvre.hold} manoeuvre, "
+        f"{result.steps_simulated} steps in {result.wall_s:.2f} s -> {folder}; "
+        f"largest error against the single pulse after settling: {worst}"
+    )
+
+
+#: ``probing run``'s line after each runner's flight but the steady one
+#: (:data:`probing.experiment.flight.runners.RUNNERS`, flown by
+#: :data:`probing.api.calls.FLIERS`): ``line(scn, result, folder, truth)``.
+RUN_LINES: dict[str, Callable[[Any, Any, Path, bool], str]] = {
+    "simultaneous": _simultaneous_line,
+    "manoeuvre": _manoeuvre_line,
 }
 
 
@@ -142,10 +138,17 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     check_run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.experiment.flight.monitor import monitor_scenario
+        from probing.api import fly
 
-        result = monitor_scenario(scn, args.out, timeseries=args.timeseries)
-        print(f"{scn.name}: {result.line()} -> {result.out_dir / 'monitor.parquet'}")
+        flight = fly(
+            scn,
+            progress=_tty(),
+            monitor=True,
+            timeseries=args.timeseries,
+            scratch=args.out / scn.name,
+        )
+        folder = flight.save(args.out, hold_interrupts=True)
+        print(f"{scn.name}: {flight.result.line()} -> {folder / 'monitor.parquet'}")
         return 0
 
     return simulating(job, str(args.scenario), scn.model)
@@ -158,21 +161,19 @@ NEEDS_MAP = (
 
 
 def _replay(args: argparse.Namespace) -> int:
-    """``probing monitor --replay LOG``: the monitor recomputed from a flight's log."""
-    from probing.experiment.flight.monitor import (
-        NotAFlightLog,
-        ReplayError,
-        logged_scenario,
-        replay_monitor,
-    )
-    from probing.experiment.output.storage import StoredFileError, read_footer
+    """``probing monitor --replay LOG``: the monitor recomputed from a flight's log
+    (:func:`probing.api.replay`)."""
+    from probing.api.calls import foreign_table, replayed_scenario
+    from probing.experiment.flight.monitor import NotAFlightLog, ReplayError
+    from probing.experiment.output.storage import StoredFileError
 
     if args.timeseries:
         raise UsageError("monitor --replay: a log has no timeseries to write")
-    table = None if args.map is None else _foreign(args)
+    if args.map is not None:
+        _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
     try:
-        meta = read_footer(args.replay) if table is None else table.schema.metadata
-        scn, _ = logged_scenario(args.replay, meta, table)
+        table = foreign_table(args.replay, args.scenario, args.map)
+        scn = replayed_scenario(args.replay, table)
     except (ReplayError, StoredFileError) as exc:
         foreign = isinstance(exc, NotAFlightLog) or (
             isinstance(exc, StoredFileError) and args.replay.is_file()
@@ -182,28 +183,20 @@ def _replay(args: argparse.Namespace) -> int:
     check_run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.experiment.output.staging import staged_output
+        from probing.api import replay
 
-        folder = args.out / scn.name
-        with staged_output(folder) as staging:  # an interrupt at any moment leaves nothing
-            result = replay_monitor(args.replay, args.out, table=table, folder=staging)
-        print(f"{scn.name} (replayed): {result.line()} -> {folder / 'monitor.parquet'}")
+        flight = replay(
+            args.replay,
+            scenario=args.scenario,
+            map=args.map,
+            progress=_tty(),
+            scratch=args.out / scn.name,
+        )
+        folder = flight.save(args.out, hold_interrupts=True)
+        print(f"{scn.name} (replayed): {flight.result.line()} -> {folder / 'monitor.parquet'}")
         return 0
 
     return simulating(job, str(args.replay))
-
-
-def _foreign(args: argparse.Namespace) -> Any:
-    """``--replay LOG --map MAP`` with a scenario: the log recorded elsewhere, translated
-    (:func:`probing.experiment.recorded.foreign_log.foreign_log`; UsageError)."""
-    from probing.experiment.flight.monitor import ReplayError
-    from probing.experiment.recorded.foreign_log import foreign_log, read_map
-
-    scn = _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
-    try:
-        return foreign_log(args.replay, read_map(args.map), scn)
-    except ReplayError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def register(sub: Subcommands) -> None:

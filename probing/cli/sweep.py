@@ -35,10 +35,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     figures = args.figures if args.figures is not None else args.out / sweep.name / "figures"
     if args.plot:
         out_folder(figures, "--figures")
-    from probing.sweep import SchedulerError, SweepBusyError, run_sweep
+    from probing.api import fly_sweep
+    from probing.sweep import SchedulerError, SweepBusyError
 
     try:
-        result = run_sweep(
+        result = fly_sweep(
             sweep,
             args.out,
             jobs=args.jobs,
@@ -54,9 +55,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     for message in result.messages:
         print(f"  {message}", file=sys.stderr)
     from probing.analysis.tables import sweep_table
-    from probing.sweep import read_summary
 
-    print(sweep_table(read_summary(result.folder), sweep.fields))
+    print(sweep_table(result.summary(), sweep.fields))
     print(result.line())
     if args.plot:
         plot_sweep_folder(result.folder, figures)

@@ -346,6 +346,12 @@ class SweepResult:
     wall_s: float = 0.0
     messages: list[str] = field(default_factory=list)
 
+    def summary(self) -> Any:
+        """``summary.parquet``, one row per point, as a pandas DataFrame."""
+        from probing.sweep.summary import read_summary
+
+        return read_summary(self.folder)
+
     def line(self) -> str:
         """The one-line summary printed at the end of a sweep."""
         parts = [

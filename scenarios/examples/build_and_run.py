@@ -1,4 +1,5 @@
-"""Build a scenario in code, run it, read the Parquet back and print the gain.
+"""Build a scenario in code, fly it, and compare the measured gain with eq. (10), all through
+the public Python API (docs/api.md).
 
 Usage (from the repository root, after ``make setup``)::
 
@@ -6,13 +7,13 @@ Usage (from the repository root, after ``make setup``)::
 
 What it shows:
 
-1. ``parse_scenario`` validates a dict laid out like a scenario file (the baseline: 737 at
+1. ``probing.load`` checks a dict laid out like a scenario file (the baseline: 737 at
    15000 ft, 280 kcas, no nonlinearity);
 2. ``Scenario.replace`` derives a variant with dotted field names (a symmetric deadband of
    +-a/3, which should pass the probe with the apparent amplitude a~ = 2a/3);
-3. ``run_scenario`` simulates both and writes ``<out>/<name>/probing.parquet``;
-4. ``read_settled`` reads the settled pulse-response estimates back from
-   ``probing.parquet``, and the least-squares gain of the deadband's h_est against the
+3. ``probing.fly`` flies both in memory, and ``Flight.save`` writes their files into
+   ``<out>/<name>/`` (what ``probing run`` writes);
+4. the least-squares gain of the deadband's settled h_est (``Flight.bounds``) against the
    baseline's, g = <h, h0>/<h0, h0>, is compared with the prediction a~/a of
    ``Deadband.apparent``.
 """
@@ -22,17 +23,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
-from probing.experiment.flight.run import run_scenario
-from probing.experiment.output.storage import read_settled
-from probing.experiment.scenario import Scenario, parse_scenario
-
-
-def settled_h(folder: Path, scn: Scenario, channel: str = "theta_rad") -> np.ndarray:
-    """Mean h_est over the settled periods of one channel, read from probing.parquet."""
-    path = folder / "probing.parquet"
-    return read_settled(path, channel, scn.settle_periods, scn.bits_per_period).h.mean(axis=0)
+import probing
 
 
 def main() -> None:
@@ -42,7 +33,7 @@ def main() -> None:
     args = parser.parse_args()
 
     a = 0.005  # deg, the paper's amplitude
-    baseline = parse_scenario(
+    baseline = probing.load(
         {
             "name": f"example-baseline-n{args.order}",
             "aircraft": {"model": "737"},
@@ -67,12 +58,15 @@ def main() -> None:
             "nonlinearity.upper_deg": a / 3,
         }
     )
+    settled = {}
     for scn in (baseline, deadband):
-        result = run_scenario(scn, args.out, progress=False)
-        print(f"{scn.name}: {result.steps_simulated} steps in {result.wall_s:.2f} s")
+        flight = probing.fly(scn)
+        folder = flight.save(args.out)
+        steps, wall_s = flight.result.steps_simulated, flight.result.wall_s
+        print(f"{scn.name}: {steps} steps in {wall_s:.2f} s -> {folder}")
+        settled[scn.name] = flight.bounds["h_est"].to_numpy()  # theta_rad, per tap
 
-    h0 = settled_h(args.out / baseline.name, baseline)
-    h = settled_h(args.out / deadband.name, deadband)
+    h0, h = settled[baseline.name], settled[deadband.name]
     gain = float(h @ h0 / (h0 @ h0))
     a_t, b_t = deadband.build_nonlinearity().apparent(a)
     print(f"predicted gain a~/a = {a_t / a:.4f} (b~ = {b_t:g} deg)")

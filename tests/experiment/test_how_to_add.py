@@ -15,6 +15,7 @@ import pytest
 from scipy.signal import lfilter
 from test_live import SCENARIO, _fly_live, _table
 
+from probing.api import calls
 from probing.cli import main
 from probing.cli import run as run_cli
 from probing.core.faults import FAULTS, FaultField, FaultType, onset_step
@@ -273,12 +274,11 @@ def _command(command: str, scenario: Path, out: Path) -> list[str]:
 def test_a_new_runner_is_consulted_by_every_command(runner, command, tmp_path, capsys, monkeypatch):
     """A scenario the new runner flies is refused, with the runner's one line and exit code
     2, by the commands it does not list, and flown by those it lists (here up to the
-    flight, which stands in): probing run through the runner's handler."""
+    flight, which stands in): probing run through the runner's flier and its line."""
     monkeypatch.setattr(runners, "RUNNERS", (runner, *runners.RUNNERS))
     flown: list[str] = []
-    monkeypatch.setitem(
-        run_cli.RUN_HANDLERS, runner.name, lambda scn, args: flown.append("run") or 0
-    )
+    monkeypatch.setitem(calls.FLIERS, runner.name, lambda scn, out, how: flown.append("run"))
+    monkeypatch.setitem(run_cli.RUN_LINES, runner.name, lambda scn, result, folder, t: "flown")
     monkeypatch.setattr(truth, "compute_truth", lambda scn, out: flown.append("truth") or out)
     done = SimpleNamespace(line=lambda: "flown", out_dir=tmp_path)
     monkeypatch.setattr(

@@ -184,7 +184,7 @@ def start_long_run(out: Path, cache: Path, tmp_path: Path) -> subprocess.Popen:
     )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (
-        list((out / "again").glob(".probing.parquet.*.tmp")) and list(cache.glob(".*.tmp.npy"))
+        list((out / "again").rglob(".probing.parquet.*.tmp")) and list(cache.glob(".*.tmp.npy"))
     ):
         time.sleep(0.02)
     time.sleep(0.5)  # a few chunks into the run
@@ -215,7 +215,9 @@ def test_a_rerun_removes_what_a_killed_run_left(tmp_path: Path) -> None:
     proc.kill()
     proc.communicate(timeout=60)
     left = temporaries(out, cache)
-    assert len(left) == 3, left  # probing.parquet, timeseries.parquet, the twin
+    # the run's work folder with its probing.parquet and timeseries.parquet, and the twin
+    kinds = sorted(p.name.split(".")[1] for p in left if p.parent != cache)
+    assert kinds == ["probing", "timeseries", "work"] and len(left) == 4, left
     short = tmp_path / "short.toml"
     short.write_text(SCENARIO.format(amplitude=0.01, periods=3))
     res = probing("run", str(short), "--out", str(out), cache=cache)

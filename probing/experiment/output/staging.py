@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import shutil
 import sys
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -21,7 +22,7 @@ from probing.core.forked import INTERRUPTS
 from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.experiment.output.layouts import RUN_FILES
 
-__all__ = ["DIGEST_KEY", "earlier_files", "report_removed", "staged_output"]
+__all__ = ["DIGEST_KEY", "earlier_files", "report_removed", "staged_output", "work_folder"]
 
 #: The key of the scenario digest a run's files carry.
 DIGEST_KEY = b"probing.scenario_digest"
@@ -64,7 +65,7 @@ def report_removed(path: Path, earlier: list[Path], stream: TextIO | None) -> No
 
 
 @contextmanager
-def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]:
+def staged_output(path: Path, *, stream: TextIO | None = None, hold: bool = True) -> Iterator[Path]:
     """A command's whole output, made in a staging folder and moved into ``path`` as the
     command's last act: an interrupt at any moment leaves nothing of it.
 
@@ -75,6 +76,7 @@ def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]
     end of the process (:meth:`probing.core.forked.Interrupts.hold_to_the_end`: one noted
     before is raised first), the files an earlier run left in ``path`` that are not written
     now are removed (as :func:`output_folder` does), and the staged files moved into place.
+    ``hold`` False leaves Ctrl-C alone (a Python session's save, which goes on after it).
     On any exception the staging folder and the folders this call created are removed.
     """
     path = Path(path)
@@ -86,7 +88,8 @@ def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]
         path.mkdir(parents=True, exist_ok=True)
         staging.mkdir()
         yield staging
-        INTERRUPTS.hold_to_the_end()
+        if hold:
+            INTERRUPTS.hold_to_the_end()
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         for p in reversed(created):
@@ -100,3 +103,45 @@ def staged_output(path: Path, *, stream: TextIO | None = None) -> Iterator[Path]
         os.replace(p, path / p.name)
     shutil.rmtree(staging, ignore_errors=True)
     report_removed(path, earlier, stream)
+
+
+@contextmanager
+def work_folder(place: Path | None = None) -> Iterator[Path]:
+    """A private folder a command's files are made in before they are read into memory
+    (:func:`probing.fly`), removed at the end whatever happens.
+
+    ``place`` None: a new folder in the system's temporary folder.  Otherwise a hidden
+    folder named after its writer in ``place`` (made with its missing parents; the
+    command line gives the run's own folder), so that the one a command killed outright
+    left is removed by the next command into ``place``
+    (:func:`probing.core.tempfiles.remove_dead_writers_files`); on an exception the
+    folders this call created are removed too.
+    """
+    if place is None:
+        with tempfile.TemporaryDirectory(prefix="probing-") as tmp:
+            yield Path(tmp)
+        return
+    place = Path(place)
+    created = [p for p in (*reversed(place.parents), place) if not p.exists()]
+    if not created:
+        remove_dead_writers_files(place, ".tmp", folders=True)
+    try:
+        place.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".work.{writer_tag()}.", suffix=".tmp", dir=place))
+    except BaseException:
+        for p in reversed(created):
+            shutil.rmtree(p, ignore_errors=True)
+        raise
+    try:
+        yield work
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        for p in reversed(created):
+            shutil.rmtree(p, ignore_errors=True)
+        raise
+    shutil.rmtree(work, ignore_errors=True)
+    for p in reversed(created):
+        try:
+            p.rmdir()
+        except OSError:  # not empty: another writer's
+            break

@@ -1,0 +1,166 @@
+"""The Python API's design and sweeps: ``probing.design`` (``probing design``),
+``probing.check_simultaneous`` (``probing design --simultaneous``) and ``probing.fly_sweep``
+(``probing sweep``).  A sweep is written to disk as it goes (it resumes where it stopped);
+its table is :meth:`probing.sweep.SweepResult.summary`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from probing.experiment.scenario import Scenario
+
+if TYPE_CHECKING:
+    from probing.experiment.design.design import Design
+    from probing.experiment.design.design_request import DesignRequest
+    from probing.experiment.studies.simultaneous import SeparationCheck
+    from probing.sim.modes import LongitudinalModes
+    from probing.sweep import Sweep, SweepResult
+
+__all__ = ["Recommendation", "check_simultaneous", "design", "fly_sweep"]
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """What :func:`design` recommends.
+
+    Attributes
+    ----------
+    design : Design
+        Order, bit duration, amplitude (deg), estimator, drift and periods, each with its
+        reason (``design.reasons``), and the predicted standard errors.
+    modes : LongitudinalModes
+        The aircraft's short-period and phugoid modes at the trim (rad/s, 1).
+    scenario : Scenario
+        The recommended scenario (named ``design``): :func:`probing.fly` flies it.
+    """
+
+    design: Design
+    modes: LongitudinalModes
+    scenario: Scenario
+
+
+def design(request: DesignRequest | None = None, /, **options: Any) -> Recommendation:
+    """Recommend a probe: order, bit duration and amplitude (``probing design``).
+
+    Parameters
+    ----------
+    request : DesignRequest, optional
+        The request; or its fields as keywords, each the option ``--field-name`` of
+        ``probing design`` (``aircraft``, ``altitude_ft`` and ``speed_kcas`` required).
+
+    Returns
+    -------
+    Recommendation
+
+    Raises
+    ------
+    probing.experiment.design.design.DesignInputError
+        A field missing, unknown, or refused by the scenario schema.
+    probing.experiment.design.design.DesignError
+        No design meets every rule or the target.
+    TrimError
+        The aircraft does not trim at the condition.
+    """
+    from probing.experiment.design.design import DesignInputError, recommend
+    from probing.experiment.design.design_request import DesignRequest
+
+    if request is None:
+        known = {f.name for f in fields(DesignRequest)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise DesignInputError(f"design: no option {', '.join(unknown)}")
+        missing = [n for n in ("aircraft", "altitude_ft", "speed_kcas") if n not in options]
+        if missing:
+            raise DesignInputError(f"design: {', '.join(missing)} required")
+        request = DesignRequest(**options)
+    elif options:
+        raise TypeError("design: give a request or its fields, not both")
+    return Recommendation(*recommend(request))
+
+
+def check_simultaneous(scenario: Scenario | str | Path) -> SeparationCheck:
+    """The memory condition and predicted cross-talk of a ``[simultaneous]`` scenario from
+    the linearisation (``probing design --simultaneous``): ``.ok``, ``.table()``,
+    ``.refusal()``.
+
+    Raises
+    ------
+    ScenarioError
+        A scenario the simultaneous runner does not fly.
+    probing.experiment.studies.simultaneous.SeparationError
+        Its surfaces cannot be linearised apart.
+    """
+    from probing.api.calls import load
+    from probing.experiment.flight.runners import runner_of
+    from probing.experiment.scenario import ScenarioError
+    from probing.experiment.studies.simultaneous import check_separation
+
+    scn = scenario if isinstance(scenario, Scenario) else load(scenario)
+    runner = runner_of(scn).name
+    if runner != "simultaneous":
+        why = "has no [simultaneous] section" if runner == "steady" else f"is flown by {runner}"
+        raise ScenarioError(
+            "simultaneous", f"{why}; design --simultaneous checks a simultaneous design", scn.name
+        )
+    return check_separation(scn)
+
+
+def fly_sweep(
+    sweep: Sweep | str | Path,
+    out: str | Path,
+    *,
+    jobs: int | None = None,
+    executor: str = "local",
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool | None = None,
+    connect_timeout_s: float = 10.0,
+) -> SweepResult:
+    """Fly a sweep's missing points into ``out/<name>/`` (``probing sweep``; docs/sweeps.md).
+
+    Parameters
+    ----------
+    sweep : Sweep or path
+        The sweep, or its TOML file.
+    out : path
+        The results folder; the sweep resumes from what it holds.
+    jobs : int, optional
+        Worker processes (default: one per core).
+    executor : {"local", "dask"}
+        A local pool, or Dask (``scheduler``: an existing scheduler's address, else a
+        LocalCluster).
+    retry_failed : bool
+        Fly again the points recorded as failed.
+    progress : bool, optional
+        A progress bar (default: on a terminal or in a notebook).
+    connect_timeout_s : float
+        How long to wait for ``scheduler``, s.
+
+    Returns
+    -------
+    SweepResult
+        What was done; ``.summary()`` is ``summary.parquet`` as a DataFrame.
+
+    Raises
+    ------
+    ScenarioError
+        The sweep file is invalid.
+    probing.sweep.SchedulerError, probing.sweep.SweepBusyError
+        The scheduler does not answer; another process holds the sweep's folder.
+    """
+    from probing.api.calls import in_notebook
+    from probing.sweep import load_sweep, run_sweep
+
+    spec = load_sweep(sweep) if isinstance(sweep, str | Path) else sweep
+    return run_sweep(
+        spec,
+        out,
+        jobs=jobs,
+        executor=executor,
+        scheduler=scheduler,
+        retry_failed=retry_failed,
+        progress=True if progress is None and in_notebook() else progress,
+        connect_timeout_s=connect_timeout_s,
+    )
