@@ -32,7 +32,9 @@ __all__ = [
     "load",
     "read",
     "replay",
+    "replay_table",
     "replayed_scenario",
+    "stored_scenario",
 ]
 
 
@@ -170,9 +172,10 @@ def fly(
     scn = scenario if isinstance(scenario, Scenario) else load(scenario)
     runner = runner_of(scn)
     monitored = scn.monitor_section is not None if monitor is None else monitor
-    if monitored and runner.refuses("monitor"):
-        raise ScenarioError(runner.section or "monitor", str(runner.refuses("monitor")), scn.name)
     if monitored:
+        refusal = runner.refuses("monitor")
+        if refusal is not None:
+            raise ScenarioError(runner.section or "monitor", refusal, scn.name)
         scn.monitor_settings()  # a flight too short for the baseline: refused before flying
     bar = in_notebook() if progress is None else progress
     with work_folder(None if scratch is None else Path(scratch)) as tmp:
@@ -266,14 +269,14 @@ def read(path: str | Path) -> Flight:
     files = held_files(folder)
     if not files:
         raise StoredFileError(f"{folder}: holds none of {', '.join(RUN_FILES)}")
-    first = folder / next(iter(files))
-    scn = _stored_scenario(read_footer(first))
-    analyzed = b"probing.input" in read_footer(first)
+    meta = read_footer(folder / next(iter(files)))
+    scn = stored_scenario(meta)
+    analyzed = b"probing.input" in meta
     name = None if analyzed else scn.name if scn is not None else folder.name
     return Flight(files, name=name, scenario=scn)
 
 
-def _stored_scenario(meta: dict[bytes, bytes]) -> Scenario | None:
+def stored_scenario(meta: dict[bytes, bytes]) -> Scenario | None:
     """The scenario a stored file was written with (None: none, or one this version of the
     project no longer reads)."""
     import json
@@ -408,15 +411,27 @@ def replay(
     StoredFileError
         The log cannot be read.
     """
+    table = foreign_table(log, scenario, map)
+    return replay_table(log, table, progress=progress, scratch=scratch)
+
+
+def replay_table(
+    log: str | Path,
+    table: Any,
+    *,
+    progress: bool | None = None,
+    scratch: str | Path | None = None,
+) -> Flight:
+    """:func:`replay` of a log, or of a foreign log already translated (``table``, from
+    :func:`foreign_table`; None: the log is a flight's own)."""
     from probing.experiment.flight.monitor import replay_monitor
 
-    table = foreign_table(log, scenario, map)
     bar = in_notebook() if progress is None else progress
     with work_folder(None if scratch is None else Path(scratch)) as tmp:
         result = replay_monitor(log, tmp, table=table, progress=bar)
         files = held_files(result.out_dir)
-        scn = replayed_scenario(log, table)
-    return Flight(files, name=scn.name, scenario=scn, result=result)
+    scn = stored_scenario(read_footer(Path("monitor.parquet"), data=files["monitor.parquet"]))
+    return Flight(files, name=result.out_dir.name, scenario=scn, result=result)
 
 
 def foreign_table(log: str | Path, scenario: Scenario | str | Path | None, map: Any) -> Any:

@@ -6,21 +6,17 @@ line writes them."""
 from __future__ import annotations
 
 import json
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pyarrow as pa
-import pyarrow.parquet as pq
-
-from probing.experiment.output.pandas_keys import from_pandas_attrs
-from probing.experiment.output.staging import staged_output
+from probing.experiment.output.staging import staged_output, work_folder
 from probing.experiment.output.storage import (
     OUTPUT_FILES,
     RUN_FILES,
-    StoredFileError,
     check_output_folder,
+    read_footer,
+    read_table,
 )
 
 if TYPE_CHECKING:  # pandas and matplotlib are imported when a table or figure is asked for
@@ -41,7 +37,7 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
     Parameters
     ----------
     meta : mapping
-        The file's key-value metadata (its footer's, :func:`~.storage.read_footer`).
+        The file's key-value metadata, as :func:`~.storage.read_footer` reads it.
     file : str
         The file's name, kept as ``attrs["file"]``.
 
@@ -57,7 +53,6 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
     >>> attrs_of({b"probing.units": b'{"lag_s": "s"}', b"probing.drift": b"gust"}, "x.parquet")
     {'file': 'x.parquet', 'drift': 'gust', 'units': {'lag_s': 's'}}
     """
-    meta = {**from_pandas_attrs(dict(meta)), **meta}
     attrs: dict[str, Any] = {"file": file}
     for key in sorted(meta):
         if not key.startswith(b"probing."):
@@ -86,9 +81,9 @@ def truth_files(scn: Scenario) -> dict[str, bytes]:
     them, by name."""
     from probing.experiment.studies.truth import compute_truth
 
-    with tempfile.TemporaryDirectory(prefix="probing-truth-") as tmp:
+    with work_folder() as tmp:
         compute_truth(scn, tmp)
-        return held_files(Path(tmp) / scn.name)
+        return held_files(tmp / scn.name)
 
 
 class Flight:
@@ -146,9 +141,8 @@ class Flight:
 
     def metadata(self, name: str) -> dict[bytes, bytes]:
         """The key-value metadata of the file ``name``, its footer's (what its writer added at
-        the end, a monitor's verdict, included)."""
-        with _reading(name):
-            return dict(pq.read_metadata(pa.BufferReader(self._files[name])).metadata or {})
+        the end, a monitor's verdict, included), as :func:`~.storage.read_footer` reads it."""
+        return read_footer(Path(name), data=self._files[name])
 
     def table(self, name: str) -> pd.DataFrame | None:
         """The file ``name`` as a DataFrame with :func:`attrs_of` its metadata (None: the
@@ -156,8 +150,7 @@ class Flight:
         if name not in self._files:
             return None
         if name not in self._frames:
-            with _reading(name):
-                frame = pq.read_table(pa.BufferReader(self._files[name])).to_pandas()
+            frame = read_table(Path(name), data=self._files[name]).to_pandas()
             frame.attrs = attrs_of(self.metadata(name), name)
             self._frames[name] = frame
         return self._frames[name]
@@ -325,18 +318,3 @@ class Flight:
                     max_lag_s=self.figure_max_lag_s,
                 )
         return folder
-
-
-class _reading:
-    """Turn pyarrow's errors reading a held file into :class:`StoredFileError` naming it."""
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-
-    def __enter__(self) -> None:
-        return None
-
-    def __exit__(self, kind: Any, exc: Any, tb: Any) -> bool:
-        if isinstance(exc, pa.ArrowException):
-            raise StoredFileError(f"{self.name}: cannot be read as Parquet ({exc})") from None
-        return False

@@ -163,16 +163,17 @@ NEEDS_MAP = (
 def _replay(args: argparse.Namespace) -> int:
     """``probing monitor --replay LOG``: the monitor recomputed from a flight's log
     (:func:`probing.api.replay`)."""
-    from probing.api.calls import foreign_table, replayed_scenario
+    from probing.api.calls import foreign_table, replay_table, replayed_scenario
     from probing.experiment.flight.monitor import NotAFlightLog, ReplayError
     from probing.experiment.output.storage import StoredFileError
 
     if args.timeseries:
         raise UsageError("monitor --replay: a log has no timeseries to write")
+    given = None
     if args.map is not None:
-        _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
+        given = _one_surface(scenario_arg(args.scenario), args.scenario, "monitor")
     try:
-        table = foreign_table(args.replay, args.scenario, args.map)
+        table = foreign_table(args.replay, given, args.map)
         scn = replayed_scenario(args.replay, table)
     except (ReplayError, StoredFileError) as exc:
         foreign = isinstance(exc, NotAFlightLog) or (
@@ -183,15 +184,7 @@ def _replay(args: argparse.Namespace) -> int:
     check_run_folder(args.out, scn)
 
     def job() -> int:
-        from probing.api import replay
-
-        flight = replay(
-            args.replay,
-            scenario=args.scenario,
-            map=args.map,
-            progress=_tty(),
-            scratch=args.out / scn.name,
-        )
+        flight = replay_table(args.replay, table, progress=_tty(), scratch=args.out / scn.name)
         folder = flight.save(args.out, hold_interrupts=True)
         print(f"{scn.name} (replayed): {flight.result.line()} -> {folder / 'monitor.parquet'}")
         return 0

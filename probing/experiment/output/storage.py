@@ -483,29 +483,33 @@ class StoredFileError(ValueError):
 
 
 @contextmanager
-def _reading(path: Path) -> Iterator[None]:
-    """Turn pyarrow's and the system's errors while reading ``path`` into
-    :class:`StoredFileError` naming the file."""
+def _reading(path: Path, data: bytes | None = None) -> Iterator[Any]:
+    """What to read, ``path`` or its bytes ``data``; pyarrow's and the system's errors while
+    reading it turned into :class:`StoredFileError` naming ``path``."""
     try:
-        yield
+        yield path if data is None else pa.BufferReader(data)
     except (pa.ArrowException, OSError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc).split(". ")[0].strip() or "?"
         raise StoredFileError(f"{path}: cannot be read as Parquet ({reason})") from None
 
 
-def read_table(path: Path, columns: Sequence[str] | None = None) -> pa.Table:
+def read_table(
+    path: Path, columns: Sequence[str] | None = None, *, data: bytes | None = None
+) -> pa.Table:
     """A stored Parquet file (these ``columns``, or all), with its key-value metadata.
 
     ``read_table(path).to_pandas()`` for a DataFrame: every reader of stored results goes
     through here or :func:`read_schema`, so a damaged file is one error naming it.
+    ``data``: the file's bytes, held in memory (:class:`probing.Flight`); ``path`` then
+    only names it.
 
     Raises
     ------
     StoredFileError
         When ``path`` is missing, unreadable or not a Parquet file.
     """
-    with _reading(path):
-        return pq.read_table(path, columns=None if columns is None else list(columns))
+    with _reading(path, data) as source:
+        return pq.read_table(source, columns=None if columns is None else list(columns))
 
 
 def read_schema(path: Path) -> pa.Schema:
@@ -520,18 +524,19 @@ def read_schema(path: Path) -> pa.Schema:
         return pq.read_schema(path)
 
 
-def read_footer(path: Path) -> dict[bytes, bytes]:
+def read_footer(path: Path, *, data: bytes | None = None) -> dict[bytes, bytes]:
     """The key-value metadata of a stored Parquet file's footer, with what its writer added
     at the end (a monitor's verdict), and the ``probing.*`` keys pandas kept in
     ``PANDAS_ATTRS`` after a read and write of the file (the footer's own win).
+    ``data``: as for :func:`read_table`.
 
     Raises
     ------
     StoredFileError
         When ``path`` is missing, unreadable or not a Parquet file.
     """
-    with _reading(path):
-        meta = dict(pq.read_metadata(path).metadata or {})
+    with _reading(path, data) as source:
+        meta = dict(pq.read_metadata(source).metadata or {})
     return {**from_pandas_attrs(meta), **meta}
 
 
