@@ -225,11 +225,15 @@ GUST_INPUTS = {
 }
 
 #: Bumped whenever the gust-ready copy's rewrite changes (its cached folder is named with it).
-GUST_ROOT_VERSION = 2
+GUST_ROOT_VERSION = 3
 
 #: The roll-gust observer's gain, 1/s: the roll gust it infers moves at this rate per rad/s of
-#: roll-rate difference between the model and the measured aircraft (time constant 0.1 s).
-ROLL_OBSERVER_GAIN_PER_S = 10.0
+#: roll-rate difference between the model and the measured aircraft (time constant 1/30 s,
+#: 3.3 steps at 0.01 s).  The MIL-F-8785C roll gust is fast (its time constant L_p / V is
+#: 0.2 s for the GTM at 800 ft): at 10/s the observer lagged it, and the gust reference's
+#: per-period scatter in moderate turbulence was 1.46 times what it is at 30/s
+#: (three seeds, 100 periods each; docs/monitoring.md).
+ROLL_OBSERVER_GAIN_PER_S = 30.0
 
 #: The weight of the bank-angle difference in the observer's error, rad/s per rad: the model
 #: tracks the measured bank angle too, so a roll gyro's bias cannot wind it into a spiral.
@@ -305,8 +309,9 @@ def model_file(root: Path, model: str) -> Path:
 
 def _add_gust_inputs(xml_path: Path) -> None:
     """Make an aircraft file gust-ready (:func:`sanitised_root`): its aerodynamics read
-    ``probing/gust/<x>-aero-rad_sec`` = JSBSim's aero rate - the set gust - (roll) the
-    observer's, computed as the aerodynamics' first functions, so after JSBSim's own."""
+    ``probing/gust/<x>-aero-rad_sec`` = JSBSim's aero rate - the set gust - the observer's
+    roll gust's component on that axis (:func:`_observed_roll_gust`), computed as the
+    aerodynamics' first functions, so after JSBSim's own."""
     parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
     tree = ET.parse(xml_path, parser=parser)
     root = tree.getroot()
@@ -331,13 +336,46 @@ def _add_gust_inputs(xml_path: Path) -> None:
         difference = ET.SubElement(function, "difference")
         for term in (f"velocities/{a}-aero-rad_sec", f"probing/gust/{a}-rad_sec"):
             ET.SubElement(difference, "property").text = term
-        if a == "p":
-            ET.SubElement(difference, "property").text = "probing/gust/p-observed-rad_sec"
+        difference.append(_observed_roll_gust(a))
         head.append(function)
     for i, element in enumerate(head):
         aero.insert(i, element)
     root.append(_roll_observer())
     tree.write(xml_path, encoding="utf-8", xml_declaration=True)
+
+
+def _trig(kind: str, angle: str) -> ET.Element:
+    """``<cos>`` or ``<sin>`` of an Euler angle of the model (``phi``, ``theta``, ``psi``)."""
+    element = ET.Element(kind)
+    ET.SubElement(element, "property").text = f"attitude/{angle}-rad"
+    return element
+
+
+def _product(*factors: ET.Element | str) -> ET.Element:
+    """``<product>`` of elements, or of properties named by a string."""
+    product = ET.Element("product")
+    for factor in factors:
+        if isinstance(factor, str):
+            ET.SubElement(product, "property").text = factor
+        else:
+            product.append(factor)
+    return product
+
+
+def _observed_roll_gust(axis: str) -> ET.Element:
+    """The observer's roll gust on body ``axis``: the MIL-F-8785C roll gust lies along the
+    turbulence's own axes (north: JSBSim orients them by the mean wind's azimuth, 0 in a
+    calm mean wind), so its body components are those of the local north, the first column
+    of the local-to-body matrix: (cos th cos psi, sin ph sin th cos psi - cos ph sin psi,
+    cos ph sin th cos psi + sin ph sin psi)."""
+    observed = "probing/gust/p-observed-rad_sec"
+    if axis == "p":
+        return _product(observed, _trig("cos", "theta"), _trig("cos", "psi"))
+    first, second = ("sin", "cos") if axis == "q" else ("cos", "sin")
+    direction = ET.Element("difference" if axis == "q" else "sum")
+    direction.append(_product(_trig(first, "phi"), _trig("sin", "theta"), _trig("cos", "psi")))
+    direction.append(_product(_trig(second, "phi"), _trig("sin", "psi")))
+    return _product(observed, direction)
 
 
 def _roll_observer() -> ET.Element:

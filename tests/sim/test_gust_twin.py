@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from probing.core.gust import ned_to_body
 from probing.sim.aircraft import GUST_INPUTS
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Control, Flight
@@ -91,7 +92,7 @@ def test_with_nothing_set_it_steps_as_the_plain_model_bit_for_bit():
 
 def test_the_roll_observer_pulls_the_twin_to_the_measured_roll():
     """Told the aircraft rolls at 0.02 rad/s from wings level, the twin rolls with it within
-    a fraction of a second (the observer's gain 10/s) and its bank follows the measured one;
+    a fraction of a second (the observer's gain 30/s) and its bank follows the measured one;
     told the aircraft holds its wings level, it stays put."""
     twin = GustTwin(CALM, CONTROL, control_power(CALM), ["p_rad_s", "phi_rad"])
     n = 100
@@ -131,3 +132,30 @@ def test_each_rotational_gust_reaches_its_own_axis_of_the_model():
     moved = np.abs(flown[2] - flown[0]).max(axis=0)  # the pitch gust alone: p, q, r
     assert moved[1] > 1e-3
     assert moved[1] > 20 * max(moved[0], moved[2])
+
+
+def test_the_observed_roll_gust_lies_along_the_turbulences_north_axis():
+    """JSBSim's MIL-spec roll gust lies along the turbulence's axes (north: the mean wind's
+    azimuth, 0 in calm air), so a banked, pitched or turning aircraft feels part of it in
+    pitch and yaw.  Each step, the rate the twin's aerodynamics see on each body axis is its
+    own less the set gust less the observer's roll gust times that axis's component of
+    north, the first column of the local-to-body matrix (:func:`probing.core.gust.
+    ned_to_body`) at the step's attitude: exact to rounding."""
+    twin = GustTwin(CALM, CONTROL, control_power(CALM), ["p_rad_s"])
+    fdm = twin.plant.fdm
+    n = 400
+    phi = fdm["attitude/phi-rad"] + np.minimum(np.arange(n) * 0.002, 0.4)  # it banks, turns
+    gusts = np.tile([0.001, -0.002, 0.003], (n, 1))
+    worst, leak = 0.0, np.zeros(3)
+    for k in range(n):
+        twin.next(np.zeros((1, 3)), gusts[k : k + 1], np.array([0.05]), phi[k : k + 1])
+        angles = [fdm[f"attitude/{a}-rad"] for a in ("phi", "theta", "psi")]
+        observed = fdm["probing/gust/p-observed-rad_sec"]
+        north = ned_to_body(*(np.array([a]) for a in angles), np.array([[observed, 0, 0]]))[0]
+        for i, a in enumerate("pqr"):
+            seen = fdm[f"probing/gust/{a}-aero-rad_sec"]
+            expected = fdm[f"velocities/{a}-aero-rad_sec"] - gusts[k, i] - north[i]
+            worst = max(worst, abs(seen - expected))
+        leak = np.maximum(leak, np.abs(north))
+    assert np.all(leak > 1e-3)  # the observer's gust reached every axis
+    assert worst < 1e-12
