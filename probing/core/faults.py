@@ -19,6 +19,7 @@ type").  This module loads no JSBSim: a scenario is validated without it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -40,6 +41,8 @@ __all__ = [
     "FaultType",
     "SensorBias",
     "SensorFault",
+    "SensorScale",
+    "SensorStuck",
     "apply_sensor_fault",
     "onset_step",
     "sweep_fields",
@@ -225,6 +228,58 @@ class SensorBias:
         return value + self.bias if step >= onset else value
 
 
+@dataclass(frozen=True)
+class SensorScale:
+    """A scale-factor error of one measured output channel from the step that starts at
+    ``onset_s`` on: the measurement is ``scale`` times what the sensor gives.
+
+    Attributes
+    ----------
+    channel : str
+        The output channel (``theta_rad``, ...).
+    scale : float
+        The factor (dimensionless; 1: none).
+    onset_s : float
+        Time after the trim, s.
+    """
+
+    channel: str
+    scale: float
+    onset_s: float
+
+    def measure(self, value: float, step: int, onset: int) -> float:
+        """One measurement of the channel after step ``step`` (:class:`SensorFault`)."""
+        return self.scale * value if step >= onset else value
+
+
+@dataclass
+class SensorStuck:
+    """One measured output channel stuck from the step that starts at ``onset_s`` on: every
+    measurement from the onset step on is the one of the step before it.
+
+    Attributes
+    ----------
+    channel : str
+        The output channel (``theta_rad``, ...).
+    onset_s : float
+        Time after the trim, s.
+    """
+
+    channel: str
+    onset_s: float
+    held: float | None = dataclasses.field(default=None, compare=False, repr=False)
+
+    def measure(self, value: float, step: int, onset: int) -> float:
+        """One measurement of the channel after step ``step`` (:class:`SensorFault`): it
+        sees every step once, in order, so it keeps the last healthy measurement."""
+        if step < onset:
+            self.held = value
+            return value
+        if self.held is None:  # stuck from the first step: at the first measurement
+            self.held = value
+        return self.held
+
+
 class SensorFault(Protocol):
     """What a world asks of a sensor fault (place ``sensor``): the hook a new kind of sensor
     fault implements (:class:`SensorBias` is one; ``docs/architecture.md``, "How to add a
@@ -324,6 +379,25 @@ FAULTS: dict[str, FaultType] = {
         ),
         "an offset on one measured channel (the reference does not see it)",
         lambda onset_s, v: SensorBias(str(v["channel"]), float(v["bias"]), onset_s),
+    ),
+    "sensor_scale": FaultType(
+        "sensor_scale",
+        "sensor",
+        "sensor",
+        (
+            FaultField("channel", "channel", description="the measured output channel"),
+            FaultField("scale", "number", "-", 0.0, 10.0, "the measurement's scale factor"),
+        ),
+        "one measured channel is scaled (a sensor's scale-factor error)",
+        lambda onset_s, v: SensorScale(str(v["channel"]), float(v["scale"]), onset_s),
+    ),
+    "sensor_stuck": FaultType(
+        "sensor_stuck",
+        "sensor",
+        "sensor",
+        (FaultField("channel", "channel", description="the measured output channel"),),
+        "one measured channel holds its last measurement before the onset",
+        lambda onset_s, v: SensorStuck(str(v["channel"]), onset_s),
     ),
 }
 

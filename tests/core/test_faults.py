@@ -44,6 +44,8 @@ def test_the_existing_types_keep_their_class_and_place():
         "effectiveness": ("actuator", "actuator"),
         "stuck": ("actuator", "actuator"),
         "sensor_bias": ("sensor", "sensor"),
+        "sensor_scale": ("sensor", "sensor"),
+        "sensor_stuck": ("sensor", "sensor"),
     }
 
 
@@ -71,7 +73,7 @@ def test_a_new_entry_is_validated_from_the_registry_alone(monkeypatch: pytest.Mo
     """Adding an entry needs no other edit: the schema takes its fields, checks its bounds and
     writes it back, and the scenario builds it for its place."""
     entry = FaultType(
-        "sensor_scale",
+        "sensor_gain",
         "sensor",
         "sensor",
         (
@@ -81,12 +83,12 @@ def test_a_new_entry_is_validated_from_the_registry_alone(monkeypatch: pytest.Mo
         "a sensor's gain changes",
         lambda onset_s, v: ("scaled", v["channel"], v["gain"], onset_s),
     )
-    monkeypatch.setitem(FAULTS, "sensor_scale", entry)
+    monkeypatch.setitem(FAULTS, "sensor_gain", entry)
     # the section's allowed names are gathered from the registry when the schema is imported
     monkeypatch.setitem(SECTIONS, "fault", SECTIONS["fault"] | {"gain"})
-    scn = parse_scenario(base(type="sensor_scale", channel="q_rad_s", gain=1.25, onset_s=1.0))
+    scn = parse_scenario(base(type="sensor_gain", channel="q_rad_s", gain=1.25, onset_s=1.0))
     assert scn.to_dict()["fault"] == {
-        "type": "sensor_scale",
+        "type": "sensor_gain",
         "onset_s": 1.0,
         "channel": "q_rad_s",
         "gain": 1.25,
@@ -95,10 +97,10 @@ def test_a_new_entry_is_validated_from_the_registry_alone(monkeypatch: pytest.Mo
     assert scn.build_fault("actuator") is None and scn.actuator_fault is None
     assert parse_scenario(scn.to_dict()).digest() == scn.digest()
     with pytest.raises(ScenarioError) as err:
-        parse_scenario(base(type="sensor_scale", channel="q_rad_s", gain=2.0, onset_s=1.0))
+        parse_scenario(base(type="sensor_gain", channel="q_rad_s", gain=2.0, onset_s=1.0))
     assert err.value.field == "fault.gain"
     with pytest.raises(ScenarioError) as err:
-        parse_scenario(base(type="sensor_scale", channel="nz_g", gain=1.0, onset_s=1.0))
+        parse_scenario(base(type="sensor_gain", channel="nz_g", gain=1.0, onset_s=1.0))
     assert err.value.field == "fault.channel"
 
 
@@ -140,6 +142,48 @@ def test_a_sensor_bias_acts_from_its_onset_step_whatever_the_chunks():
     assert np.array_equal(chunked, whole)
     assert faults.onset_step(onset, dt) == 37
     assert [bias.measure(1.0, step, 37) for step in (36, 37)] == [1.0, 0.75]
+
+
+@pytest.mark.parametrize(
+    ("kind", "fields", "built"),
+    [
+        ("sensor_scale", {"scale": 1.2}, faults.SensorScale("theta_rad", 1.2, 2.0)),
+        ("sensor_stuck", {}, faults.SensorStuck("theta_rad", 2.0)),
+    ],
+)
+def test_the_other_sensor_faults_build_from_their_fields(kind, fields, built):
+    scn = parse_scenario(base(type=kind, channel="theta_rad", onset_s=2.0, **fields))
+    assert scn.build_fault("sensor") == built
+    assert scn.to_dict()["fault"] == {
+        "type": kind,
+        "onset_s": 2.0,
+        "channel": "theta_rad",
+        **fields,
+    }
+
+
+def test_a_sensor_scale_and_a_stuck_sensor_act_from_their_onset_step_whatever_the_chunks():
+    """The scale multiplies from the onset step on; the stuck sensor gives, from the onset
+    step on, the measurement of the step before it (its state carried across chunks)."""
+    dt, onset = 0.01, 0.37  # the onset step: 37
+    y = np.random.default_rng(1).standard_normal((100, 2))
+    channels = ("theta_rad", "q_rad_s")
+    for fault, want in (
+        (faults.SensorScale("q_rad_s", 1.5, onset), np.r_[y[:37, 1], 1.5 * y[37:, 1]]),
+        (faults.SensorStuck("q_rad_s", onset), np.r_[y[:37, 1], np.full(63, y[36, 1])]),
+    ):
+        for size in (100, 30, 1):
+            got = y.copy()
+            fresh = dataclasses.replace(fault)
+            for first in range(0, 100, size):
+                faults.apply_sensor_fault(fresh, got[first : first + size], channels, first, dt)
+            assert np.array_equal(got[:, 0], y[:, 0])
+            assert np.array_equal(got[:, 1], want)
+
+
+def test_a_sensor_stuck_from_the_first_step_holds_the_first_measurement():
+    stuck = faults.SensorStuck("q_rad_s", 0.0)
+    assert [stuck.measure(v, step, 0) for step, v in enumerate((3.0, 4.0, 5.0))] == [3.0] * 3
 
 
 def test_entries_are_frozen():

@@ -79,36 +79,37 @@ def _fly_both(base: Path, text: str) -> tuple[object, Path, Path]:
 
 # ------------------------------------------------------------------ a fault type
 @dataclass(frozen=True)
-class SensorScale:
-    """A new kind of sensor fault: one channel's measurement scaled from the onset step on.
-    It implements :class:`probing.core.faults.SensorFault` (``channel``, ``onset_s``,
-    ``measure``) and nothing else."""
+class SensorRamp:
+    """A new kind of sensor fault: one channel's measurement drifts by ``slope`` a step from
+    the onset step on (its first step already off by one ``slope``).  It implements
+    :class:`probing.core.faults.SensorFault` (``channel``, ``onset_s``, ``measure``) and
+    nothing else."""
 
     channel: str
-    scale: float
+    slope: float
     onset_s: float
 
     def measure(self, value: float, step: int, onset: int) -> float:
-        return self.scale * value if step >= onset else value
+        return value + self.slope * (step - onset + 1) if step >= onset else value
 
 
-SENSOR_SCALE = FaultType(
-    "sensor_scale",
+SENSOR_RAMP = FaultType(
+    "sensor_ramp",
     "sensor",
     "sensor",
     (
         FaultField("channel", "channel", description="the measured output channel"),
-        FaultField("scale", "number", "-", 0.0, 10.0, "the measurement's scale factor"),
+        FaultField("slope", "number", "channel", -1.0, 1.0, "the drift a step, channel unit"),
     ),
-    "one measured channel is scaled (a sensor's gain error)",
-    lambda onset_s, v: SensorScale(str(v["channel"]), float(v["scale"]), onset_s),
+    "one measured channel drifts from the onset on (a sensor's bias growing)",
+    lambda onset_s, v: SensorRamp(str(v["channel"]), float(v["slope"]), onset_s),
 )
 
-#: The fault's onset (s; step 200, inside period 3) and scale.
-ONSET_S, SCALE = 2.0, 1.5
+#: The fault's onset (s; step 200, inside period 3) and slope (rad a step).
+ONSET_S, SLOPE = 2.0, 1e-4
 
 FAULT = (
-    f'[fault]\ntype = "sensor_scale"\nchannel = "alpha_rad"\nscale = {SCALE}\nonset_s = {ONSET_S}\n'
+    f'[fault]\ntype = "sensor_ramp"\nchannel = "alpha_rad"\nslope = {SLOPE}\nonset_s = {ONSET_S}\n'
 )
 
 
@@ -118,7 +119,7 @@ def scaled(request, tmp_path_factory):
     without it in this process: without sensors (the block form of the hook,
     :class:`~probing.sim.sensing.ChannelNoise`) and with NASA's T2 suite (step by step)."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.setitem(FAULTS, "sensor_scale", SENSOR_SCALE)
+        mp.setitem(FAULTS, "sensor_ramp", SENSOR_RAMP)
         base = tmp_path_factory.mktemp(f"scaled-{request.param}")
         texts = {n: _with(SHORT, f"{n}-{request.param}") for n in ("scaled", "healthy")}
         if request.param == "suite":
@@ -140,38 +141,39 @@ def scaled(request, tmp_path_factory):
 
 def test_a_new_fault_type_is_a_scenario_type_written_back(scaled):
     scn = scaled.scn
-    assert scn.fault_type == "sensor_scale"
-    assert scn.build_fault("sensor") == SensorScale("alpha_rad", SCALE, ONSET_S)
+    assert scn.fault_type == "sensor_ramp"
+    assert scn.build_fault("sensor") == SensorRamp("alpha_rad", SLOPE, ONSET_S)
     assert scn.to_dict()["fault"] == {
-        "type": "sensor_scale",
+        "type": "sensor_ramp",
         "onset_s": ONSET_S,
         "channel": "alpha_rad",
-        "scale": SCALE,
+        "slope": SLOPE,
     }
 
 
 def test_a_new_fault_type_acts_from_its_onset_step_in_this_process(scaled):
     """The flight with and without it: the same up to the step before the onset step, the
-    measurement scaled from the onset step on (row k is the output after step k)."""
+    measurement off by one slope at the onset step and one more each step after (row k is
+    the output after step k)."""
     k = onset_step(ONSET_S, scaled.scn.dt_s)
     alpha, alpha0 = scaled.here.alpha_rad.to_numpy(), scaled.healthy.alpha_rad.to_numpy()
     assert np.array_equal(alpha[:k], alpha0[:k])
-    assert alpha[k - 1] == alpha0[k - 1] and alpha[k] == SCALE * alpha0[k]
-    assert np.array_equal(alpha[k:], SCALE * alpha0[k:])
+    assert alpha[k - 1] == alpha0[k - 1] and alpha[k] == alpha0[k] + SLOPE
+    assert np.array_equal(alpha[k:], alpha0[k:] + SLOPE * np.arange(1, len(alpha) - k + 1))
     assert np.array_equal(scaled.here.theta_rad, scaled.healthy.theta_rad)  # one channel only
 
 
 def test_a_new_fault_type_acts_from_its_onset_step_live_as_in_this_process(scaled):
     """Live, the measurement at the step before the onset step is the healthy one and at
-    the onset step the scaled one, each equal to this process's to the socket's 6 digits
-    (and not to the other: the scale is far beyond them)."""
+    the onset step the drifted one, each equal to this process's to the socket's 6 digits
+    (and not to the other: the slope is far beyond them)."""
     k = onset_step(ONSET_S, scaled.scn.dt_s)
     live = scaled.live.alpha_rad.to_numpy()
     here, healthy = scaled.here.alpha_rad.to_numpy(), scaled.healthy.alpha_rad.to_numpy()
     assert len(live) == len(here) == scaled.scn.total_steps
     assert _six_digits(live[[k - 1, k]], here[[k - 1, k]]).all()
-    assert _six_digits(live[k - 1], healthy[k - 1]) and _six_digits(live[k], SCALE * healthy[k])
-    assert not _six_digits(live[k - 1], SCALE * healthy[k - 1])
+    assert _six_digits(live[k - 1], healthy[k - 1]) and _six_digits(live[k], healthy[k] + SLOPE)
+    assert not _six_digits(live[k - 1], healthy[k - 1] + SLOPE)
     assert not _six_digits(live[k], healthy[k])
     assert _six_digits(live, here).all()
 

@@ -404,6 +404,8 @@ VALID_FAULTS = {
     "effectiveness": {"scale": 0.5},
     "stuck": {},
     "sensor_bias": {"channel": "theta_rad", "bias": 0.01},
+    "sensor_scale": {"channel": "theta_rad", "scale": 1.2},
+    "sensor_stuck": {"channel": "theta_rad"},
 }
 #: The one form of the message for a field a fault type does not take.
 NOT_A_FIELD = re.compile(r"not a field of a (?:(\w+) )?(\w+) fault \(takes ([a-z_, ]+)\)")
