@@ -23,6 +23,18 @@ ROOT = Path(__file__).resolve().parents[1]
 #: of a later probe.
 MUTATIONS = [
     (
+        "probing/core/isolation.py",
+        "span = range(first_alarm - lookback, first_alarm + verdict_periods + 1)",
+        "span = range(first_alarm - lookback, first_alarm + verdict_periods)",
+        "tests/core/test_isolation.py::test_the_verdict_looks_from_lookback_before_to_verdict_periods_after",
+    ),
+    (
+        "probing/core/detection.py",
+        "full = np.minimum(m, w)",
+        "full = np.minimum(m, w - 1)",
+        "tests/core/test_detection.py::test_the_model_is_the_detectors_own_rate",
+    ),
+    (
         "probing/core/monitor.py",
         "len(self._since_alarm) < self.isolation_periods",
         "len(self._since_alarm) <= self.isolation_periods",

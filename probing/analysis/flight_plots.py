@@ -9,6 +9,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from probing.analysis.figures import RC, detached_figure
+from probing.core.isolation import DETECTORS
 
 __all__ = ["monitor_figure"]
 
@@ -40,7 +41,8 @@ def monitor_figure(
     fig = detached_figure(figsize=(6.0, 3.2), layout="constrained")  # before the context
     with plt.rc_context(RC):  # (analyze_plots.bounds_figure says why)
         ax = fig.subplots()
-        for k, (detector, rows) in enumerate(monitor.groupby("detector", sort=False)):
+        alarming = monitor[monitor.detector.isin(DETECTORS)]  # not the isolation checks
+        for k, (detector, rows) in enumerate(alarming.groupby("detector", sort=False)):
             worst = rows.groupby("time_s")[["statistic", "threshold"]].max().reset_index()
             ax.plot(worst["time_s"], worst["statistic"], color=f"C{k}", label=f"{detector}")
             ax.plot(

@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from probing.core.faults import FAULTS as FAULT_TYPES
+from probing.core.isolation import DETECTORS
 from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = [
@@ -96,6 +97,8 @@ FAULTS: dict[str, Fault] = {
     "effectiveness-0.5": Fault("effectiveness 0.5", "effectiveness", 5, 0.9),
     "stuck": Fault("elevator stuck", "stuck", 5, 0.9),
     "sensor-bias": Fault("pitch sensor bias 0.5 deg", "sensor_bias", 5, 0.9),
+    "sensor-scale": Fault("pitch sensor scale 1.2", "sensor_scale", 5, 0.9),
+    "sensor-stuck": Fault("pitch sensor stuck", "sensor_stuck", 5, 0.9),
 }
 
 
@@ -237,6 +240,7 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
         mon, meta = read_table(path).to_pandas(), read_footer(path)  # the verdict: footer
         if "detector" not in mon:
             mon["detector"] = "probing"
+        mon = mon[mon.detector.isin(DETECTORS)]  # the isolation checks raise no alarm
         first_alarm = json.loads(meta[b"probing.first_alarm_s"])
         onset = f.fault_onset_s if math.isfinite(f.fault_onset_s) else math.inf
         tested = mon[mon.statistic.notna()]
@@ -299,13 +303,9 @@ def false_alarm_rate(
 
 
 def _right(verdicts: pd.Series, truth: str) -> pd.Series:
-    """Whether each verdict is right for a fault of class ``truth``.  The monitor's verdicts
-    are ``actuator``, ``airframe`` or ``none`` (the pulse response did not change: the
-    trajectory detector alone alarmed); it has no sensor verdict, so for a sensor fault any
-    verdict but ``airframe`` is right: a biased sensor must not be called a changed
-    airframe."""
-    if truth == "sensor":
-        return verdicts != "airframe"
+    """Whether each verdict is right for a fault of class ``truth``: the verdict is the
+    class (``actuator``, ``airframe`` or ``sensor``; a flight without a sensor suite has no
+    isolation checks and calls no fault a sensor's, ``probing.core.isolation``)."""
     return verdicts == truth
 
 
@@ -351,6 +351,7 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
                 "delay_p95_T": float(delays.quantile(0.95) / period_s) if len(delays) else math.nan,
                 "actuator": int(counts.get("actuator", 0)),
                 "airframe": int(counts.get("airframe", 0)),
+                "sensor": int(counts.get("sensor", 0)),
                 "none": int(counts.get("none", 0)),
                 "verdict_right": float(_right(g.verdict_after, spec.truth)[detected].mean())
                 if detected.any()
@@ -498,9 +499,9 @@ def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
         + ("turbulence | " if levels else "")
         + ("a, deg | " if amplitudes else "")
         + "flights | goal | detected in goal | detected | probing first | delay median s (T) "
-        "| delay 95 % s (T) | actuator | airframe | none | verdict right |"
+        "| delay 95 % s (T) | actuator | airframe | sensor | none | verdict right |"
     )
-    lines += [head, "|" + "---|" * (13 + several + amplitudes + levels)]
+    lines += [head, "|" + "---|" * (14 + several + amplitudes + levels)]
     for r in table.to_dict("records"):
         lines.append(
             (f"| {r['probe']} " if several else "")
@@ -511,6 +512,6 @@ def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
             f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | {r['by_probing']:.2f} | "
             f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
             f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
-            f"{r['airframe']} | {r['none']} | {r['verdict_right']:.2f} |"
+            f"{r['airframe']} | {r['sensor']} | {r['none']} | {r['verdict_right']:.2f} |"
         )
     return lines

@@ -40,6 +40,10 @@ HEALTHY_FLIGHT_S = 3600.0
 HEALTHY_FLIGHTS = {"gust": 30, "detrend": 5, "oracle": 5}
 DRIFTS = ["gust", "detrend", "oracle"]
 BASE = "../references/base.toml"
+#: The flight's false-alarm budget, 0.1 per hour, shared by the two detectors (each its own
+#: threshold law, ``probing.core.monitor``): the rate of a flight's first false alarm is at
+#: most the sum of theirs.
+MONITOR = {"monitor.false_alarms_per_hour": 0.05, "monitor.trajectory_false_alarms_per_hour": 0.05}
 BY = "Written by scenarios/monitor-realisable/generate.py; run by make monitor."
 #: The probe amplitudes the dead band is flown at: where does its detection goal come within
 #: reach, with each reference and turbulence level?
@@ -47,8 +51,9 @@ DEADBAND_AMPLITUDES_DEG = [0.05, 0.2, 0.5, 1.0, 2.0]
 TURBULENCE = ["none", "light", "moderate"]
 
 #: file name -> (its type in probing.core.faults.FAULTS, its fields without onset_s); the
-#: pitch sensor's bias 0.5 deg.  The dead band, the fault only the probe can see, is flown
-#: over :data:`DEADBAND_AMPLITUDES_DEG` with its edges at +-0.2 a (a~/a = 0.8 at each).
+#: pitch sensor biased by 0.5 deg, scaled by 1.2 or stuck.  The dead band, the fault only
+#: the probe can see, is flown over :data:`DEADBAND_AMPLITUDES_DEG` with its edges at
+#: +-0.2 a (a~/a = 0.8 at each).
 FAULTS: dict[str, tuple[str, dict]] = {
     "damage5": ("gtm_damage", {"case": 5}),
     "damage6": ("gtm_damage", {"case": 6}),
@@ -56,6 +61,8 @@ FAULTS: dict[str, tuple[str, dict]] = {
     "effectiveness": ("effectiveness", {}),  # scale 0.5: in the grid, as the study reads it
     "stuck": ("stuck", {}),
     "sensor-bias": ("sensor_bias", {"channel": "theta_rad", "bias": math.radians(0.5)}),
+    "sensor-scale": ("sensor_scale", {"channel": "theta_rad", "scale": 1.2}),
+    "sensor-stuck": ("sensor_stuck", {"channel": "theta_rad"}),
 }
 
 
@@ -65,7 +72,7 @@ def main() -> None:
     for i, (name, (kind, fault)) in enumerate(FAULTS.items()):
         rng = np.random.default_rng(2000 + i)
         onsets = rng.uniform(*ONSET_PERIODS, SEEDS) * PERIOD_S
-        fixed = {"probe.periods": periods, **sweep_fields(kind, fault)}
+        fixed = {"probe.periods": periods, **MONITOR, **sweep_fields(kind, fault)}
         fixed = {k: round(v, 12) if isinstance(v, float) else v for k, v in fixed.items()}
         grid_here = {**grid, "fault.scale": [0.5]} if name == "effectiveness" else grid
         zipped = {
@@ -87,7 +94,7 @@ def main() -> None:
             text += f" x {len(TURBULENCE)} turbulence levels"
         tables = {"fixed": fixed, "grid": grid_here, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
-    healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S)}
+    healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S), **MONITOR}
     gust = ["gust"]
     bounds = [d for d in DRIFTS if d != "gust"]
     for name, drifts in (("none-gust", gust), ("none-bounds", bounds)):

@@ -342,7 +342,7 @@ def test_each_study_faults_right_verdict_is_its_types_class_in_the_registry():
         "none": "none",
         **damage,
         **dict.fromkeys((*actuator, "stuck"), "actuator"),
-        "sensor-bias": "sensor",
+        **dict.fromkeys(("sensor-bias", "sensor-scale", "sensor-stuck"), "sensor"),
     }
     for fault in FAULTS.values():
         if fault.fault_type != "none":
@@ -528,15 +528,15 @@ def test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channe
     assert f.tested_probing * f.alpha_check == pytest.approx(28 * one)
 
 
-def test_a_sensor_fault_is_right_unless_called_an_airframe_change():
-    """The monitor has no sensor verdict: for a biased sensor every verdict but airframe is
-    right; for the others only their own class."""
+def test_a_verdict_is_right_when_it_is_the_faults_class():
+    """Each class only by its own verdict: a sensor fault called none (the trajectory
+    detector alone) or actuator is wrong, as an airframe change called actuator is."""
     from probing.analysis.monitoring import _right
 
-    verdicts = pd.Series(["actuator", "airframe", "none"])
-    assert list(_right(verdicts, "sensor")) == [True, False, True]
-    assert list(_right(verdicts, "airframe")) == [False, True, False]
-    assert list(_right(verdicts, "actuator")) == [True, False, False]
+    verdicts = pd.Series(["actuator", "airframe", "sensor", "none"])
+    assert list(_right(verdicts, "sensor")) == [False, False, True, False]
+    assert list(_right(verdicts, "airframe")) == [False, True, False, False]
+    assert list(_right(verdicts, "actuator")) == [True, False, False, False]
 
 
 @pytest.mark.parametrize(

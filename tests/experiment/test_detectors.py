@@ -49,9 +49,19 @@ def flights(tmp_path_factory):
 
 
 def test_every_period_and_channel_has_a_row_of_each_detector(flights):
+    """Each monitored channel a row of each detector per period, and with the sensor suite
+    each isolation check a row on its own channel, after them."""
     table = pq.read_table(flights["healthy"].out_dir / "monitor.parquet").to_pandas()
-    counts = table.groupby(["period", "channel"]).detector.apply(tuple)
+    detected = table[table.detector.isin(DETECTORS)]
+    counts = detected.groupby(["period", "channel"]).detector.apply(tuple)
     assert set(counts) == {DETECTORS}
+    assert set(detected.channel) == {"theta_rad", "alpha_rad"}
+    checks = table[~table.detector.isin(DETECTORS)]
+    per_period = checks.groupby("period").apply(
+        lambda g: tuple(zip(g.detector, g.channel, strict=True)), include_groups=False
+    )
+    assert set(per_period) == {(("actuator", "elevator_deg"), ("kinematics", "theta_rad"))}
+    assert set(per_period.index) == set(counts.index.get_level_values("period"))
     assert table.period.is_monotonic_increasing
 
 

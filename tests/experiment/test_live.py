@@ -611,22 +611,27 @@ def test_the_compute_time_leaves_out_the_waits_for_the_clock(tmp_path, monkeypat
 # ------------------------------------------------------- the study's flight, live
 #: The realisable monitor study's flight (scenarios/references/base.toml: GTM at 800 ft and
 #: 75 KCAS, the autopilot's three loops, NASA's T2 sensors, light turbulence) with the ``gust``
-#: reference and the elevator's effectiveness halved at 155 s: a fault inside the loop.
+#: reference and the elevator's effectiveness halved at 155 s: a fault inside the loop; or
+#: the pitch attitude's sensor biased by 0.5 deg at the same time.
 STUDY = {
     "name": "live-study",
     "output.drift": "gust",
     "disturbance.seed": 1,
-    "fault.type": "effectiveness",
-    "fault.scale": 0.5,
     "fault.onset_s": 155.276,
+}
+STUDY_FAULTS = {
+    "actuator": {"fault.type": "effectiveness", "fault.scale": 0.5},
+    "sensor": {"fault.type": "sensor_bias", "fault.channel": "theta_rad", "fault.bias": 0.0087},
 }
 
 
-@pytest.fixture(scope="module")
-def study(tmp_path_factory):
+@pytest.fixture(scope="module", params=sorted(STUDY_FAULTS))
+def study(request, tmp_path_factory):
     """The study's fault flight flown live and in this process, with the same seed."""
-    base = tmp_path_factory.mktemp("study")
-    scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(STUDY)
+    base = tmp_path_factory.mktemp(f"study-{request.param}")
+    scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(
+        {**STUDY, **STUDY_FAULTS[request.param]}
+    )
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
@@ -646,12 +651,14 @@ def test_the_study_flight_flies_live_as_in_this_process(study):
     resolution through the loop (measured: theta within 7.2e-7 rad, the elevator within
     2.5e-5 deg over 100 periods, against a theta std of 0.011 rad: the turbulence is the
     same realisation, not one alike, and the autopilot sees the whole row before, as in this
-    process; with the airspeed a frame older it was 4.3e-5 rad)."""
+    process; with the airspeed a frame older it was 4.3e-5 rad).  The verdict is the
+    isolation checks': actuator for the lost effectiveness, sensor for the biased attitude."""
     scn, live, here, stopped = study
     a, b = live.monitor, here
     assert a.first_alarm_period is not None and b.first_alarm_period is not None
     assert abs(a.first_alarm_period - b.first_alarm_period) <= 1
-    assert a.verdict == b.verdict
+    fault = scn.fault_type
+    assert a.verdict == b.verdict == ("sensor" if fault == "sensor_bias" else "actuator")
     log_a = _table(live.monitor.out_dir, "sensors.parquet")
     log_b = _table(here.out_dir, "sensors.parquet")
     assert list(log_a.columns) == list(log_b.columns) and len(log_a) == scn.total_steps

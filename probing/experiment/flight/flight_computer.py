@@ -35,9 +35,16 @@ from probing.experiment.output.storage import OutputFolder, metadata
 from probing.experiment.scenario import Scenario
 from probing.sim.autopilot import Autopilot, AutopilotTrim, ControlPower
 from probing.sim.control import autopilot_for
+from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control
 
-__all__ = ["FlightComputer", "ProbePathFault", "RunObserver"]
+__all__ = ["FlightComputer", "ProbePathFault", "ReferenceDiverged", "RunObserver"]
+
+
+class ReferenceDiverged(DivergenceError):
+    """The flight computer's reference model left its meaningful region (a gust twin fed
+    with a failed sensor's measurements, say): the flight's monitoring ends there, as a
+    flight whose aircraft diverges does."""
 
 
 class RunObserver(Protocol):
@@ -53,9 +60,11 @@ class RunObserver(Protocol):
         h: np.ndarray,
         z: np.ndarray,
         trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+        isolation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
     ) -> None:
-        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M), and
-        its whole periods with their deviation's features (:class:`Onboard`'s)."""
+        """Called with each chunk's periods (P,) and their estimates h, z (P, C, M), its
+        whole periods with their deviation's features, and each isolation check's
+        (:class:`Onboard`'s :class:`Estimated`)."""
 
     def finish(self) -> None:
         """Called after the last period, before the flight's files are closed."""
@@ -185,15 +194,24 @@ class FlightComputer:
 
     def consume(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
         """A chunk of whole periods from period ``first`` on: logged, estimated, written and
-        told to the monitor."""
+        told to the monitor.
+
+        Raises
+        ------
+        ReferenceDiverged
+            If the reference diverged in the chunk (the chunk is logged, nothing else).
+        """
         assert self.estimates is not None, "open first"
         if self._log_writer is not None:
             self._log_writer.write(log)
-        done = self.onboard.estimates(log, first)
+        try:
+            done = self.onboard.estimates(log, first)
+        except DivergenceError as exc:
+            raise ReferenceDiverged(f"the reference: {exc}") from None
         est = done.estimates
         self.estimates.write(est)
         if self.monitor is not None:
-            self.monitor.update(est.periods, est.h, est.z, done.trajectory)
+            self.monitor.update(est.periods, est.h, est.z, done.trajectory, done.isolation)
         return done
 
     def finish(self, outputs: OutputFolder, ended: str | bytes | None = None) -> None:

@@ -25,10 +25,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core.isolation import DETECTORS, ISOLATION_CHECKS, isolated_verdict
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.trajectory import TrajectoryDetector
-from probing.experiment.flight.flight_computer import FlightComputer
+from probing.experiment.flight.flight_computer import FlightComputer, ReferenceDiverged
 from probing.experiment.flight.onboard import (
+    isolation_columns,
     log_columns,
     open_reference_twin,
     reference_source,
@@ -119,9 +121,10 @@ class MonitorResult:
         return line if self.ended is None else f"{line}; the flight ended: {self.ended}"
 
 
-#: The detectors a monitor runs, in the order of its rows (``monitor.parquet``'s
-#: ``detector``): the paper's, on the pulse response, and the trajectory's, on the deviation.
-DETECTORS = ("probing", "trajectory")
+#: Every row's ``detector``, in the order of a period's rows: the detectors, then the
+#: isolation checks (:mod:`probing.core.isolation`, with a sensor suite), which raise no
+#: alarm of the flight's but decide its verdict.
+ROW_DETECTORS = (*DETECTORS, *ISOLATION_CHECKS)
 
 
 class Monitor:
@@ -147,6 +150,20 @@ class Monitor:
             )
             for _ in self.monitored
         ]
+        #: each isolation check's row channel (the first column it reads), its detector, and
+        #: its alarmed periods; its false-alarm probability per period shares the shape test's
+        #: over the periods the verdict looks at (:func:`isolated_verdict`)
+        checks = isolation_columns(scn)
+        self.check_channels = {check: columns[0] for check, columns in checks.items()}
+        self.lookback = settings.window_periods + 1
+        span = self.lookback + settings.verdict_periods + 1
+        self.isolation_alpha = settings.shape_false_alarm / span
+        gap = settings.baseline_gap_periods
+        self.isolators = {
+            c: TrajectoryDetector(settings.baseline_periods, self.isolation_alpha, gap)
+            for c in checks
+        }
+        self.isolation_alarms: dict[str, list[int]] = {c: [] for c in checks}
         self.first = max(scn.settle_periods, scn.first_estimated_period)
         #: the first alarmed period of each detector, any channel (None: no alarm yet)
         self.first_alarms: dict[str, int | None] = dict.fromkeys(DETECTORS)
@@ -157,7 +174,9 @@ class Monitor:
         self.writer: AtomicParquetWriter | None = None
 
     def open(self, outputs: OutputFolder) -> None:
-        self.writer = outputs.writer("monitor.parquet", [c for _, c in self.monitored])
+        channels = [c for _, c in self.monitored]
+        channels += [c for c in self.check_channels.values() if c not in channels]
+        self.writer = outputs.writer("monitor.parquet", channels)
 
     def update(
         self,
@@ -165,6 +184,7 @@ class Monitor:
         h: np.ndarray,
         z: np.ndarray,
         trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+        isolation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
     ) -> None:
         rows: list[tuple] = []
         for i, p in enumerate(periods.tolist()):
@@ -174,7 +194,11 @@ class Monitor:
             for p, features in zip(trajectory[0].tolist(), trajectory[1], strict=True):
                 if p >= self.first:
                     rows += self._trajectory(p, features)
-        rows.sort(key=lambda r: (r[0], DETECTORS.index(r[3])))  # by period, then detector
+        for check, (whole, features) in (isolation or {}).items():
+            for p, f in zip(whole.tolist(), features, strict=True):
+                if p >= self.first:
+                    rows.append(self._isolation(check, p, f[0]))
+        rows.sort(key=lambda r: (r[0], ROW_DETECTORS.index(r[3])))  # by period, then detector
         if rows and self.writer is not None:
             names = [f.name for f in MONITOR_SCHEMA]
             self.writer.write({n: [r[k] for r in rows] for k, n in enumerate(names)})
@@ -202,11 +226,32 @@ class Monitor:
             rows.append(self._row(p, channel, "trajectory", d.statistic, d.threshold, d.alarm))
         return rows
 
+    def _isolation(self, check: str, p: int, features: np.ndarray) -> tuple:
+        """The row of isolation check ``check`` for period ``p`` (its features ``(2,)``)."""
+        d = self.isolators[check].update(features)
+        if d.alarm:
+            self.isolation_alarms[check].append(p)
+        return self._row(p, self.check_channels[check], check, d.statistic, d.threshold, d.alarm)
+
+    @property
+    def verdict(self) -> str:
+        """The flight's verdict: with isolation checks theirs around the first alarm
+        (:func:`probing.core.isolation.isolated_verdict`), else the channels' majority
+        (:func:`probing.core.monitor.flight_verdict`)."""
+        if not self.isolators:
+            return flight_verdict(self.verdicts)
+        return isolated_verdict(
+            self.first_alarm,
+            self.isolation_alarms,
+            self.lookback,
+            self.settings.verdict_periods,
+        )
+
     def _row(
         self, p: int, channel: str, detector: str, statistic: float, threshold: float, alarm: bool
     ) -> tuple:
         """A row of ``monitor.parquet`` (the isolation's columns empty: a trajectory row's)."""
-        if alarm and self.first_alarms[detector] is None:
+        if alarm and self.first_alarms.get(detector, 0) is None:
             self.first_alarms[detector] = p
         time_s = (p + 1) * self.period_s
         return (
@@ -246,7 +291,7 @@ class Monitor:
                 alarm_detector=self.alarm_detector,
                 first_probing_alarm_s=self._end_of(self.first_alarms["probing"]),
                 first_trajectory_alarm_s=self._end_of(self.first_alarms["trajectory"]),
-                verdict=flight_verdict(self.verdicts),
+                verdict=self.verdict,
                 detector={
                     **self.settings.to_dict(),
                     "alpha_per_period": self.alpha,
@@ -255,9 +300,20 @@ class Monitor:
                     "threshold": self.detectors[0].threshold,
                     "shape_threshold": self.detectors[0].shape_threshold,
                     "trajectory_threshold": self.trajectories[0].threshold,
+                    **self._isolation_settings(),
                 },
             )
         )
+
+    def _isolation_settings(self) -> dict[str, object]:
+        """The isolation checks' settings for the footer (none without checks)."""
+        if not self.isolators:
+            return {}
+        return {
+            "isolation_checks": list(self.isolators),
+            "isolation_alpha_per_period": self.isolation_alpha,
+            "isolation_lookback_periods": self.lookback,
+        }
 
     def _end_of(self, period: int | None) -> float | None:
         """The end of ``period`` after the trim, s (None for None)."""
@@ -268,7 +324,7 @@ class Monitor:
             run,
             self._end_of(self.first_alarm),
             self.first_alarm,
-            flight_verdict(self.verdicts),
+            self.verdict,
             self.alpha,
             ended,
             out_dir,
@@ -418,7 +474,10 @@ def replay_monitor(
                 for batch in rows:
                     chunk = {c: batch.column(c).to_numpy() for c in batch.schema.names}
                     count = batch.num_rows // period_steps
-                    computer.consume(chunk, first)
+                    try:
+                        computer.consume(chunk, first)
+                    except ReferenceDiverged:
+                        break  # as the flight's did: its footer's probing.ended says so
                     first += count
                     bar.advance(count)
             computer.finish(outputs, ended)

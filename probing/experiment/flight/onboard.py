@@ -32,6 +32,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from probing.core.gust import GUST_SENSORS, GustEstimator
+from probing.core.isolation import KINEMATIC_CHANNELS, PitchKinematics, actuator_deviation
 from probing.core.trajectory import trajectory_features
 from probing.experiment.flight.drift import drift_correction
 from probing.experiment.output.layouts import AUTOPILOT_COLUMNS
@@ -52,6 +53,7 @@ __all__ = [
     "ReferenceSource",
     "TwinSource",
     "calm_nominal",
+    "isolation_columns",
     "log_columns",
     "open_reference_twin",
     "reference_source",
@@ -205,11 +207,30 @@ def reference_source(
 
 def log_columns(scn: Scenario) -> tuple[str, ...]:
     """The columns of a log that :class:`Onboard` reads for ``scn``: ``time_s``, the
-    scenario's channels and what its reference reads (:attr:`Reference.log_columns`: with
+    scenario's channels, what its reference reads (:attr:`Reference.log_columns`: with
     ``follow`` the autopilot's commands, with ``gust`` the sensors its estimate and its twin
-    need)."""
-    names = ["time_s", *scn.channels, *REFERENCES[scn.drift].log_columns]
+    need) and what its isolation checks read (:func:`isolation_columns`)."""
+    checks = isolation_columns(scn).values()
+    names = ["time_s", *scn.channels, *REFERENCES[scn.drift].log_columns, *sum(checks, ())]
     return tuple(dict.fromkeys(names))
+
+
+def isolation_columns(scn: Scenario) -> dict[str, tuple[str, ...]]:
+    """The isolation checks (:mod:`probing.core.isolation`) the flight computer runs for
+    ``scn``, each with the log columns it reads: with a sensor suite only (without one the
+    flight is what it was before the checks existed); ``actuator`` where the suite measures
+    the probed surface and the autopilot commands it in its unit (the elevator),
+    ``kinematics`` where the suite measures pitch attitude, body rates and bank."""
+    suite = scn.sensors
+    if suite is None:
+        return {}
+    checks: dict[str, tuple[str, ...]] = {}
+    command = f"autopilot_{scn.surface}_{scn.surface_unit}"
+    if command in AUTOPILOT_COLUMNS and scn.surface_channel in suite.sensors:
+        checks["actuator"] = (scn.surface_channel, command, f"probe_{scn.surface_unit}")
+    if all(c in suite.sensors for c in KINEMATIC_CHANNELS):
+        checks["kinematics"] = KINEMATIC_CHANNELS
+    return checks
 
 
 def open_reference_twin(
@@ -261,6 +282,8 @@ class Onboard:
         self.scn, self.source, self.baseline = scn, source, baseline
         self.spb = scn.probe.steps_per_bit(scn.dt_s)
         self.drift = drift_correction(scn, scn.probe, push_bits)
+        self.checks = isolation_columns(scn)
+        self.kinematics = PitchKinematics(scn.dt_s) if "kinematics" in self.checks else None
 
     def estimates(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
         """A chunk of whole periods from period ``first`` on -> what the flight computer
@@ -277,8 +300,26 @@ class Onboard:
         count = deviation.shape[0] // m
         periods = deviation[: count * m].reshape(count, m, -1).transpose(0, 2, 1)
         features = trajectory_features(periods)
-        trajectory = (np.arange(first, first + count, dtype=np.int64), features)
-        return Estimated(est, measured, reference, trajectory)
+        whole = np.arange(first, first + count, dtype=np.int64)
+        trajectory = (whole, features)
+        return Estimated(est, measured, reference, trajectory, self._isolation(log, whole))
+
+    def _isolation(
+        self, log: Mapping[str, np.ndarray], whole: np.ndarray
+    ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Each isolation check's deviation, its whole periods' features ``(P, 1, 2)``."""
+        out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        m, spb = self.scn.probe.length, self.spb
+        for check, columns in self.checks.items():
+            values = [np.asarray(log[c], dtype=float) for c in columns]
+            if check == "actuator":
+                deviation = actuator_deviation(*values)
+            else:
+                assert self.kinematics is not None
+                deviation = self.kinematics.update(*values)
+            bits = deviation[spb - 1 :: spb][: whole.size * m]
+            out[check] = (whole, trajectory_features(bits.reshape(whole.size, 1, m)))
+        return out
 
 
 @dataclass
@@ -296,9 +337,13 @@ class Estimated:
     trajectory : (numpy.ndarray, numpy.ndarray)
         Every whole period of the chunk ``(P',)`` and its deviation's features ``(P', C, 2)``
         (:func:`probing.core.trajectory.trajectory_features`): the trajectory detector's.
+    isolation : dict
+        Isolation check (:func:`isolation_columns`) -> every whole period ``(P',)`` and its
+        deviation's features ``(P', 1, 2)`` (empty without a sensor suite).
     """
 
     estimates: Any
     measured: np.ndarray
     reference: np.ndarray | None
     trajectory: tuple[np.ndarray, np.ndarray]
+    isolation: dict[str, tuple[np.ndarray, np.ndarray]] = dataclasses.field(default_factory=dict)

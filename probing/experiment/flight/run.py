@@ -30,6 +30,7 @@ from probing.core.forked import INTERRUPTS
 from probing.core.prbs import Probe
 from probing.experiment.flight.flight_computer import (
     FlightComputer,
+    ReferenceDiverged,
     RunObserver,
     flight_autopilot,
     folder_of,
@@ -407,7 +408,13 @@ def run_scenario(
             )
             with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
                 for c in _chunks(rig, computer):
-                    done = computer.consume(c.log, c.first)
+                    try:
+                        done = computer.consume(c.log, c.first)
+                    except ReferenceDiverged as exc:
+                        if not rig.stop_on_divergence:
+                            raise
+                        rig.ended = str(exc)  # the periods before this chunk are kept
+                        break
                     if w_ts is not None:
                         rows = _timeseries_rows(c, done.measured, done.reference, scn, channels)
                         w_ts.write(rows)

@@ -100,6 +100,7 @@ class TruthFiles:
         h: np.ndarray,
         z: np.ndarray,
         trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+        isolation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
     ) -> None:
         """Nothing to follow period by period."""
 
