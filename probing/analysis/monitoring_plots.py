@@ -11,6 +11,7 @@ import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
 from probing.analysis.monitoring import FAULTS, roc
+from probing.analysis.probe_only import probe_only_figure
 from probing.experiment.output.storage import read_table
 
 __all__ = [
@@ -287,6 +288,8 @@ def draw_all(flights: pd.DataFrame, figures: Path) -> list[Path]:
     paths += save_figure(detection_figure(flights), figures / "monitor_detection")
     paths += save_figure(roc_figure(flights), figures / "monitor_roc")
     paths += save_figure(verdict_figure(flights), figures / "monitor_verdicts")
+    if "gust" in set(flights.drift):  # the realisable reference's: what only the probe sees
+        paths += save_figure(probe_only_figure(flights), figures / "monitor_probe_only")
     for key in _faults(flights):
         paths += save_figure(fault_figure(flights, key), figures / f"monitor_{key}")
     return paths

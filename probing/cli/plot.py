@@ -56,8 +56,12 @@ def _plot_monitor(args: argparse.Namespace) -> int:
     """The monitor study's tables and figures from its stored flights."""
     from probing.analysis.monitoring import evaluate, load_study, summary_markdown
     from probing.analysis.monitoring_plots import draw_all
+    from probing.analysis.probe_only import probe_only_markdown
 
-    return _plot_study(args, lambda path: evaluate(load_study(path)), summary_markdown, draw_all)
+    def summary(flights: Any) -> str:
+        return summary_markdown(flights) + probe_only_markdown(flights)
+
+    return _plot_study(args, lambda path: evaluate(load_study(path)), summary, draw_all)
 
 
 def _plot_simultaneous(args: argparse.Namespace) -> int:
