@@ -40,10 +40,17 @@ HEALTHY_FLIGHT_S = 3600.0
 HEALTHY_FLIGHTS = {"gust": 30, "detrend": 5, "oracle": 5}
 DRIFTS = ["gust", "detrend", "oracle"]
 BASE = "../references/base.toml"
-#: The flight's false-alarm budget, 0.1 per hour, shared by the two detectors (each its own
-#: threshold law, ``probing.core.monitor``): the rate of a flight's first false alarm is at
-#: most the sum of theirs.
-MONITOR = {"monitor.false_alarms_per_hour": 0.05, "monitor.trajectory_false_alarms_per_hour": 0.05}
+#: The thresholds: 0.025 false alarms per hour for each of the two detectors (each its own
+#: threshold law, ``probing.core.monitor``), so the flight's first false alarm comes at most
+#: at 0.05 per hour, half the goal of 0.1: a monitor designed for exactly 0.1 per hour shows
+#: about 3 events in 30 hours, and measures <= 0.1 per hour barely more often than not.
+#: Flown with 0.05 per detector (seeds 201-230, the earlier round's test hours), the gust
+#: reference raised 5 first alarms in 26.8 hours (0.19 per hour), 3 and 2.7 expected of the
+#: law: its tail is at most a little heavier (docs/monitoring.md, "False alarms").
+MONITOR = {
+    "monitor.false_alarms_per_hour": 0.025,
+    "monitor.trajectory_false_alarms_per_hour": 0.025,
+}
 BY = "Written by scenarios/monitor-realisable/generate.py; run by make monitor."
 #: The probe amplitudes the dead band is flown at: where does its detection goal come within
 #: reach, with each reference and turbulence level?
@@ -100,7 +107,9 @@ def main() -> None:
     for name, drifts in (("none-gust", gust), ("none-bounds", bounds)):
         flights = HEALTHY_FLIGHTS[drifts[0]]
         assert all(HEALTHY_FLIGHTS[d] == flights for d in drifts)
-        zipped = {"disturbance.seed": list(range(201, 201 + flights))}
+        # seeds no earlier choice saw: 201-230 tested the last round's monitor and this
+        # round's budget, 301-310 were flown to look at the statistics' tail
+        zipped = {"disturbance.seed": list(range(401, 401 + flights))}
         text = f"no fault: {flights} flights of 1 h x {', '.join(drifts)}"
         tables = {"fixed": healthy, "grid": {"output.drift": drifts}, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
