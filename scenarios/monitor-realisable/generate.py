@@ -56,6 +56,11 @@ BY = "Written by scenarios/monitor-realisable/generate.py; run by make monitor."
 #: reach, with each reference and turbulence level?
 DEADBAND_AMPLITUDES_DEG = [0.05, 0.2, 0.5, 1.0, 2.0]
 TURBULENCE = ["none", "light", "moderate"]
+#: Where ``probing design --within-periods 5`` puts the dead band's amplitude with the gust
+#: reference in light turbulence (0.6-0.75 deg): amplitudes between the ladder's 0.2, 0.5
+#: and 1 deg, with twice the seeds, so the study's amplitude is known to better than +-25 %.
+FINE_AMPLITUDES_DEG = [0.3, 0.4, 0.6, 0.7, 0.85]
+FINE_SEEDS = 20
 
 #: file name -> (its type in probing.core.faults.FAULTS, its fields without onset_s); the
 #: pitch sensor biased by 0.5 deg, scaled by 1.2 or stuck.  The dead band, the fault only
@@ -101,6 +106,7 @@ def main() -> None:
             text += f" x {len(TURBULENCE)} turbulence levels"
         tables = {"fixed": fixed, "grid": grid_here, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
+    _fine_deadband(periods)
     healthy = {"probe.periods": round(HEALTHY_FLIGHT_S / PERIOD_S), **MONITOR}
     gust = ["gust"]
     bounds = [d for d in DRIFTS if d != "gust"]
@@ -113,6 +119,30 @@ def main() -> None:
         text = f"no fault: {flights} flights of 1 h x {', '.join(drifts)}"
         tables = {"fixed": healthy, "grid": {"output.drift": drifts}, "zip": zipped}
         (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
+
+
+def _fine_deadband(periods: int) -> None:
+    """``deadband-fine.toml``: the dead band with the gust reference in light turbulence at
+    :data:`FINE_AMPLITUDES_DEG`, :data:`FINE_SEEDS` seeds (11 on) with their own onsets."""
+    rng = np.random.default_rng(2100)
+    onsets = rng.uniform(*ONSET_PERIODS, FINE_SEEDS) * PERIOD_S
+    kind, fault = FAULTS["deadband"]
+    fixed = {"probe.periods": periods, **MONITOR, **sweep_fields(kind, fault)}
+    amplitudes = FINE_AMPLITUDES_DEG
+    seeds = list(range(11, 11 + FINE_SEEDS))
+    zipped = {
+        "disturbance.seed": [s for s in seeds for _ in amplitudes],
+        "fault.onset_s": [round(float(t), 3) for t in onsets for _ in amplitudes],
+        "probe.amplitude_deg": amplitudes * FINE_SEEDS,
+        "fault.lower_deg": [round(-0.2 * a, 12) for a in amplitudes] * FINE_SEEDS,
+        "fault.upper_deg": [round(0.2 * a, 12) for a in amplitudes] * FINE_SEEDS,
+    }
+    grid = {"output.drift": ["gust"], "disturbance.turbulence": ["light"]}
+    text = f"deadband, fine: {FINE_SEEDS} seeds x random onsets x gust x light x "
+    text += f"{len(amplitudes)} amplitudes"
+    tables = {"fixed": fixed, "grid": grid, "zip": zipped}
+    name = "deadband-fine"
+    (HERE / f"{name}.toml").write_text(sweep_toml(f"monitor-{name}", text, BASE, tables, BY))
 
 
 if __name__ == "__main__":

@@ -39,6 +39,31 @@ def _one_line_refusal(argv: list[str], option: str, capsys: pytest.CaptureFixtur
             "gain target",
         ),
         (["--noise-sigma", "1e-5", "--false-alarms-per-hour", "0.1"], "--false-alarms", "needs"),
+        (["--noise-sigma", "1e-5", "--within-periods", "5"], "--within-periods", "--window-"),
+        (
+            [
+                *("--noise-sigma", "1e-5", "--target-gain-se", "0.1"),
+                *("--window-periods", "4", "--within-periods", "5"),
+            ],
+            "--within-periods",
+            "needs --detect-gain-change",
+        ),
+        (
+            [
+                *("--noise-sigma", "1e-5", "--detect-gain-change", "0.2"),
+                *("--window-periods", "4", "--within-periods", "0"),
+            ],
+            "--within-periods",
+            "from 1 to 1000, got 0",
+        ),
+        (
+            [
+                *("--noise-sigma", "1e-5", "--detect-gain-change", "0.2"),
+                *("--window-periods", "4", "--within-periods", "1001"),
+            ],
+            "--within-periods",
+            "from 1 to 1000, got 1001",
+        ),
         (
             [
                 *("--noise-sigma", "1e-5", "--target-gain-se", "0.1", "--window-periods", "4"),

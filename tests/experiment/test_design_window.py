@@ -9,7 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from probing.core.monitor import window_matrix
 from probing.experiment.design.design_window import (
+    period_covariance,
     period_gain_std,
     smallest_amplitude,
     window_stderr,
@@ -79,3 +81,40 @@ def test_the_per_period_gain_scatter_is_that_of_the_settled_periods_alone(
         pytest.approx(base, rel=1e-12)
     )
     assert period_gain_std(design, {"theta_rad": loud_settled}, h_ref, "theta_rad") > 1.5 * base
+
+
+def test_a_detection_target_scales_by_its_own_factor(scn: Scenario) -> None:
+    """With ``factor_of`` the search scales by the detection's factor, not the gain se's:
+    1 deg needs 0.8 of itself (0.8 deg), where the factor is 1.05 (met within 10 %)."""
+    factors = {1.0: 0.8, 0.8: 1.05}
+
+    def build(amplitude_deg: float) -> Scenario:
+        return scn.replace({"probe.amplitude_deg": amplitude_deg})
+
+    found = smallest_amplitude(
+        scn,
+        build,
+        lambda design: 1.0,  # se / goal 1 throughout: only the factor moves the amplitude
+        window_stderr(1.0, W, B),
+        (W, B),
+        (10.0, "travel"),
+        lambda design, sigma: factors[round(design.amplitude_deg, 9)],
+    )
+    assert [a for a, _ in found.flights] == [1.0, 0.8]
+    assert found.amplitude_deg == 0.8 and found.factor == 1.05
+
+
+def test_the_periods_covariance_is_each_projections_variance(scn: Scenario) -> None:
+    """Any combination a of the reduced estimate's windows scatters by a' C a: the
+    covariance built from pairs is the one the realisations give every direction."""
+    m = scn.bits_per_period
+    x = 1e-4 * np.random.default_rng(2).standard_normal((20, scn.periods * m))
+    x[:, 1:] += 0.7 * x[:, :-1]  # correlated samples: off-diagonal terms
+    reduce = window_matrix(m, 4)
+    cov = period_covariance(scn, {"theta_rad": x}, "theta_rad", reduce)
+    assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
+    assert np.abs(cov - np.diag(np.diag(cov))).max() > 0.01 * np.diag(cov).max()
+    a = np.array([1.0, -2.0, 0.5, 3.0])
+    h_ref = a @ reduce  # the gain along a @ reduce: its variance a' C a / |a @ reduce|^4
+    std = period_gain_std(scn, {"theta_rad": x}, h_ref, "theta_rad")
+    assert std**2 == pytest.approx(a @ cov @ a / float(h_ref @ h_ref) ** 2, rel=1e-9)

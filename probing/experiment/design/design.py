@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.monitor import MonitorSettings, window_matrix
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
 from probing.experiment.design.design_reasons import CANDIDATES, notes, said, too_tight
@@ -52,6 +53,8 @@ from probing.experiment.design.design_runs import (
 )
 from probing.experiment.design.design_window import (
     WindowDesign,
+    detection_factor,
+    period_covariance,
     period_gain_std,
     smallest_amplitude,
     window_dict,
@@ -393,7 +396,22 @@ def _window(
 
     goal = request.gain_goal(scn.period_s)
     room = _amplitude_room(request, surface_room)
-    found = smallest_amplitude(with_periods(scn, b + w), build, sigma_of, goal, (w, b), room)
+    factor_of = None
+    if request.within_periods is not None:
+        reduce = window_matrix(scn.bits_per_period, MonitorSettings().windows)
+        alpha = request.false_alarm_of(scn.period_s)
+        periods = (w, b, request.within_periods)
+
+        def factor_of(design: Scenario, sigma: float) -> float:
+            cov = period_covariance(design, flown[design.amplitude_deg], request.channel, reduce)
+            v0 = reduce @ noise_free_reference(design)[request.channel]
+            change = request.detect_gain_change
+            return detection_factor(change, cov, v0, alpha, periods, request.detection_probability)
+
+    found = smallest_amplitude(
+        with_periods(scn, b + w), build, sigma_of, goal, (w, b), room, factor_of
+    )
+    found.within_periods = request.within_periods
     gusts.samples, gusts.periods = flown[found.amplitude_deg], found.scenario.periods
     return shapes[found.amplitude_deg], found
 

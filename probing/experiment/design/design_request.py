@@ -141,6 +141,13 @@ class DesignRequest:
         metavar="W",
     )
     baseline_periods: int = _option(50, help="with --window-periods: the baseline's periods")
+    within_periods: int | None = _option(
+        None,
+        help="with --window-periods and --detect-gain-change: the change detected within N "
+        "periods of its onset by the monitor's own tests, one after every period "
+        "(probing.core.detection), instead of by one test",
+        metavar="N",
+    )
     false_alarms_per_hour: float | None = _option(
         None,
         help="with --window-periods: the false-alarm rate per flight hour, per period tested, "
@@ -293,9 +300,21 @@ class DesignRequest:
         from probing.core.monitor import MonitorSettings, SettingError
 
         if self.window_periods is None:
-            if self.false_alarms_per_hour is not None:
-                raise DesignInputError("--false-alarms-per-hour", "needs --window-periods")
+            for option, value in (
+                ("--false-alarms-per-hour", self.false_alarms_per_hour),
+                ("--within-periods", self.within_periods),
+            ):
+                if value is not None:
+                    raise DesignInputError(option, "needs --window-periods")
             return
+        if self.within_periods is not None:
+            if self.detect_gain_change is None:
+                raise DesignInputError("--within-periods", "needs --detect-gain-change")
+            if not 1 <= self.within_periods <= 1000:
+                raise DesignInputError(
+                    "--within-periods",
+                    f"must be an integer from 1 to 1000, got {self.within_periods}",
+                )
         if not targeted or self.target_h_se is not None:
             raise DesignInputError(
                 "--window-periods", "needs a gain target (--detect-gain-change or "

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.detection import detection_scale
 from probing.core.monitor import window_variance_factor
 from probing.experiment.design.design_request import DesignError, DesignRequest
 from probing.experiment.output.scatter import scatter_models
@@ -34,7 +35,9 @@ from probing.experiment.scenario import Scenario
 
 __all__ = [
     "WindowDesign",
+    "detection_factor",
     "missed",
+    "period_covariance",
     "period_gain_std",
     "smallest_amplitude",
     "window_dict",
@@ -94,6 +97,11 @@ class WindowDesign:
         :func:`window_stderr` of it.
     flights : list of (float, float)
         (amplitude deg, per-period gain standard deviation) of each residual flown.
+    factor : float
+        The factor the amplitude found would still have to grow by to meet the target
+        exactly (about 1; the window's gain se over the goal, or the detection's).
+    within_periods : int or None
+        N of a detection target (``--within-periods``), None for a gain se's.
     """
 
     scenario: Scenario
@@ -101,6 +109,8 @@ class WindowDesign:
     period_gain_std: float
     window_gain_stderr: float
     flights: list[tuple[float, float]]
+    factor: float = 1.0
+    within_periods: int | None = None
 
 
 def _round_up(x: float, digits: int = 3) -> float:
@@ -116,8 +126,10 @@ def smallest_amplitude(
     goal: float,
     windows: tuple[int, int],
     room: tuple[float, str],
+    factor_of: Callable[[Scenario, float], float] | None = None,
 ) -> WindowDesign:
-    """The smallest amplitude whose window gain standard error meets ``goal``.
+    """The smallest amplitude whose window gain standard error meets ``goal`` (or, with
+    ``factor_of``, whose detection within the monitor's periods does).
 
     Parameters
     ----------
@@ -133,6 +145,9 @@ def smallest_amplitude(
         W and B, periods of the window and of the baseline.
     room : (float, str)
         How far the amplitude may go (deg) and the limit's name.
+    factor_of : callable, optional
+        (design, its per-period gain std) -> the factor its amplitude must grow by to meet
+        the target (:func:`detection_factor`); default: the window's gain se over ``goal``.
 
     Raises
     ------
@@ -140,10 +155,16 @@ def smallest_amplitude(
         When the amplitude needed exceeds the room, in one line.
     """
     w, b = windows
-    tried = [(scn, sigma_of(scn))]
-    se = window_stderr(tried[-1][1], w, b)
-    while abs(se / goal - 1.0) > CHECK_TOLERANCE and len(tried) < MAX_FLIGHTS:
-        need = _round_up(scn.amplitude_deg * se / goal)
+
+    def factor(design: Scenario, sigma: float) -> float:
+        if factor_of is not None:
+            return factor_of(design, sigma)
+        return window_stderr(sigma, w, b) / goal
+
+    sigma = sigma_of(scn)
+    tried = [(scn, sigma, factor(scn, sigma))]
+    while abs(tried[-1][2] - 1.0) > CHECK_TOLERANCE and len(tried) < MAX_FLIGHTS:
+        need = _round_up(scn.amplitude_deg * tried[-1][2])
         if need > room[0]:
             raise DesignError(
                 f"no acceptable probe: a gain standard error of {goal:.3g} over {w} periods "
@@ -151,17 +172,61 @@ def smallest_amplitude(
                 f"{room[0]:.3g} deg"
             )
         scn = build(need)
-        tried.append((scn, sigma_of(scn)))
-        se = window_stderr(tried[-1][1], w, b)
+        sigma = sigma_of(scn)
+        tried.append((scn, sigma, factor(scn, sigma)))
     # the last flight, or when it misses the smallest amplitude flown that met the target
-    met = [t for t in tried if window_stderr(t[1], w, b) <= goal * (1.0 + CHECK_TOLERANCE)]
-    scn, sigma = tried[-1] if not met or met[-1] is tried[-1] else min(met, key=_amplitude)
+    met = [t for t in tried if t[2] <= 1.0 + CHECK_TOLERANCE]
+    scn, sigma, last = tried[-1] if not met or met[-1] is tried[-1] else min(met, key=_amplitude)
     flights = [(t[0].amplitude_deg, t[1]) for t in tried]
-    return WindowDesign(scn, scn.amplitude_deg, sigma, window_stderr(sigma, w, b), flights)
+    return WindowDesign(
+        scn, scn.amplitude_deg, sigma, window_stderr(sigma, w, b), flights, factor=last
+    )
 
 
-def _amplitude(flight: tuple[Scenario, float]) -> float:
+def _amplitude(flight: tuple[Scenario, float, float]) -> float:
     return flight[0].amplitude_deg
+
+
+def period_covariance(
+    scn: Scenario,
+    samples: Mapping[str, np.ndarray],
+    channel: str,
+    reduce: np.ndarray,
+) -> np.ndarray:
+    """One settled period's covariance of the monitor's reduced estimate ``reduce @ h``
+    ((K, K), ``reduce`` the detector's window matrix (K, M)): each settled period's from
+    the realisations ``samples`` (as :func:`period_gain_std`'s), averaged, plus the analytic
+    sensor noise; an entry (i, j) from the variances of rows i, j and their sum."""
+    one = scatter_models(scn.replace({"probe.periods": scn.settle_periods + 1}))[channel]
+    first = max(scn.settle_periods, scn.first_estimated_period)
+    x = samples.get(channel)
+    settled = range(first, scn.periods)
+    models = [one] if x is None else [one.with_noise(one.acov, x, k) for k in settled]
+    k = reduce.shape[0]
+    total = np.zeros((k, k))
+    for model in models:
+        var = np.array([model.projection_std(row) ** 2 for row in reduce])
+        cov = np.diag(var)
+        for i in range(k):
+            for j in range(i + 1, k):
+                both = model.projection_std(reduce[i] + reduce[j]) ** 2
+                cov[i, j] = cov[j, i] = 0.5 * (both - var[i] - var[j])
+        total += cov
+    return total / len(models)
+
+
+def detection_factor(
+    change: float,
+    covariance: np.ndarray,
+    v0: np.ndarray,
+    false_alarm: float,
+    periods: tuple[int, int, int],
+    probability: float,
+) -> float:
+    """The factor a probe's amplitude must grow by for the monitor to detect a gain drop of
+    ``change`` within N periods with ``probability`` (:func:`probing.core.detection.
+    detection_scale`): the noise goes as 1/a, so the change grows against it as a."""
+    return detection_scale(-change * v0, covariance, v0, false_alarm, periods, probability)
 
 
 def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str]:
@@ -174,12 +239,24 @@ def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str
         if missed(found, goal) is None
         else f"misses {goal:.3g} after {MAX_FLIGHTS} flights"
     )
+    amplitude = (
+        f"the smallest whose gain se over a mean of {w} periods against a baseline of "
+        f"{b}, sigma_p sqrt(1/{w} + 1/{b}) = {found.window_gain_stderr:.3g}, {met} "
+        f"(sigma_p, one period's gain std, goes as 1/a; flown at {flown})"
+    )
+    if found.within_periods is not None:
+        n = found.within_periods
+        amplitude = (
+            f"the smallest at which the monitor's own tests (Hotelling's T^2 and the gain's t "
+            f"of a mean of {w} periods against a baseline of {b}, one after every period) "
+            f"detect a gain change of {request.detect_gain_change:g} within {n} periods of "
+            f"its onset with probability {request.detection_probability:g} "
+            f"(probing.core.detection), the periods' covariance flown "
+            f"{'' if missed(found, goal) is None else 'and missed '}at {flown} "
+            "(deg: sigma_p, one period's gain std, goes as 1/a)"
+        )
     return {
-        "amplitude_deg": (
-            f"the smallest whose gain se over a mean of {w} periods against a baseline of "
-            f"{b}, sigma_p sqrt(1/{w} + 1/{b}) = {found.window_gain_stderr:.3g}, {met} "
-            f"(sigma_p, one period's gain std, goes as 1/a; flown at {flown})"
-        ),
+        "amplitude_deg": amplitude,
         "periods": (
             f"a baseline of {b} and a window of {w} settled periods, plus "
             f"{found.scenario.settle_periods} settling"
@@ -191,8 +268,15 @@ def missed(found: WindowDesign, goal: float) -> str | None:
     """A warning when the design's window gain se exceeds the target by more than the
     tolerance (the residual then depends on the amplitude more than the 1/a rule allows),
     else None."""
-    if found.window_gain_stderr <= goal * (1.0 + CHECK_TOLERANCE):
+    if found.factor <= 1.0 + CHECK_TOLERANCE:
         return None
+    if found.within_periods is not None:
+        return (
+            f"the detection at {found.amplitude_deg:.3g} deg misses its target by more than "
+            f"{CHECK_TOLERANCE:.0%} after {MAX_FLIGHTS} flights (the amplitude would grow by "
+            f"{found.factor:.3g}): what the reference leaves depends on the amplitude more "
+            "than as 1/a"
+        )
     return (
         f"the window's gain se {found.window_gain_stderr:.3g} at {found.amplitude_deg:.3g} deg "
         f"misses the target {goal:.3g} by more than {CHECK_TOLERANCE:.0%} after "
@@ -213,4 +297,9 @@ def window_dict(request: DesignRequest, found: WindowDesign | None) -> dict[str,
         "period_gain_stderr": found.period_gain_std,
         "window_gain_stderr": found.window_gain_stderr,
         "flights": [list(f) for f in found.flights],
+        **(
+            {"within_periods": found.within_periods, "detection_factor": found.factor}
+            if found.within_periods is not None
+            else {}
+        ),
     }

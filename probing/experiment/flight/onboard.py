@@ -307,10 +307,14 @@ class Onboard:
     def _isolation(
         self, log: Mapping[str, np.ndarray], whole: np.ndarray
     ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """Each isolation check's deviation, its whole periods' features ``(P, 1, 2)``."""
+        """Each isolation check's deviation, its whole periods' features ``(P, 1, 2)``; none
+        where the chunk lacks a column (a flight that records no log, as a design's runs:
+        its commands are not kept, and no monitor reads the checks)."""
         out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         m, spb = self.scn.probe.length, self.spb
         for check, columns in self.checks.items():
+            if any(c not in log for c in columns):
+                continue
             values = [np.asarray(log[c], dtype=float) for c in columns]
             if check == "actuator":
                 deviation = actuator_deviation(*values)
