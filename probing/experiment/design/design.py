@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.detection import detection_scale
 from probing.core.monitor import MonitorSettings, window_matrix
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
@@ -53,7 +54,6 @@ from probing.experiment.design.design_runs import (
 )
 from probing.experiment.design.design_window import (
     WindowDesign,
-    detection_factor,
     period_covariance,
     period_gain_std,
     smallest_amplitude,
@@ -405,8 +405,8 @@ def _window(
         def factor_of(design: Scenario, sigma: float) -> float:
             cov = period_covariance(design, flown[design.amplitude_deg], request.channel, reduce)
             v0 = reduce @ noise_free_reference(design)[request.channel]
-            change = request.detect_gain_change
-            return detection_factor(change, cov, v0, alpha, periods, request.detection_probability)
+            change = -request.detect_gain_change * v0  # a drop: the test is two-sided
+            return detection_scale(change, cov, v0, alpha, periods, request.detection_probability)
 
     found = smallest_amplitude(
         with_periods(scn, b + w), build, sigma_of, goal, (w, b), room, factor_of

@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 
-from probing.core.detection import detection_scale
 from probing.core.monitor import window_variance_factor
 from probing.experiment.design.design_request import DesignError, DesignRequest
 from probing.experiment.output.scatter import scatter_models
@@ -35,7 +34,6 @@ from probing.experiment.scenario import Scenario
 
 __all__ = [
     "WindowDesign",
-    "detection_factor",
     "missed",
     "period_covariance",
     "period_gain_std",
@@ -147,7 +145,8 @@ def smallest_amplitude(
         How far the amplitude may go (deg) and the limit's name.
     factor_of : callable, optional
         (design, its per-period gain std) -> the factor its amplitude must grow by to meet
-        the target (:func:`detection_factor`); default: the window's gain se over ``goal``.
+        the target (:func:`probing.core.detection.detection_scale`); default: the window's
+        gain se over ``goal``.
 
     Raises
     ------
@@ -213,20 +212,6 @@ def period_covariance(
                 cov[i, j] = cov[j, i] = 0.5 * (both - var[i] - var[j])
         total += cov
     return total / len(models)
-
-
-def detection_factor(
-    change: float,
-    covariance: np.ndarray,
-    v0: np.ndarray,
-    false_alarm: float,
-    periods: tuple[int, int, int],
-    probability: float,
-) -> float:
-    """The factor a probe's amplitude must grow by for the monitor to detect a gain drop of
-    ``change`` within N periods with ``probability`` (:func:`probing.core.detection.
-    detection_scale`): the noise goes as 1/a, so the change grows against it as a."""
-    return detection_scale(-change * v0, covariance, v0, false_alarm, periods, probability)
 
 
 def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str]:
