@@ -167,8 +167,5 @@ def detection_scale(
         hi *= 2.0
         if hi > 1e9:
             raise ValueError("that change is not detectable at any size")
-    lo = hi / 2.0 if hi > 1.0 else 0.0
-    while lo > 0.0 and excess(lo) >= 0.0:
-        hi, lo = lo, lo / 2.0
-        lo = 0.0 if lo < 1e-12 else lo
+    lo = hi / 2.0 if hi > 1.0 else 0.0  # short of it (no change: the false alarms only)
     return float(brentq(excess, lo, hi, xtol=1e-9, rtol=1e-6))

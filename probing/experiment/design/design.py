@@ -411,7 +411,6 @@ def _window(
     found = smallest_amplitude(
         with_periods(scn, b + w), build, sigma_of, goal, (w, b), room, factor_of
     )
-    found.within_periods = request.within_periods
     gusts.samples, gusts.periods = flown[found.amplitude_deg], found.scenario.periods
     return shapes[found.amplitude_deg], found
 

@@ -110,5 +110,5 @@ def said(
     warnings = list(shape.warnings)
     if window is not None:
         reasons.update(window_reasons(request, window))
-        warnings += [w for w in [missed(window, request.gain_goal(scn.period_s))] if w]
+        warnings += [w for w in [missed(request, window)] if w]
     return reasons, warnings

@@ -98,8 +98,6 @@ class WindowDesign:
     factor : float
         The factor the amplitude found would still have to grow by to meet the target
         exactly (about 1; the window's gain se over the goal, or the detection's).
-    within_periods : int or None
-        N of a detection target (``--within-periods``), None for a gain se's.
     """
 
     scenario: Scenario
@@ -108,7 +106,6 @@ class WindowDesign:
     window_gain_stderr: float
     flights: list[tuple[float, float]]
     factor: float = 1.0
-    within_periods: int | None = None
 
 
 def _round_up(x: float, digits: int = 3) -> float:
@@ -221,7 +218,7 @@ def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str
     goal = request.gain_goal(found.scenario.period_s)
     met = (
         f"meets {goal:.3g} (within {CHECK_TOLERANCE:.0%})"
-        if missed(found, goal) is None
+        if missed(request, found) is None
         else f"misses {goal:.3g} after {MAX_FLIGHTS} flights"
     )
     amplitude = (
@@ -229,15 +226,15 @@ def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str
         f"{b}, sigma_p sqrt(1/{w} + 1/{b}) = {found.window_gain_stderr:.3g}, {met} "
         f"(sigma_p, one period's gain std, goes as 1/a; flown at {flown})"
     )
-    if found.within_periods is not None:
-        n = found.within_periods
+    n = request.within_periods
+    if n is not None:
         amplitude = (
             f"the smallest at which the monitor's own tests (Hotelling's T^2 and the gain's t "
             f"of a mean of {w} periods against a baseline of {b}, one after every period) "
             f"detect a gain change of {request.detect_gain_change:g} within {n} periods of "
             f"its onset with probability {request.detection_probability:g} "
             f"(probing.core.detection), the periods' covariance flown "
-            f"{'' if missed(found, goal) is None else 'and missed '}at {flown} "
+            f"{'' if missed(request, found) is None else 'and missed '}at {flown} "
             "(deg: sigma_p, one period's gain std, goes as 1/a)"
         )
     return {
@@ -249,13 +246,14 @@ def window_reasons(request: DesignRequest, found: WindowDesign) -> dict[str, str
     }
 
 
-def missed(found: WindowDesign, goal: float) -> str | None:
-    """A warning when the design's window gain se exceeds the target by more than the
-    tolerance (the residual then depends on the amplitude more than the 1/a rule allows),
-    else None."""
+def missed(request: DesignRequest, found: WindowDesign) -> str | None:
+    """A warning when the design misses its target (the window's gain se, or with
+    ``--within-periods`` the detection) by more than the tolerance (the residual then
+    depends on the amplitude more than the 1/a rule allows), else None."""
     if found.factor <= 1.0 + CHECK_TOLERANCE:
         return None
-    if found.within_periods is not None:
+    goal = request.gain_goal(found.scenario.period_s)
+    if request.within_periods is not None:
         return (
             f"the detection at {found.amplitude_deg:.3g} deg misses its target by more than "
             f"{CHECK_TOLERANCE:.0%} after {MAX_FLIGHTS} flights (the amplitude would grow by "
@@ -283,8 +281,8 @@ def window_dict(request: DesignRequest, found: WindowDesign | None) -> dict[str,
         "window_gain_stderr": found.window_gain_stderr,
         "flights": [list(f) for f in found.flights],
         **(
-            {"within_periods": found.within_periods, "detection_factor": found.factor}
-            if found.within_periods is not None
+            {"within_periods": request.within_periods, "detection_factor": found.factor}
+            if request.within_periods is not None
             else {}
         ),
     }

@@ -69,6 +69,11 @@ class RunObserver(Protocol):
     def finish(self) -> None:
         """Called after the last period, before the flight's files are closed."""
 
+    @property
+    def isolation_checks(self) -> Mapping[str, tuple[str, ...]]:
+        """The isolation checks it reads (:func:`probing.experiment.flight.onboard.
+        isolation_columns`), each with its log columns: the flight computer computes those."""
+
 
 class ProbePathFault:
     """A nonlinearity that appears on the probe path at a step: from the onset on, the probe
@@ -131,7 +136,9 @@ class FlightComputer:
             scn.build_fault_nonlinearity(), scn.fault_onset_s, scn.dt_s, self.period_steps
         )
         self.baseline = baseline
-        self.onboard = Onboard(scn, source, baseline, self.chunk_periods * scn.bits_per_period)
+        checks = monitor.isolation_checks if monitor is not None else None
+        push_bits = self.chunk_periods * scn.bits_per_period
+        self.onboard = Onboard(scn, source, baseline, push_bits, checks)
         self.estimates: EstimatesFile | None = None
         self._log_writer: Any = None
 

@@ -153,7 +153,8 @@ class Monitor:
         #: each isolation check's row channel (the first column it reads), its detector, and
         #: its alarmed periods; its false-alarm probability per period shares the shape test's
         #: over the periods the verdict looks at (:func:`isolated_verdict`)
-        checks = isolation_columns(scn)
+        self.isolation_checks = isolation_columns(scn)
+        checks = self.isolation_checks
         self.check_channels = {check: columns[0] for check, columns in checks.items()}
         self.lookback = settings.window_periods + 1
         span = self.lookback + settings.verdict_periods + 1
@@ -251,7 +252,7 @@ class Monitor:
         self, p: int, channel: str, detector: str, statistic: float, threshold: float, alarm: bool
     ) -> tuple:
         """A row of ``monitor.parquet`` (the isolation's columns empty: a trajectory row's)."""
-        if alarm and self.first_alarms.get(detector, 0) is None:
+        if alarm and detector in DETECTORS and self.first_alarms[detector] is None:
             self.first_alarms[detector] = p
         time_s = (p + 1) * self.period_s
         return (

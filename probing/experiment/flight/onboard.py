@@ -270,6 +270,9 @@ class Onboard:
         ``(channels,)``: what is subtracted without a reference.
     push_bits : int
         Bit samples per chunk (the streaming correlator's block).
+    checks : mapping, optional
+        The isolation checks to compute, each with the log columns it reads
+        (:func:`isolation_columns`; the monitor's, which reads them: none without one).
     """
 
     def __init__(
@@ -278,11 +281,12 @@ class Onboard:
         source: ReferenceSource | None,
         baseline: np.ndarray,
         push_bits: int,
+        checks: Mapping[str, tuple[str, ...]] | None = None,
     ) -> None:
         self.scn, self.source, self.baseline = scn, source, baseline
         self.spb = scn.probe.steps_per_bit(scn.dt_s)
         self.drift = drift_correction(scn, scn.probe, push_bits)
-        self.checks = isolation_columns(scn)
+        self.checks = dict(checks or {})
         self.kinematics = PitchKinematics(scn.dt_s) if "kinematics" in self.checks else None
 
     def estimates(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
@@ -293,36 +297,32 @@ class Onboard:
         if self.source is not None:
             reference = self.source.next(log)
         baseline = reference if reference is not None else self.baseline
-        spb = self.spb
-        deviation = (measured - baseline)[spb - 1 :: spb]
+        deviation = (measured - baseline)[self.spb - 1 :: self.spb]
         est = self.drift.estimates(deviation, first)
-        m = self.scn.probe.length
-        count = deviation.shape[0] // m
-        periods = deviation[: count * m].reshape(count, m, -1).transpose(0, 2, 1)
-        features = trajectory_features(periods)
+        count = deviation.shape[0] // self.scn.probe.length
         whole = np.arange(first, first + count, dtype=np.int64)
-        trajectory = (whole, features)
-        return Estimated(est, measured, reference, trajectory, self._isolation(log, whole))
+        trajectory = (whole, self._features(deviation))
+        isolation = {check: (whole, self._features(d)) for check, d in self._isolation(log)}
+        return Estimated(est, measured, reference, trajectory, isolation)
 
-    def _isolation(
-        self, log: Mapping[str, np.ndarray], whole: np.ndarray
-    ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """Each isolation check's deviation, its whole periods' features ``(P, 1, 2)``; none
-        where the chunk lacks a column (a flight that records no log, as a design's runs:
-        its commands are not kept, and no monitor reads the checks)."""
-        out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        m, spb = self.scn.probe.length, self.spb
+    def _features(self, bits: np.ndarray) -> np.ndarray:
+        """The whole periods' features ``(P, C, 2)`` of a deviation's bit samples ``(n, C)``
+        (:func:`probing.core.trajectory.trajectory_features`)."""
+        m = self.scn.probe.length
+        count = bits.shape[0] // m
+        return trajectory_features(bits[: count * m].reshape(count, m, -1).transpose(0, 2, 1))
+
+    def _isolation(self, log: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+        """Each isolation check's deviation, at the bits ``(n, 1)``."""
+        out = []
         for check, columns in self.checks.items():
-            if any(c not in log for c in columns):
-                continue
             values = [np.asarray(log[c], dtype=float) for c in columns]
             if check == "actuator":
                 deviation = actuator_deviation(*values)
             else:
                 assert self.kinematics is not None
                 deviation = self.kinematics.update(*values)
-            bits = deviation[spb - 1 :: spb][: whole.size * m]
-            out[check] = (whole, trajectory_features(bits.reshape(whole.size, 1, m)))
+            out.append((check, deviation[self.spb - 1 :: self.spb, None]))
         return out
 
 

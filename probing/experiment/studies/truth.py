@@ -104,6 +104,11 @@ class TruthFiles:
     ) -> None:
         """Nothing to follow period by period."""
 
+    @property
+    def isolation_checks(self) -> dict[str, tuple[str, ...]]:
+        """None: it reads no isolation check."""
+        return {}
+
     def finish(self) -> None:
         """Write ``truth.parquet`` and ``prediction.parquet`` beside the run's files."""
         assert self.outputs is not None
