@@ -162,8 +162,8 @@ MUTATIONS = [
     ),
     (
         "probing/analysis/monitoring.py",
-        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)",
-        "CHECK_RATE_PER_HOUR * f.period_s / 3600.0)",
+        '"alpha_check": _alpha(CHECK_RATE_PER_HOUR, period_s, channels)',
+        '"alpha_check": _alpha(CHECK_RATE_PER_HOUR, period_s, 1)',
         "tests/analysis/test_monitoring.py::test_the_threshold_laws_false_alarm_budget_is_shared_by_the_monitored_channels",
     ),
     (

@@ -37,10 +37,12 @@ import pandas as pd
 
 from probing.core.faults import FAULTS as FAULT_TYPES
 from probing.core.isolation import DETECTORS
+from probing.core.monitor import MonitorSettings
 from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = [
     "CHECK_RATE_PER_HOUR",
+    "COST_RATE_PER_HOUR",
     "FAULTS",
     "Fault",
     "evaluate",
@@ -105,6 +107,10 @@ FAULTS: dict[str, Fault] = {
 #: The false-alarm rate (per hour) at which the flights without a fault check the threshold
 #: law: at 0.1 per hour 30 hours hold about 3 events, at 5 per hour about 150 alarmed periods.
 CHECK_RATE_PER_HOUR = 5.0
+
+#: What the study's thresholds cost: each faulty flight's delay had each detector's
+#: threshold been set for this rate (per hour), the previous study's (``delay_cost_s``).
+COST_RATE_PER_HOUR = 0.1
 
 
 #: The probed surfaces a sweep's name may start with (``monitor-aileron-damage1``); a name
@@ -232,7 +238,9 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
     periods and channels before the onset, up to the detector's first alarm: a sliding
     baseline freezes there) and ``over_check_<detector>`` (those over the
     threshold of :data:`CHECK_RATE_PER_HOUR`), ``alpha_check`` (its probability per period and
-    channel).
+    channel); ``delay_cost_s`` and per detector ``delay_cost_<detector>_s``: the delay with
+    each detector's threshold at :data:`COST_RATE_PER_HOUR` (exact where the flight's own
+    thresholds are stricter, as the study's are).
     """
     rows = []
     for _, f in study.iterrows():
@@ -264,23 +272,45 @@ def evaluate(study: pd.DataFrame) -> pd.DataFrame:
             "score": float(after.ratio[within].max()) if within.any() else math.nan,
             "healthy_ratios": healthy.ratio.to_numpy(),
         }
-        channels = max(tested.channel.nunique(), 1)
-        row["alpha_check"] = min(0.5, CHECK_RATE_PER_HOUR * f.period_s / 3600.0 / channels)
-        for detector in ("probing", "trajectory"):
-            mine = tested[tested.detector == detector]
-            own = _per_period(mine)
-            row[f"delay_{detector}_s"] = _delay(own[own.time_s > onset], onset)
-            row[f"false_alarms_{detector}"] = _events(own[own.time_s <= onset].alarm.to_numpy())
-            before = mine[mine.time_s <= onset]
-            alarmed = before.period[before.alarm]
-            if len(alarmed):  # a sliding baseline freezes at the first alarm: up to it
-                before = before[before.period <= alarmed.min()]
-            row[f"tested_{detector}"] = len(before)
-            row[f"over_check_{detector}"] = int(
-                (before.statistic > -math.log10(row["alpha_check"])).sum()
-            )
+        row.update(_detector_columns(tested, onset, f.period_s))
         rows.append(row)
     return pd.concat([study.reset_index(drop=True), pd.DataFrame(rows)], axis=1)
+
+
+def _alpha(rate_per_hour: float, period_s: float, channels: int) -> float:
+    """A detector's false-alarm probability per period and channel at ``rate_per_hour``, as
+    the monitor shares it out (:meth:`probing.core.monitor.MonitorSettings.alpha`)."""
+    return MonitorSettings(false_alarms_per_hour=rate_per_hour).alpha(period_s, channels)
+
+
+def _detector_columns(tested: pd.DataFrame, onset: float, period_s: float) -> dict:
+    """Per detector, the columns of :func:`evaluate` that read its own rows: its delay, its
+    false-alarm events, the threshold law's counts, and its delay at
+    :data:`COST_RATE_PER_HOUR` (the threshold -log10 of that rate's probability: exact from
+    the stored statistics, since a laxer threshold is first crossed no later than the
+    flight's own, before its baseline froze)."""
+    channels = max(tested.channel.nunique(), 1)
+    row: dict = {"alpha_check": _alpha(CHECK_RATE_PER_HOUR, period_s, channels)}
+    lax = -math.log10(_alpha(COST_RATE_PER_HOUR, period_s, channels))
+    for detector in ("probing", "trajectory"):
+        mine = tested[tested.detector == detector]
+        own = _per_period(mine)
+        row[f"delay_{detector}_s"] = _delay(own[own.time_s > onset], onset)
+        row[f"false_alarms_{detector}"] = _events(own[own.time_s <= onset].alarm.to_numpy())
+        laxer = _per_period(mine.assign(alarm=mine.statistic > lax))
+        row[f"delay_cost_{detector}_s"] = _delay(laxer[laxer.time_s > onset], onset)
+        before = mine[mine.time_s <= onset]
+        alarmed = before.period[before.alarm]
+        if len(alarmed):  # a sliding baseline freezes at the first alarm: up to it
+            before = before[before.period <= alarmed.min()]
+        row[f"tested_{detector}"] = len(before)
+        row[f"over_check_{detector}"] = int(
+            (before.statistic > -math.log10(row["alpha_check"])).sum()
+        )
+    row["delay_cost_s"] = float(
+        np.fmin(row["delay_cost_probing_s"], row["delay_cost_trajectory_s"])
+    )
+    return row
 
 
 def false_alarm_rate(
@@ -324,6 +354,7 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
         detected = g.delay_s.notna()
         in_goal = g.delay_s <= spec.goal_periods * period_s
         delays = g.delay_s[detected]
+        cost = g.delay_cost_s.dropna()
         counts = g.verdict_after.value_counts()
         out.append(
             {
@@ -349,6 +380,10 @@ def fault_table(flights: pd.DataFrame) -> pd.DataFrame:
                 "delay_p95_s": float(delays.quantile(0.95)) if len(delays) else math.nan,
                 "delay_median_T": float(delays.median() / period_s) if len(delays) else math.nan,
                 "delay_p95_T": float(delays.quantile(0.95) / period_s) if len(delays) else math.nan,
+                "p_detect_goal_cost": float(
+                    (g.delay_cost_s <= spec.goal_periods * period_s).mean()
+                ),
+                "delay_median_cost_T": float(cost.median() / period_s) if len(cost) else math.nan,
                 "actuator": int(counts.get("actuator", 0)),
                 "airframe": int(counts.get("airframe", 0)),
                 "sensor": int(counts.get("sensor", 0)),
@@ -434,7 +469,9 @@ def summary_markdown(flights: pd.DataFrame) -> str:
             f"them ({first / to_first:.3f} per hour, {first_low:.3f} - {first_high:.3f})."
         )
     lines += _threshold_law_lines(healthy, keys)
-    lines += _detection_lines(fault_table(flights), several)
+    table = fault_table(flights)
+    lines += _detection_lines(table, several)
+    lines += _cost_lines(table, several)
     return "\n".join(lines) + "\n"
 
 
@@ -513,5 +550,38 @@ def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
             f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
             f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
             f"{r['airframe']} | {r['sensor']} | {r['none']} | {r['verdict_right']:.2f} |"
+        )
+    return lines
+
+
+def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
+    """What the study's thresholds cost: per row of the detection table, detection within
+    the goal and the median delay at the study's thresholds and at
+    :data:`COST_RATE_PER_HOUR` per detector."""
+    if table.empty:
+        return []
+    lines = [
+        "",
+        f"## What the thresholds cost: the delay at {COST_RATE_PER_HOUR:g} false alarms per "
+        "hour per detector",
+        "",
+        "Each faulty flight's stored statistics, with each detector's threshold set for "
+        f"{COST_RATE_PER_HOUR:g} false alarms per hour (-log10 of its probability per period "
+        "and channel): the first period over it after the onset.  Where the flight's own "
+        "thresholds are stricter this is exact, as the laxer threshold is crossed first, "
+        "before any baseline froze.",
+        "",
+        ("| probe " if several else "")
+        + "| fault | drift | turbulence | a, deg | flights | in goal | in goal at "
+        f"{COST_RATE_PER_HOUR:g}/h | delay median T | at {COST_RATE_PER_HOUR:g}/h |",
+        "|" + "---|" * (9 + several),
+    ]
+    for r in table.to_dict("records"):
+        lines.append(
+            (f"| {r['probe']} " if several else "")
+            + f"| {r['fault']} | {DRIFT_LABELS.get(r['drift'], r['drift'])} | "
+            f"{r['turbulence']} | {r['amplitude_deg']:g} | {r['flights']} | "
+            f"{r['p_detect_goal']:.2f} | {r['p_detect_goal_cost']:.2f} | "
+            f"{r['delay_median_T']:.1f} | {r['delay_median_cost_T']:.1f} |"
         )
     return lines

@@ -571,3 +571,48 @@ def test_the_threshold_law_stops_at_the_detectors_first_alarm(study):
     assert (h1.tested_probing, h1.over_check_probing) == (9, 9)
     h2 = study.set_index("point_id").loc["h2"]
     assert h2.tested_probing == 28
+
+
+def test_the_cost_of_the_thresholds_is_the_first_period_after_the_onset_over_the_laxer_one(
+    tmp_path,
+):
+    """The delay at COST_RATE_PER_HOUR: the first period after the onset whose statistic is
+    strictly over -log10 of that rate's probability per period (one on the edge is not;
+    one over it before the onset is a false alarm, not a detection), while the flight's own
+    delay is at its own threshold; the summary's cost table shows both."""
+    from probing.analysis.monitoring import COST_RATE_PER_HOUR, summary_markdown
+
+    onset = 15 * T + 0.5  # in period 15, which ends at 16 T
+    row = _flight(tmp_path, "monitor-stuck", "s1", onset, {18: "actuator"}, "actuator")
+    path = tmp_path / "monitor-stuck" / "points" / "point_id=s1" / "monitor.parquet"
+    table = pq.read_table(path)
+    lax = -math.log10(COST_RATE_PER_HOUR * T / 3600.0)  # one channel
+    stat = table.column("statistic").to_numpy(zero_copy_only=False).copy()
+    periods = table.column("period").to_numpy()
+    tested = np.isfinite(stat)
+    stat[tested & (periods != 18)] = 1.0  # under both thresholds
+    stat[periods == 13] = lax + 1.0  # before the onset
+    stat[periods == 15] = lax  # the onset's period, on the edge: not over
+    stat[periods == 16] = np.nextafter(lax, math.inf)  # just over
+    probing = table.to_pandas().assign(statistic=stat, detector="probing")
+    # the trajectory detector's rows: over the laxer threshold from period 17 on
+    trajectory = probing.assign(
+        detector="trajectory", statistic=np.where(tested & (periods >= 17), lax + 1.0, 1.0)
+    )
+    trajectory.loc[~tested, "statistic"] = math.nan
+    both = pd.concat([probing, trajectory], ignore_index=True)
+    pq.write_table(
+        pa.Table.from_pandas(both, preserve_index=False).replace_schema_metadata(
+            table.schema.metadata
+        ),
+        path,
+    )
+    pd.DataFrame([row]).to_parquet(tmp_path / "monitor-stuck" / "summary.parquet")
+    f = evaluate(load_study(tmp_path)).iloc[0]
+    assert f.delay_s == pytest.approx(19 * T - onset)  # the study's threshold: period 18
+    assert f.delay_cost_probing_s == pytest.approx(17 * T - onset)  # the laxer: period 16
+    assert f.delay_cost_trajectory_s == pytest.approx(18 * T - onset)  # period 17
+    assert f.delay_cost_s == pytest.approx(17 * T - onset)  # the earlier of the two
+    text = summary_markdown(evaluate(load_study(tmp_path)))
+    cost_T, own_T = (17 * T - onset) / T, (19 * T - onset) / T
+    assert f"| 1.00 | 1.00 | {own_T:.1f} | {cost_T:.1f} |" in text
