@@ -113,6 +113,12 @@ MUTATIONS = [
         "tests/sweep/test_sweep.py::test_a_retry_that_succeeds_removes_the_old_failure_record",
     ),
     (
+        "probing/experiment/flight/onboard.py",
+        "deviation = actuator_deviation(*values, servo=self.servo)",
+        "deviation = actuator_deviation(*values)",
+        "tests/experiment/test_isolation_flights.py::test_each_fault_class_gets_its_verdict[case6]",
+    ),
+    (
         "probing/analysis/monitoring.py",
         "healthy = periods[periods.time_s <= onset]",
         "healthy = periods[periods.time_s < onset]",

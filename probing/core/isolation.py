@@ -5,12 +5,14 @@ The probing and trajectory detectors say *that* something changed.  Two checks o
 recorded stream say *where*, each a deviation that no airframe change and no gust can move:
 
 * **Actuator** (``"actuator"``): the surface's measured position (NASA's T2 potentiometers,
-  0.01 deg) less what the flight computer asked of it, the autopilot's command plus the
-  probe.  The nominal actuator goes where it is asked (JSBSim's GTM surface has no dynamics
-  between the command and its position; an actuator with some would leave a steady
-  deviation the baseline learns): its deviation is the potentiometer's noise and a constant
-  (the trim).  A lost effectiveness, a stuck surface, a dead band or backlash on the probe
-  path or a rate limit all move it, whatever the airframe and the loop do.
+  0.01 deg) less where the nominal actuator would have put it, the autopilot's command plus
+  the probe through the actuator's known dynamics (:class:`Servo`: the GTM's 5 Hz servos).
+  The nominal actuator leaves the potentiometer's noise and a constant (the trim).  A lost
+  effectiveness, a stuck surface, a dead band or backlash on the probe path or a rate limit
+  all move it, whatever the airframe and the loop do.  Without the servo's dynamics the
+  deviation would carry the servo's lag of every command, 0.17 deg rms on the GTM against
+  0.01 deg of noise: the probe's own bits, and the autopilot's answer to an airframe change,
+  which then looked like an actuator fault.
 * **Kinematics** (``"kinematics"``): the measured pitch attitude less its integral from the
   measured body rates and bank, theta' = q cos(phi) - r sin(phi), high-passed at
   :data:`KINEMATIC_TIME_S` (the gyros' biases integrate to a drift).  Any airframe obeys it;
@@ -27,6 +29,7 @@ from __future__ import annotations
 from collections.abc import Collection
 
 import numpy as np
+from scipy.signal import lfilter
 
 from probing.core.gust import HighPass
 
@@ -36,6 +39,7 @@ __all__ = [
     "KINEMATIC_CHANNELS",
     "KINEMATIC_TIME_S",
     "PitchKinematics",
+    "Servo",
     "actuator_deviation",
     "isolated_verdict",
 ]
@@ -58,16 +62,61 @@ KINEMATIC_CHANNELS = ("theta_rad", "q_rad_s", "r_rad_s", "phi_rad")
 KINEMATIC_TIME_S = 5.0
 
 
-def actuator_deviation(surface: np.ndarray, command: np.ndarray, probe: np.ndarray) -> np.ndarray:
-    """The surface's measured position less the autopilot's command and the probe (their
-    unit): the actuator check's deviation, a constant and noise while the actuator is well.
+class Servo:
+    """The nominal actuator between a surface's command and its position, as the flight
+    computer models it: first order, stepped as the GTM's own servo is (forward Euler at the
+    frame rate, y_k = y_(k-1) + dt w (u_k - y_(k-1))), chunk by chunk (its state carries
+    over), started at rest at its first command.  Its rate (300 deg/s) and position limits
+    are left out: the nominal flight is far from them.
+
+    Parameters
+    ----------
+    bandwidth_rad_s : float
+        w, rad/s (the GTM's: 2 pi 5 Hz).
+    dt_s : float
+        The step, s.
+
+    Examples
+    --------
+    A step of 1 deg at a 0.01 s step and 5 Hz moves 0.314 deg in the first step:
+
+    >>> s = Servo(2 * np.pi * 5, 0.01)
+    >>> [round(float(y), 4) for y in s.update(np.array([0.0, 1.0, 1.0]))]
+    [0.0, 0.3142, 0.5296]
+    """
+
+    def __init__(self, bandwidth_rad_s: float, dt_s: float) -> None:
+        self.gain = float(bandwidth_rad_s) * float(dt_s)
+        self._y: float | None = None
+
+    def update(self, command: np.ndarray) -> np.ndarray:
+        """The positions after each of the next steps (the command's unit)."""
+        u = np.asarray(command, dtype=float)
+        if not len(u):
+            return u
+        a = self.gain
+        last = u[0] if self._y is None else self._y
+        y, _ = lfilter([a], [1.0, a - 1.0], u, zi=[(1.0 - a) * last])
+        self._y = float(y[-1])
+        return y
+
+
+def actuator_deviation(
+    surface: np.ndarray, command: np.ndarray, probe: np.ndarray, servo: Servo | None = None
+) -> np.ndarray:
+    """The surface's measured position less where the nominal actuator would have put it:
+    the autopilot's command plus the probe, through ``servo`` (None: a surface that goes
+    where it is asked); their unit.  A constant and noise while the actuator is well.
 
     Examples
     --------
     >>> actuator_deviation(np.array([-0.6, -0.2]), np.array([0.0, 0.0]), np.array([-0.2, 0.2]))
     array([-0.4, -0.4])
     """
-    return np.asarray(surface, dtype=float) - np.asarray(command, dtype=float) - probe
+    asked = np.asarray(command, dtype=float) + probe
+    if servo is not None:
+        asked = servo.update(asked)
+    return np.asarray(surface, dtype=float) - asked
 
 
 class PitchKinematics:

@@ -19,9 +19,10 @@ No JSBSim is loaded here; :class:`probing.sim.plant.Plant` calibrates and drives
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-__all__ = ["DEFAULT_SURFACE", "SURFACES", "SURFACE_NAMES", "Surface"]
+__all__ = ["DEFAULT_SURFACE", "SERVOS", "SURFACES", "SURFACE_NAMES", "Surface"]
 
 
 @dataclass(frozen=True)
@@ -126,3 +127,11 @@ SURFACES: dict[str, Surface] = {
 #: The surface names, in table order; the first is the default.
 SURFACE_NAMES: tuple[str, ...] = tuple(SURFACES)
 DEFAULT_SURFACE = "elevator"
+
+
+#: The actuators a flight computer knows, for its actuator check
+#: (:class:`probing.core.isolation.Servo`): aircraft name -> every surface's first-order
+#: servo bandwidth, rad/s.  The GTM's is NASA's GTM_DesignSim's 5 Hz, as its XML flies it
+#: (``aircraft/gtm_t2/gtm_t2.xml``, "GTM T2 servos"; tests/sim/test_gtm.py holds the two
+#: equal).  An aircraft not named here is taken to put its surface where it is asked.
+SERVOS: dict[str, float] = {"gtm_t2": 2.0 * math.pi * 5.0}

@@ -16,26 +16,33 @@ from probing.experiment.scenario import load_scenario
 ROOT = Path(__file__).resolve().parents[2]
 ONSET_S = 160.3  # inside period 62 (2.55 s periods), after the 50-period baseline
 
+#: Fault -> its class and its fields.  Case 6 sends the autopilot's command 3 deg down in
+#: a second: a check that ignored the servo's lag called it an actuator fault.
 FAULTS = {
-    "airframe": {"fault.type": "gtm_damage", "fault.case": 5},
-    "actuator": {"fault.type": "effectiveness", "fault.scale": 0.5},
-    "sensor": {
-        "fault.type": "sensor_bias",
-        "fault.channel": "theta_rad",
-        "fault.bias": math.radians(0.5),
-    },
+    "case5": ("airframe", {"fault.type": "gtm_damage", "fault.case": 5}),
+    "case6": ("airframe", {"fault.type": "gtm_damage", "fault.case": 6}),
+    "effectiveness": ("actuator", {"fault.type": "effectiveness", "fault.scale": 0.5}),
+    "sensor_bias": (
+        "sensor",
+        {
+            "fault.type": "sensor_bias",
+            "fault.channel": "theta_rad",
+            "fault.bias": math.radians(0.5),
+        },
+    ),
 }
 
 
 @pytest.fixture(scope="module", params=sorted(FAULTS))
 def flown(request, tmp_path_factory):
-    base = tmp_path_factory.mktemp(f"isolation-{request.param}")
+    base = tmp_path_factory.mktemp(f"isolation-{request.param.replace(' ', '-')}")
+    expected, fields = FAULTS[request.param]
     scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(
-        {"probe.periods": 72, "fault.onset_s": ONSET_S, **FAULTS[request.param]}
+        {"probe.periods": 72, "fault.onset_s": ONSET_S, **fields}
     )
     result = monitor_scenario(scn, base / "here", progress=False)
     again = replay_monitor(result.out_dir / "sensors.parquet", base / "replay", progress=False)
-    return request.param, result, again
+    return expected, result, again
 
 
 def test_each_fault_class_gets_its_verdict(flown):

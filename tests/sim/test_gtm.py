@@ -602,3 +602,30 @@ def test_longitudinal_modes_at_75_kt_are_plausible(new_plant) -> None:
     m = LongitudinalModes.from_eigenvalues(np.linalg.eigvals(a))
     assert 3.0 < m.sp_wn < 10.0 and 0.3 < m.sp_zeta < 0.7
     assert 0.25 < m.ph_wn < 0.45 and 0.0 < m.ph_zeta < 0.2
+
+
+@pytest.mark.jsbsim
+def test_the_flight_computers_servo_model_is_the_gtms_own_servo(new_plant) -> None:
+    """The actuator check's nominal servo (probing.sim.surfaces.SERVOS, stepped by
+    probing.core.isolation.Servo) puts the elevator where JSBSim's GTM servo does, step by
+    step, for a command of probe-like bits and a slow ramp, to rounding; 4.9 Hz would not."""
+    from probing.core.isolation import Servo
+    from probing.sim.surfaces import SERVOS
+
+    dt = 0.01
+    fdm = new_plant("gtm_t2", dt).fdm
+    set_state(fdm, alpha_deg=3.0)
+    rng = np.random.default_rng(3)
+    command = 0.2 * np.sign(rng.standard_normal(300)) + np.linspace(0.0, -3.0, 300)
+    fdm["fcs/elevator-cmd-deg"] = command[0]
+    for _ in range(500):  # at rest at the first command
+        fdm.run()
+    position = []
+    for u in command[1:]:
+        fdm["fcs/elevator-cmd-deg"] = u
+        fdm.run()
+        position.append(fdm["fcs/elevator-pos-deg"])
+    model = Servo(SERVOS["gtm_t2"], dt).update(command)[1:]
+    assert np.max(np.abs(model - position)) < 1e-9
+    slower = Servo(2 * math.pi * 4.9, dt).update(command)[1:]
+    assert np.max(np.abs(slower - position)) > 1e-3

@@ -32,17 +32,24 @@ from typing import Any, Protocol
 import numpy as np
 
 from probing.core.gust import GUST_SENSORS, GustEstimator
-from probing.core.isolation import KINEMATIC_CHANNELS, PitchKinematics, actuator_deviation
+from probing.core.isolation import (
+    KINEMATIC_CHANNELS,
+    PitchKinematics,
+    Servo,
+    actuator_deviation,
+)
 from probing.core.trajectory import trajectory_features
 from probing.experiment.flight.drift import drift_correction
 from probing.experiment.output.layouts import AUTOPILOT_COLUMNS
 from probing.experiment.scenario import Scenario
 from probing.experiment.scenario.references import REFERENCES
+from probing.sim.aircraft import aircraft_name
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.errors import DivergenceError
 from probing.sim.flight import Control, Flight
 from probing.sim.gust_twin import GustTwin
 from probing.sim.plant import Plant, make_plant
+from probing.sim.surfaces import SERVOS
 from probing.sim.twins import ReferenceTwin, open_twin
 
 __all__ = [
@@ -288,6 +295,8 @@ class Onboard:
         self.drift = drift_correction(scn, scn.probe, push_bits)
         self.checks = dict(checks or {})
         self.kinematics = PitchKinematics(scn.dt_s) if "kinematics" in self.checks else None
+        bandwidth = SERVOS.get(aircraft_name(scn.model))
+        self.servo = Servo(bandwidth, scn.dt_s) if bandwidth and "actuator" in self.checks else None
 
     def estimates(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
         """A chunk of whole periods from period ``first`` on -> what the flight computer
@@ -318,7 +327,7 @@ class Onboard:
         for check, columns in self.checks.items():
             values = [np.asarray(log[c], dtype=float) for c in columns]
             if check == "actuator":
-                deviation = actuator_deviation(*values)
+                deviation = actuator_deviation(*values, servo=self.servo)
             else:
                 assert self.kinematics is not None
                 deviation = self.kinematics.update(*values)
