@@ -101,3 +101,36 @@ def test_a_replay_gives_the_checks_bit_for_bit(flown):
         b = pd.read_parquet(again.out_dir / name)
         assert len(a) > 0 and a.equals(b), name
     assert again.verdict == result.verdict
+
+
+def test_a_reference_that_diverges_in_the_onsets_chunk_keeps_the_periods_before_it(tmp_path):
+    """The study's flight of a stuck pitch sensor whose gust twin hits the ground 50 s after
+    the onset, in the chunk that holds the onset (chunks of 32 periods): the whole periods
+    before the twin's divergence are still monitored, so the fault is found within a period
+    and called a sensor's; monitoring then ends, and a replay ends the same way with the same
+    files.  (Before, the whole chunk was dropped: no alarm, verdict none.)"""
+    onset_s = 179.003  # period 70 (2.55 s periods)
+    scn = load_scenario(ROOT / "scenarios" / "references" / "base.toml").replace(
+        {
+            "probe.periods": 100,
+            "disturbance.seed": 1,
+            "fault.onset_s": onset_s,
+            "fault.type": "sensor_stuck",
+            "fault.channel": "theta_rad",
+            "monitor.false_alarms_per_hour": 0.025,
+            "monitor.trajectory_false_alarms_per_hour": 0.025,
+        }
+    )
+    result = monitor_scenario(scn, tmp_path / "here", progress=False)
+    assert result.ended is not None and result.ended.startswith("the reference: aircraft hit")
+    assert result.first_alarm_period in (70, 71)
+    assert result.verdict == "sensor"
+    monitor = pd.read_parquet(result.out_dir / "monitor.parquet")
+    diverged_s = float(result.ended.rsplit("t = ", 1)[1].split()[0])
+    assert monitor.time_s.max() <= diverged_s < monitor.time_s.max() + 2 * 2.55
+    again = replay_monitor(result.out_dir / "sensors.parquet", tmp_path / "again", progress=False)
+    assert again.ended == result.ended and again.verdict == "sensor"
+    for name in ("monitor.parquet", "probing.parquet"):
+        assert pd.read_parquet(result.out_dir / name).equals(
+            pd.read_parquet(again.out_dir / name)
+        ), name

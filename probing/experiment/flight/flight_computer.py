@@ -206,7 +206,9 @@ class FlightComputer:
         Raises
         ------
         ReferenceDiverged
-            If the reference diverged in the chunk (the chunk is logged, nothing else).
+            If the reference diverged in the chunk: the chunk is logged, and its whole periods
+            before the one the reference diverged in are estimated, written and told to the
+            monitor (a flight's detection does not wait for the chunk's end).
         """
         assert self.estimates is not None, "open first"
         if self._log_writer is not None:
@@ -219,6 +221,8 @@ class FlightComputer:
         self.estimates.write(est)
         if self.monitor is not None:
             self.monitor.update(est.periods, est.h, est.z, done.trajectory, done.isolation)
+        if done.ended is not None:
+            raise ReferenceDiverged(f"the reference: {done.ended}")
         return done
 
     def finish(self, outputs: OutputFolder, ended: str | bytes | None = None) -> None:

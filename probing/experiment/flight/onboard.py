@@ -57,6 +57,7 @@ __all__ = [
     "FollowSource",
     "GustSource",
     "Onboard",
+    "ReferenceLost",
     "ReferenceSource",
     "TwinSource",
     "calm_nominal",
@@ -87,11 +88,29 @@ STEADY_WIND_TIME_S = 300.0
 ALTITUDE_FOLLOW_S = 50.0
 
 
+class ReferenceLost(DivergenceError):
+    """A reference that diverged within a chunk, with what it flew of the chunk before.
+
+    Parameters
+    ----------
+    message : str
+        Why it diverged.
+    flown : numpy.ndarray
+        ``(rows, channels)``: its outputs for the chunk's whole periods before the one it
+        diverged in (none: ``(0, channels)``).
+    """
+
+    def __init__(self, message: str, flown: np.ndarray) -> None:
+        super().__init__(message)
+        self.flown = flown
+
+
 class ReferenceSource(Protocol):
     """What gives the reference's outputs for a chunk of the recorded stream."""
 
     def next(self, log: Mapping[str, np.ndarray]) -> np.ndarray:
-        """The reference's outputs ``(rows, channels)`` for the chunk's rows."""
+        """The reference's outputs ``(rows, channels)`` for the chunk's rows; raises
+        :class:`ReferenceLost` if it diverges, with the whole periods it flew before."""
 
 
 class TwinSource:
@@ -137,7 +156,11 @@ class GustSource:
             span = slice(start, start + self.period_steps)
             flown = wind[span].copy()
             flown[:, 2] += self.down
-            y = self.twin.next(flown, rates[span], before[span, 0], before[span, 1])
+            try:
+                y = self.twin.next(flown, rates[span], before[span, 0], before[span, 1])
+            except DivergenceError as exc:
+                kept = np.vstack(out) if out else np.empty((0, self.channels))
+                raise ReferenceLost(str(exc), kept) from None
             # the period's mean difference: the baro altimeter's noise averages out
             self.down = self.follow * float(np.mean(y[:, -1] - height[span]))
             out.append(y[:, : self.channels])
@@ -183,7 +206,8 @@ class FollowSource:
             try:
                 self.plant.check_state()
             except DivergenceError as exc:
-                raise DivergenceError(f"the nominal twin flying our commands: {exc}") from None
+                message = f"the nominal twin flying our commands: {exc}"
+                raise ReferenceLost(message, out[:start]) from None
         return out
 
 
@@ -301,10 +325,16 @@ class Onboard:
     def estimates(self, log: Mapping[str, np.ndarray], first: int) -> Estimated:
         """A chunk of whole periods from period ``first`` on -> what the flight computer
         makes of it (:class:`Estimated`)."""
-        measured = np.column_stack([log[c] for c in self.scn.channels])
-        reference = None
+        reference, ended = None, None
         if self.source is not None:
-            reference = self.source.next(log)
+            try:
+                reference = self.source.next(log)
+            except ReferenceLost as exc:  # its whole periods before are estimated
+                if not len(exc.flown):
+                    raise
+                ended, reference = str(exc), exc.flown
+                log = {c: np.asarray(v)[: len(reference)] for c, v in log.items()}
+        measured = np.column_stack([log[c] for c in self.scn.channels])
         baseline = reference if reference is not None else self.baseline
         deviation = (measured - baseline)[self.spb - 1 :: self.spb]
         est = self.drift.estimates(deviation, first)
@@ -312,7 +342,7 @@ class Onboard:
         whole = np.arange(first, first + count, dtype=np.int64)
         trajectory = (whole, self._features(deviation))
         isolation = {check: (whole, self._features(d)) for check, d in self._isolation(log)}
-        return Estimated(est, measured, reference, trajectory, isolation)
+        return Estimated(est, measured, reference, trajectory, isolation, ended)
 
     def _features(self, bits: np.ndarray) -> np.ndarray:
         """The whole periods' features ``(P, C, 2)`` of a deviation's bit samples ``(n, C)``
@@ -353,6 +383,8 @@ class Estimated:
     isolation : dict
         Isolation check (:func:`isolation_columns`) -> every whole period ``(P',)`` and its
         deviation's features ``(P', 1, 2)`` (empty without a sensor suite).
+    ended : str or None
+        Why the reference diverged in the chunk, after the periods above (None: it did not).
     """
 
     estimates: Any
@@ -360,3 +392,4 @@ class Estimated:
     reference: np.ndarray | None
     trajectory: tuple[np.ndarray, np.ndarray]
     isolation: dict[str, tuple[np.ndarray, np.ndarray]] = dataclasses.field(default_factory=dict)
+    ended: str | None = None
