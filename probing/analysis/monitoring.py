@@ -499,7 +499,9 @@ def _threshold_law_lines(healthy: pd.DataFrame, keys: list[str]) -> list[str]:
         "|---|---|---|---|---|---|---|",
     ]
     for key, g in healthy.groupby(keys, sort=False):
-        drift = key[-1] if isinstance(key, tuple) else key
+        *probe, drift = key if isinstance(key, tuple) else (key,)
+        label = DRIFT_LABELS.get(drift, drift)
+        label = f"{probe[0]} probe, {label}" if probe else label  # several probed surfaces
         for detector in ("probing", "trajectory"):
             n = int(g[f"tested_{detector}"].sum())
             over = int(g[f"over_check_{detector}"].sum())
@@ -509,7 +511,7 @@ def _threshold_law_lines(healthy: pd.DataFrame, keys: list[str]) -> list[str]:
             low = chi2.ppf(0.025, 2 * over) / 2 if over else 0.0
             high = chi2.ppf(0.975, 2 * over + 2) / 2
             lines.append(
-                f"| {DRIFT_LABELS.get(drift, drift)} | {detector} | {n} | {over} | "
+                f"| {label} | {detector} | {n} | {over} | "
                 f"{expected:.1f} | {over / expected:.2f} | "
                 f"{low / expected:.2f} - {high / expected:.2f} |"
             )
@@ -560,6 +562,8 @@ def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
     :data:`COST_RATE_PER_HOUR` per detector."""
     if table.empty:
         return []
+    amplitudes = table.amplitude_deg.notna().any()  # as the detection table's columns
+    levels = table.turbulence.nunique() > 1
     lines = [
         "",
         f"## What the thresholds cost: the delay at {COST_RATE_PER_HOUR:g} false alarms per "
@@ -572,16 +576,20 @@ def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
         "before any baseline froze.",
         "",
         ("| probe " if several else "")
-        + "| fault | drift | turbulence | a, deg | flights | in goal | in goal at "
-        f"{COST_RATE_PER_HOUR:g}/h | delay median T | at {COST_RATE_PER_HOUR:g}/h |",
-        "|" + "---|" * (9 + several),
+        + "| fault | drift | "
+        + ("turbulence | " if levels else "")
+        + ("a, deg | " if amplitudes else "")
+        + f"flights | in goal | in goal at {COST_RATE_PER_HOUR:g}/h | delay median T "
+        f"| at {COST_RATE_PER_HOUR:g}/h |",
+        "|" + "---|" * (7 + several + amplitudes + levels),
     ]
     for r in table.to_dict("records"):
         lines.append(
             (f"| {r['probe']} " if several else "")
             + f"| {r['fault']} | {DRIFT_LABELS.get(r['drift'], r['drift'])} | "
-            f"{r['turbulence']} | {r['amplitude_deg']:g} | {r['flights']} | "
-            f"{r['p_detect_goal']:.2f} | {r['p_detect_goal_cost']:.2f} | "
+            + (f"{r['turbulence']} | " if levels else "")
+            + (f"{r['amplitude_deg']:g} | " if amplitudes else "")
+            + f"{r['flights']} | {r['p_detect_goal']:.2f} | {r['p_detect_goal_cost']:.2f} | "
             f"{r['delay_median_T']:.1f} | {r['delay_median_cost_T']:.1f} |"
         )
     return lines

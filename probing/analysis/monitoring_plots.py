@@ -123,9 +123,11 @@ def roc_figure(flights: pd.DataFrame) -> plt.Figure:
 
 def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
     """The verdicts after the onset per fault (rows) and drift (panels): counts."""
-    cols = ["actuator", "airframe", "none"]
     flights = _at_design_amplitude(flights)
     keys = _faults(flights)
+    # a sensor column where a sensor fault was flown or a flight was called one
+    sensor = "sensor" in {FAULTS[k].truth for k in keys} | set(flights.verdict_after)
+    cols = ["actuator", "airframe", *(["sensor"] if sensor else []), "none"]
     drifts = _drifts(flights)
     with plt.rc_context({**RC, "axes.grid": False}):
         fig, axes = plt.subplots(
@@ -144,7 +146,7 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
                     m[i, j] = (g.verdict_after == c).sum()
             ax.imshow(m, cmap="Blues", aspect="auto")
             for i in range(len(keys)):
-                truth = FAULTS[keys[i]].truth  # "sensor" is none of the monitor's verdicts
+                truth = FAULTS[keys[i]].truth
                 for j in range(len(cols)):
                     weight = "bold" if cols[j] == truth else "normal"
                     ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center", weight=weight)

@@ -616,3 +616,39 @@ def test_the_cost_of_the_thresholds_is_the_first_period_after_the_onset_over_the
     text = summary_markdown(evaluate(load_study(tmp_path)))
     cost_T, own_T = (17 * T - onset) / T, (19 * T - onset) / T
     assert f"| 1.00 | 1.00 | {own_T:.1f} | {cost_T:.1f} |" in text
+
+
+def test_the_verdict_figure_has_a_sensor_column_where_a_sensor_fault_was_flown(tmp_path):
+    """A study with a sensor fault: the figure's columns are actuator, airframe, sensor and
+    none, the sensor fault's count under sensor, in bold; without one there is no such
+    column (test_figures_show_the_scored_flights)."""
+    rows = [
+        _flight(tmp_path, "monitor-sensor-bias", "b1", 41.0, {22: "sensor"}, "sensor"),
+        _flight(tmp_path, "monitor-sensor-bias", "b2", 41.0, {22: "sensor"}, "sensor"),
+        _flight(tmp_path, "monitor-sensor-bias", "b3", 41.0, {22: "actuator"}, "actuator"),
+    ]
+    pd.DataFrame(rows).to_parquet(tmp_path / "monitor-sensor-bias" / "summary.parquet")
+    fig = verdict_figure(evaluate(load_study(tmp_path)))
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [
+        "actuator",
+        "airframe",
+        "sensor",
+        "none",
+    ]
+    texts = ax.texts
+    assert [t.get_text() for t in texts] == ["1", "0", "2", "0"]
+    assert [t.get_fontweight() for t in texts][2] == "bold"
+
+
+def test_the_threshold_law_names_the_probe_where_a_study_has_several(tmp_path):
+    """Two probed surfaces, one healthy flight each: the threshold law's rows say which
+    probe they are (else the two would read alike)."""
+    from probing.analysis.monitoring import summary_markdown
+
+    for sweep in ("monitor-aileron-none", "monitor-rudder-none"):
+        row = _flight(tmp_path, sweep, "h1", math.nan, {})
+        pd.DataFrame([row]).to_parquet(tmp_path / sweep / "summary.parquet")
+    text = summary_markdown(evaluate(load_study(tmp_path)))
+    for probe in ("aileron", "rudder"):
+        assert f"| {probe} probe, oracle (upper bound: knows the gusts) | probing | 28 |" in text
