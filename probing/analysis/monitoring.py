@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -518,13 +518,32 @@ def _threshold_law_lines(healthy: pd.DataFrame, keys: list[str]) -> list[str]:
     return lines
 
 
+#: A column of a fault table: its heading and its cell from a row of :func:`fault_table`.
+Column = tuple[str, Callable[[dict], object]]
+
+
+def _table_lines(table: pd.DataFrame, several: bool, columns: list[Column]) -> list[str]:
+    """A fault table's Markdown heading and rows: the columns that name a row (the probe
+    with ``several`` probed surfaces, the fault, the reference, and the turbulence and the
+    amplitude where the study varies them), then ``columns``."""
+    keys: list[Column] = [("probe", lambda r: r["probe"])] if several else []
+    keys += [("fault", lambda r: r["fault"])]
+    keys += [("drift", lambda r: DRIFT_LABELS.get(r["drift"], r["drift"]))]
+    if table.turbulence.nunique() > 1:
+        keys.append(("turbulence", lambda r: r["turbulence"]))
+    if table.amplitude_deg.notna().any():
+        keys.append(("a, deg", lambda r: f"{r['amplitude_deg']:g}"))
+    cols = keys + columns
+    lines = ["| " + " | ".join(head for head, _ in cols) + " |", "|" + "---|" * len(cols)]
+    for r in table.to_dict("records"):
+        lines.append("| " + " | ".join(str(cell(r)) for _, cell in cols) + " |")
+    return lines
+
+
 def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
-    """The detection and verdict table's Markdown lines (a probe column with ``several``
-    probed surfaces, an amplitude column where the study varies it)."""
+    """The detection and verdict table's Markdown lines (:func:`_table_lines`)."""
     if table.empty:  # flights without a fault only
         return []
-    amplitudes = table.amplitude_deg.notna().any()  # a column for the probe's amplitude
-    levels = table.turbulence.nunique() > 1  # a column for the turbulence level
     lines = ["", "## Detection and verdicts", ""]
     lines.append(
         "*probing first*: of the detected flights, those whose first alarm after the onset "
@@ -532,28 +551,18 @@ def _detection_lines(table: pd.DataFrame, several: bool) -> list[str]:
         "trajectory detector's; the rest the trajectory detector saw first."
     )
     lines.append("")
-    head = (
-        ("| probe " if several else "")
-        + "| fault | drift | "
-        + ("turbulence | " if levels else "")
-        + ("a, deg | " if amplitudes else "")
-        + "flights | goal | detected in goal | detected | probing first | delay median s (T) "
-        "| delay 95 % s (T) | actuator | airframe | sensor | none | verdict right |"
-    )
-    lines += [head, "|" + "---|" * (14 + several + amplitudes + levels)]
-    for r in table.to_dict("records"):
-        lines.append(
-            (f"| {r['probe']} " if several else "")
-            + f"| {r['fault']} | {DRIFT_LABELS.get(r['drift'], r['drift'])} | "
-            + (f"{r['turbulence']} | " if levels else "")
-            + (f"{r['amplitude_deg']:g} | " if amplitudes else "")
-            + f"{r['flights']} | {r['goal']} | "
-            f"{r['p_detect_goal']:.2f} | {r['p_detect']:.2f} | {r['by_probing']:.2f} | "
-            f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f}) | "
-            f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f}) | {r['actuator']} | "
-            f"{r['airframe']} | {r['sensor']} | {r['none']} | {r['verdict_right']:.2f} |"
-        )
-    return lines
+    columns: list[Column] = [
+        ("flights", lambda r: r["flights"]),
+        ("goal", lambda r: r["goal"]),
+        ("detected in goal", lambda r: f"{r['p_detect_goal']:.2f}"),
+        ("detected", lambda r: f"{r['p_detect']:.2f}"),
+        ("probing first", lambda r: f"{r['by_probing']:.2f}"),
+        ("delay median s (T)", lambda r: f"{r['delay_median_s']:.1f} ({r['delay_median_T']:.1f})"),
+        ("delay 95 % s (T)", lambda r: f"{r['delay_p95_s']:.1f} ({r['delay_p95_T']:.1f})"),
+        *((v, lambda r, v=v: r[v]) for v in ("actuator", "airframe", "sensor", "none")),
+        ("verdict right", lambda r: f"{r['verdict_right']:.2f}"),
+    ]
+    return lines + _table_lines(table, several, columns)
 
 
 def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
@@ -562,9 +571,15 @@ def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
     :data:`COST_RATE_PER_HOUR` per detector."""
     if table.empty:
         return []
-    amplitudes = table.amplitude_deg.notna().any()  # as the detection table's columns
-    levels = table.turbulence.nunique() > 1
-    lines = [
+    lax = f"{COST_RATE_PER_HOUR:g}/h"
+    columns: list[Column] = [
+        ("flights", lambda r: r["flights"]),
+        ("in goal", lambda r: f"{r['p_detect_goal']:.2f}"),
+        (f"in goal at {lax}", lambda r: f"{r['p_detect_goal_cost']:.2f}"),
+        ("delay median T", lambda r: f"{r['delay_median_T']:.1f}"),
+        (f"at {lax}", lambda r: f"{r['delay_median_cost_T']:.1f}"),
+    ]
+    return [
         "",
         f"## What the thresholds cost: the delay at {COST_RATE_PER_HOUR:g} false alarms per "
         "hour per detector",
@@ -575,21 +590,5 @@ def _cost_lines(table: pd.DataFrame, several: bool) -> list[str]:
         "thresholds are stricter this is exact, as the laxer threshold is crossed first, "
         "before any baseline froze.",
         "",
-        ("| probe " if several else "")
-        + "| fault | drift | "
-        + ("turbulence | " if levels else "")
-        + ("a, deg | " if amplitudes else "")
-        + f"flights | in goal | in goal at {COST_RATE_PER_HOUR:g}/h | delay median T "
-        f"| at {COST_RATE_PER_HOUR:g}/h |",
-        "|" + "---|" * (7 + several + amplitudes + levels),
+        *_table_lines(table, several, columns),
     ]
-    for r in table.to_dict("records"):
-        lines.append(
-            (f"| {r['probe']} " if several else "")
-            + f"| {r['fault']} | {DRIFT_LABELS.get(r['drift'], r['drift'])} | "
-            + (f"{r['turbulence']} | " if levels else "")
-            + (f"{r['amplitude_deg']:g} | " if amplitudes else "")
-            + f"{r['flights']} | {r['p_detect_goal']:.2f} | {r['p_detect_goal_cost']:.2f} | "
-            f"{r['delay_median_T']:.1f} | {r['delay_median_cost_T']:.1f} |"
-        )
-    return lines
