@@ -43,6 +43,7 @@ __all__ = [
     "GUST_SENSORS",
     "GustEstimator",
     "HighPass",
+    "LowPass",
     "body_to_ned",
     "ned_to_body",
     "wind_ned_fps",
@@ -189,14 +190,15 @@ class GustEstimator:
         return wind, rates
 
 
-class HighPass:
-    """A signal minus its first-order low-pass of time constant ``time_s`` (started at the
-    first sample): what varies faster than that, with any steady offset (a bias) removed.
+class LowPass:
+    """A first-order low-pass of time constant ``time_s``, forward Euler at the sample
+    interval (y_k = y_(k-1) + dt / time_s (x_k - y_(k-1))), started at rest at the first
+    sample; chunk by chunk, its state carries over.
 
     Parameters
     ----------
     time_s : float
-        The low-pass's time constant, s (>= ``dt_s``).
+        The time constant, s (>= ``dt_s``).
     dt_s : float
         Sample interval, s.
     """
@@ -208,14 +210,38 @@ class HighPass:
         self._steady: np.ndarray | None = None
 
     def update(self, x: np.ndarray) -> np.ndarray:
-        """The next rows ``(n, k)`` (or samples ``(n,)``), high-passed; the state carries over."""
+        """The next rows ``(n, k)`` (or samples ``(n,)``), low-passed."""
         x = np.asarray(x, dtype=float)
         flat = x.reshape(x.shape[0], -1)
+        if not len(flat):
+            return x
         steady = flat[0].copy() if self._steady is None else self._steady
         out = np.empty_like(flat)
         k = self.k
         for i, row in enumerate(flat):
             steady = steady + k * (row - steady)
-            out[i] = row - steady
+            out[i] = steady
         self._steady = steady
         return out.reshape(x.shape)
+
+
+class HighPass:
+    """A signal minus its first-order low-pass of time constant ``time_s`` (:class:`LowPass`,
+    started at the first sample): what varies faster than that, with any steady offset (a
+    bias) removed.
+
+    Parameters
+    ----------
+    time_s : float
+        The low-pass's time constant, s (>= ``dt_s``).
+    dt_s : float
+        Sample interval, s.
+    """
+
+    def __init__(self, time_s: float, dt_s: float) -> None:
+        self.low = LowPass(time_s, dt_s)
+
+    def update(self, x: np.ndarray) -> np.ndarray:
+        """The next rows ``(n, k)`` (or samples ``(n,)``), high-passed; the state carries over."""
+        x = np.asarray(x, dtype=float)
+        return x - self.low.update(x)

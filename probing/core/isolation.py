@@ -29,9 +29,8 @@ from __future__ import annotations
 from collections.abc import Collection
 
 import numpy as np
-from scipy.signal import lfilter
 
-from probing.core.gust import HighPass
+from probing.core.gust import HighPass, LowPass
 
 __all__ = [
     "DETECTORS",
@@ -86,19 +85,11 @@ class Servo:
     """
 
     def __init__(self, bandwidth_rad_s: float, dt_s: float) -> None:
-        self.gain = float(bandwidth_rad_s) * float(dt_s)
-        self._y: float | None = None
+        self.lag = LowPass(1.0 / float(bandwidth_rad_s), dt_s)
 
     def update(self, command: np.ndarray) -> np.ndarray:
         """The positions after each of the next steps (the command's unit)."""
-        u = np.asarray(command, dtype=float)
-        if not len(u):
-            return u
-        a = self.gain
-        last = u[0] if self._y is None else self._y
-        y, _ = lfilter([a], [1.0, a - 1.0], u, zi=[(1.0 - a) * last])
-        self._y = float(y[-1])
-        return y
+        return self.lag.update(command)
 
 
 def actuator_deviation(
