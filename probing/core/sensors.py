@@ -305,6 +305,17 @@ class Sensor:
             raise ValueError(
                 f"values and noise must be 1-D of one length, not {values.shape} and {noise.shape}"
             )
+        if self.frame == 1 and not self._lagged and values.size:
+            # A sample every step and no lag: each step's arithmetic is independent of the
+            # others, so numpy does it for all, in :meth:`step`'s order of operations (the
+            # same floats: IEEE arithmetic element by element, no fused operations).
+            x = values + self._sigma * noise if self._sigma else values.copy()
+            x = x * self._scale
+            x = x + self._bias
+            if self._quantum:
+                x = np.floor(x / self._quantum) * self._quantum
+            self._held = float(x[-1])
+            return x
         step = self.step
         return np.array(
             [step(v, e) for v, e in zip(values.tolist(), noise.tolist(), strict=True)],

@@ -12,7 +12,7 @@ them on the flight computer's side to what the separate simulator gives.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -52,6 +52,10 @@ class SensorBank:
         #: loop updates it in place after every step.
         self.current: list[float] = [s.output for s in self.sensors]
         self.rng = np.random.default_rng([int(seed), SENSOR_STREAM])
+        #: The columns someone reads step by step (a loop of the autopilot, through
+        #: :meth:`probing.sim.world.JSBSimWorld.reader`): a world measures these after every
+        #: step and the others after a block of steps at once (:meth:`complete`).
+        self.live: set[int] = set()
 
     def index(self, channel: str) -> int:
         """The column of ``channel`` in the measurements (ValueError if not measured)."""
@@ -59,9 +63,49 @@ class SensorBank:
             raise ValueError(f"no sensor measures {channel}")
         return self.channels.index(channel)
 
+    def draws(self, n: int) -> np.ndarray:
+        """The next ``n`` steps' standard-normal draws ``(n, sensors)``, one per sensor and
+        step."""
+        return self.rng.standard_normal((n, len(self.sensors)))
+
     def noise(self, n: int) -> list[list[float]]:
-        """The next ``n`` steps' standard-normal draws, one per sensor and step."""
-        return self.rng.standard_normal((n, len(self.sensors))).tolist()
+        """:meth:`draws` as lists, a row a step."""
+        return self.draws(n).tolist()
+
+    def complete(
+        self,
+        true: np.ndarray,
+        draws: np.ndarray,
+        stepped: dict[int, list[float]],
+        after: Callable[[int, list[float]], list[float]] | None = None,
+    ) -> np.ndarray:
+        """The block's measurements ``(n, sensors)``: the columns in ``stepped`` as they were
+        measured step by step, every other column's sensor run over its true values (the
+        same floats as step by step, :meth:`probing.core.sensors.Sensor.run`), then
+        ``after(column, values)`` for each of these (a sensor fault, in order).
+
+        Parameters
+        ----------
+        true : numpy.ndarray
+            ``(n, sensors)``: the true values after each step, channel units.
+        draws : numpy.ndarray
+            ``(n, sensors)``: the block's :meth:`draws`.
+        stepped : dict
+            Column -> its measurements, already made step by step (:attr:`live`).
+        after : callable, optional
+            Applied to each column measured here (not to ``stepped``'s).
+        """
+        n = true.shape[0]
+        out = np.empty((n, len(self.sensors)))
+        for j, sensor in enumerate(self.sensors):
+            if j in stepped:
+                out[:, j] = stepped[j]
+                continue
+            column = sensor.run(true[:, j], draws[:, j])
+            out[:, j] = column if after is None else after(j, column.tolist())
+        if n:
+            self.current[:] = out[-1].tolist()
+        return out
 
     def measure(self, true: np.ndarray) -> np.ndarray:
         """The measurements ``(n, sensors)`` of the next ``n`` steps' true values ``true``

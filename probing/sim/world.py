@@ -116,6 +116,7 @@ class JSBSimWorld:
         if channel not in sensing.channels:
             return lambda: math.nan
         current, j = sensing.current, sensing.index(channel)
+        sensing.live.add(j)  # measured after every step; the others after each block
         return lambda: current[j]
 
     def trimmed_commands(self) -> tuple[float, float, float]:
@@ -301,11 +302,16 @@ class JSBSimWorld:
             set_ail = self.aileron_node.set_double_value
             set_thr = [t.set_double_value for t in self.throttle_nodes]
             sensing = self.sensing
-            if sensing is not None:  # the sensors after each step, the law's inputs next step
-                current, noise = sensing.current, sensing.noise(n)
-                sense = list(zip([s.step for s in sensing.sensors], sensing.getters, strict=True))
+            if sensing is not None:  # the true values after each step; the law's inputs
+                current, draws = sensing.current, sensing.draws(n)  # measured at once
+                true_of = sensing.getters
                 fault_at, fault_onset = sensing.fault_channel, sensing.fault_onset
                 faulty = sensing.fault.measure if sensing.fault is not None else None
+                stepped: dict[int, list[float]] = {j: [] for j in sorted(sensing.live)}
+                live = [
+                    (j, sensing.sensors[j].step, draws[:, j].tolist(), kept, j == fault_at)
+                    for j, kept in stepped.items()
+                ]
             for k in range(n):
                 step = first + k
                 if rows is not None:
@@ -329,11 +335,14 @@ class JSBSimWorld:
                     damage_step = None
                 run()
                 if sensing is not None:
-                    row = [st(get(), e) for (st, get), e in zip(sense, noise[k], strict=True)]
-                    if faulty is not None:
-                        row[fault_at] = faulty(row[fault_at], step, fault_onset)
-                    current[:] = row
-                    sensed.append(row)
+                    true = [get() for get in true_of]
+                    sensed.append(true)
+                    for j, sense, noise, kept, is_faulty in live:
+                        value = sense(true[j], noise[k])
+                        if is_faulty:
+                            value = faulty(value, step, fault_onset)
+                        current[j] = value
+                        kept.append(value)
                 for get in getters:
                     append(get())
                 if position is not None:
@@ -342,8 +351,27 @@ class JSBSimWorld:
         out[:] = np.array(values, dtype=np.float64).reshape(n, len(getters))
         if position is not None:
             position[:] = realised
-        if measured is not None:
-            measured[:] = sensed
+        if self.sensing is not None and law is not None:
+            block = self._measured(np.array(sensed).reshape(n, -1), draws, stepped, first)
+            if measured is not None:
+                measured[:] = block
+
+    def _measured(
+        self, true: np.ndarray, draws: np.ndarray, stepped: dict[int, list[float]], first: int
+    ) -> np.ndarray:
+        """The sensors' block of ``true`` values from step ``first`` on, the columns read step
+        by step already measured (``stepped``); the sensor fault on a column measured here
+        acts here, in order (:meth:`probing.sim.sensing.Sensing.complete`)."""
+        sensing = self.sensing
+        assert sensing is not None
+        fault, at, onset = sensing.fault, sensing.fault_channel, sensing.fault_onset
+
+        def after(j: int, column: list[float]) -> list[float]:
+            if fault is None or j != at:
+                return column
+            return [fault.measure(v, first + i, onset) for i, v in enumerate(column)]
+
+        return sensing.complete(true, draws, stepped, after)
 
 
 #: JSBSim's integrator choices, one per kind of state (0 holds the state still).

@@ -37,8 +37,10 @@ def random_spec(rng: np.random.Generator) -> SensorSpec:
     )
 
 
-@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("seed", range(40))
 def test_run_is_step_bit_for_bit(seed: int) -> None:
+    """Every kind of sensor (40 random specs: with and without lag, noise, quantum, a
+    sample every step or fewer)."""
     rng = np.random.default_rng(seed)
     spec = random_spec(rng)
     n = 500
@@ -102,6 +104,24 @@ def test_hold_and_sample_phase() -> None:
     other[[0, 1, 2, 4, 5, 6, 8, 9, 10]] = 100.0  # draws on held steps are discarded
     sensor.reset(0.0)
     assert sensor.run(values, other).tolist() == expected
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_run_without_lag_sampling_every_step_is_step_bit_for_bit(seed: int) -> None:
+    """``run``'s vectorised path (no lag, a sample every step, as NASA's T2 sensors): the
+    floats of :meth:`Sensor.step`, chunk after chunk, and its state after."""
+    rng = np.random.default_rng(100 + seed)
+    spec = dataclasses.replace(random_spec(rng), lag_rad_s=0.0, rate_hz=0.0)
+    values = np.cumsum(rng.standard_normal(300)) * 0.1
+    noise = rng.standard_normal(300)
+    by_run, by_step = Sensor(spec, DT_S), Sensor(spec, DT_S)
+    ran = np.concatenate(
+        [by_run.run(values[:120], noise[:120]), by_run.run(values[120:], noise[120:])]
+    )
+    stepped = [by_step.step(v, e) for v, e in zip(values.tolist(), noise.tolist(), strict=True)]
+    assert ran.tolist() == stepped
+    assert by_run.output == by_step.output
+    assert by_run.step(0.3, 0.1) == by_step.step(0.3, 0.1)
 
 
 def test_quantum_truncates_like_jsbsim() -> None:
