@@ -13,7 +13,6 @@ open-loop history of the same surface deflections does (tested bit for bit).
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import numpy as np
@@ -29,8 +28,20 @@ from probing.sim.world import JSBSimWorld
 __all__ = ["ClosedLoop", "ControlPower", "autopilot_for", "control_power", "trim_of"]
 
 
-@functools.lru_cache(maxsize=8)
+#: Control power by :func:`~probing.sim.fork.trim_key`: the trimmed state is all it depends
+#: on, so flights that differ in turbulence, seed, fault or reference share one entry (keyed
+#: by the flight itself, each new seed measured it again, in every forked run).
+_POWER: dict[str, ControlPower] = {}
+
+
 def _control_power(key: str, flight: Flight) -> ControlPower:
+    power = _POWER.get(key)
+    if power is None:
+        power = _POWER[key] = _measured_power(flight)
+    return power
+
+
+def _measured_power(flight: Flight) -> ControlPower:
     plant = Plant(flight.model, flight.dt_s)  # a throwaway copy: linearising moves the state
     trim_flight(plant, flight)
     lin = plant.linearise()
