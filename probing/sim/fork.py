@@ -108,25 +108,30 @@ class TrimmedAircraft:
         self._flight = flight
         self.plant = Plant(flight.model, flight.dt_s)
         trim_flight(self.plant, flight)
-        self.second: Plant | None = None
+        #: The second copies, by whether they take gust inputs.
+        self.seconds: dict[bool, Plant] = {}
 
-    def add_second(self) -> None:
-        """Load and trim a second copy (once, in the owner, before forking): the nominal twin
-        that flies a run's own commands (``drift = "follow"``) steps it in the child."""
-        if self.second is None:
-            self.second = Plant(self._flight.model, self._flight.dt_s)
-            trim_flight(self.second, self._flight)
+    def add_second(self, gust_inputs: bool = False) -> None:
+        """Load and trim a second copy (once, in the owner, before forking), undamaged: the
+        nominal twin that flies a run's own commands (``drift = "follow"``) or, with
+        ``gust_inputs`` (:func:`probing.sim.aircraft.sanitised_root`), the gust it estimates
+        (``drift = "gust"``) steps it in the child."""
+        if gust_inputs not in self.seconds:
+            second = Plant(self._flight.model, self._flight.dt_s, gust_inputs=gust_inputs)
+            trim_flight(second, self._flight)
+            self.seconds[gust_inputs] = second
 
-    def second_for(self, flight: Flight) -> Plant | None:
+    def second_for(self, flight: Flight, gust_inputs: bool = False) -> Plant | None:
         """The second copy, disturbed as ``flight`` asks and undamaged (None without one):
         call it in a child only."""
-        if self.second is None:
+        second = self.seconds.get(gust_inputs)
+        if second is None:
             return None
         if _condition(flight) != self._condition:
             raise ValueError(f"{flight.condition} is not the trimmed aircraft's flight")
-        self.second.disturb(flight.turbulence, flight.seed)
-        self.second.schedule(flight.nominal)
-        return self.second
+        second.disturb(flight.turbulence, flight.seed)
+        second.schedule(flight.nominal)
+        return second
 
     def plant_for(self, flight: Flight) -> Plant:
         """The trimmed plant, disturbed as ``flight`` asks: call it in a child only.

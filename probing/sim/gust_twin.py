@@ -18,7 +18,7 @@ import numpy as np
 from probing.sim.aircraft import GUST_INPUTS
 from probing.sim.control import ClosedLoop, ControlPower
 from probing.sim.flight import Control, Flight
-from probing.sim.plant import make_plant
+from probing.sim.plant import Plant, make_plant
 
 __all__ = ["WIND_PROPERTIES", "GustTwin"]
 
@@ -39,6 +39,10 @@ class GustTwin:
         The aircraft's control power at the trim (:func:`probing.sim.control.control_power`).
     channels : sequence of str
         The output channels it hands back.
+    plant : Plant, optional
+        The gust-ready aircraft, trimmed and undisturbed at ``flight`` (a copy forked from
+        one loaded once, :meth:`probing.sim.fork.TrimmedAircraft.second_for`); None loads
+        and trims one.
 
     Raises
     ------
@@ -52,10 +56,13 @@ class GustTwin:
         control: Control,
         power: ControlPower | None,
         channels: Sequence[str],
+        plant: Plant | None = None,
     ) -> None:
         if flight.turbulence != "none" or flight.damage_case:
             raise ValueError("a gust twin flies the nominal aircraft in calm air")
-        self.plant = make_plant(flight, gust_inputs=True)
+        if plant is not None and not plant.gust_inputs:
+            raise ValueError("a gust twin flies the gust-ready copy of the aircraft")
+        self.plant = plant if plant is not None else make_plant(flight, gust_inputs=True)
         fdm = self.plant.fdm
         #: The wing span, ft (the gust estimator's b).
         self.span_ft = float(fdm["metrics/bw-ft"])

@@ -99,6 +99,8 @@ class Plant:
         self.dt_s = float(dt_s)
         self.turbulence = turbulence
         self.seed = int(seed)
+        #: Whether the model takes gust inputs (:func:`probing.sim.aircraft.sanitised_root`).
+        self.gust_inputs = bool(gust_inputs)
         self._steps = 0  # steps run since the trim (for a scheduled damage onset)
         self._fault: tuple[int, int] | None = None  # (damage case, step index of its onset)
         root = sanitised_root(model, gust_inputs=gust_inputs)

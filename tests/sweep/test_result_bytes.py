@@ -5,9 +5,10 @@ references, a damage case, a stuck sensor whose gust twin diverges, a dead band,
 effectiveness, a sensor bias) and of a grouped open-loop sweep (the Fig. 4 GTM with a
 backlash) are flown through ``run_sweep``, the study's own path, and every file they write is
 reduced to a digest of its content: each Parquet file's column names, types and values (the
-footer's versions and timing aside), ``point.json`` without its wall time.  The digests were
-recorded by the code before the speed work (``tests/data/result_digests.json``); a change that
-moves a single bit of any result fails here.
+footer's versions and timing aside), ``point.json`` without its accounting of the work (wall
+time, steps simulated).  The digests were recorded by the code before the speed work
+(``tests/data/result_digests.json``); a change that moves a single bit of any result fails
+here.
 
 Regenerate, only for a change that is meant to change results (and say so in its commit)::
 
@@ -73,8 +74,8 @@ def _sweep_files() -> list[tuple[str, str]]:
 
 def file_digest(path: Path) -> str:
     """sha256 of a result file's content: a Parquet file's column names, types and values
-    (its metadata, which names versions and times, aside); ``point.json`` without its wall
-    time; any other file byte for byte."""
+    (its metadata, which names versions and times, aside); ``point.json`` without its
+    accounting of the work (wall time, JSBSim steps); any other file byte for byte."""
     h = hashlib.sha256()
     if path.suffix == ".parquet":
         table = pq.read_table(path)
@@ -89,6 +90,7 @@ def file_digest(path: Path) -> str:
     elif path.name == "point.json":
         record = json.loads(path.read_text())
         record.pop("wall_s", None)
+        record.pop("steps_simulated", None)
         h.update(json.dumps(record, sort_keys=True).encode())
     else:
         h.update(path.read_bytes())
@@ -124,6 +126,12 @@ def test_the_study_results_keep_their_bytes(tmp_path: Path) -> None:
     assert sorted(got) == sorted(expected)
     changed = [name for name in expected if got[name] != expected[name]]
     assert not changed, f"results changed: {changed}"
+    # The accounting left out above: a gust flight steps two aircraft, the aircraft and its
+    # gust twin (72 periods of 255 steps each).
+    (record,) = [
+        json.loads(p.read_text()) for p in tmp_path.glob("bytes-sensor-bias/*/*/point.json")
+    ]
+    assert record["steps_simulated"] == 2 * 72 * 255
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ from probing.core.forked import Outcome, can_fork, forked_map
 from probing.experiment.flight.onboard import twin_flight
 from probing.experiment.output.storage import batch_of_runs
 from probing.experiment.scenario import Scenario
+from probing.experiment.scenario.references import REFERENCES
 from probing.sim.control import control_power
 from probing.sim.flight import Flight
 from probing.sim.fork import TrimmedAircraft, trim_key
@@ -155,8 +156,8 @@ def _run_grouped(
                 aircraft.plant.drive(surface)  # calibrated once, undisturbed, before forking
             if any(s.flight.closed_loop for s in members):
                 control_power(members[0].flight)  # once, inherited by every child
-            if any(s.follows for s in members):
-                aircraft.add_second()  # the twins that fly the runs' own commands
+            for flies in sorted({REFERENCES[s.drift].flies for s in members} - {""}):
+                aircraft.add_second(flies == "gust_ready")  # the aircraft a reference flies
             if prepare is not None:
                 prepare(members, aircraft)
             twins = _twins_to_store(members)

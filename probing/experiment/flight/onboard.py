@@ -132,11 +132,11 @@ class GustSource:
     aircraft), and the aircraft's roll rate measured after the step before.
     """
 
-    def __init__(self, scn: Scenario) -> None:
+    def __init__(self, scn: Scenario, plant: Plant | None = None) -> None:
         flight = calm_nominal(scn.flight)
         power = control_power(flight)
         self.channels = len(scn.channels)
-        self.twin = GustTwin(flight, scn.control, power, [*scn.channels, "h_ft"])
+        self.twin = GustTwin(flight, scn.control, power, [*scn.channels, "h_ft"], plant)
         self.estimator = GustEstimator(self.twin.span_ft, scn.dt_s, STEADY_WIND_TIME_S)
         self.period_steps = scn.probe.length * scn.probe.steps_per_bit(scn.dt_s)
         self.follow = 1.0 / ALTITUDE_FOLLOW_S  # 1/s
@@ -215,7 +215,7 @@ class FollowSource:
 #: :data:`probing.experiment.scenario.references.REFERENCES`): name -> the class, built with the
 #: scenario and a trimmed aircraft to fly if the run has one to spare (else None).
 SOURCES: dict[str, Callable[[Scenario, Plant | None], ReferenceSource]] = {
-    "gust": lambda scn, plant: GustSource(scn),
+    "gust": lambda scn, plant: GustSource(scn, plant),
     "follow": FollowSource,
 }
 

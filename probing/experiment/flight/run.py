@@ -47,10 +47,11 @@ from probing.experiment.output.storage import (
     timeseries_schema,
 )
 from probing.experiment.scenario import Scenario
+from probing.experiment.scenario.references import REFERENCES
 from probing.sim.autopilot import Autopilot
 from probing.sim.control import control_power
 from probing.sim.errors import DivergenceError
-from probing.sim.fork import TrimmedAircraft, trim_spec
+from probing.sim.fork import TrimmedAircraft, trim_key, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
 from probing.sim.sensing import ChannelNoise, Sensing
 from probing.sim.surfaces import SURFACES
@@ -149,11 +150,14 @@ class _Rig:
             y_trim = np.array([n.get_double_value() for n in nodes])
         twin = open_reference_twin(scn, nominal=nominal_twin, use_cache=twin_cache)
         follower = None
-        if scn.follows:
+        flies = REFERENCES[scn.drift].flies  # a trimmed nominal aircraft the reference flies
+        if flies:
+            gust_inputs = flies == "gust_ready"
             try:
-                calm = calm_nominal(flight)  # a model flying our commands knows no gusts
-                follower = aircraft.second_for(calm) if aircraft else None
-                follower = follower or make_plant(calm)
+                calm = calm_nominal(flight)  # a model of the aircraft knows no gusts
+                if aircraft is not None and aircraft.key == trim_key(calm):
+                    follower = aircraft.second_for(calm, gust_inputs)
+                follower = follower or make_plant(calm, gust_inputs=gust_inputs)
             except BaseException:
                 if twin is not None:
                     twin.close(success=False)  # its temporary file goes

@@ -49,6 +49,11 @@ class Reference:
         The columns of the log it reads besides ``time_s`` and the scenario's channels.
     description : str
         One line, for messages and docs.
+    flies : str
+        The trimmed nominal aircraft a ``log`` reference flies, if any: ``"plain"`` (the
+        model as loaded) or ``"gust_ready"`` (the copy with gust inputs,
+        :func:`probing.sim.aircraft.sanitised_root`); a run with a trimmed aircraft to spare
+        forks it instead of loading and trimming one (:class:`probing.sim.fork.TrimmedAircraft`).
     """
 
     name: str
@@ -56,10 +61,13 @@ class Reference:
     knows_gusts: bool = False
     log_columns: tuple[str, ...] = ()
     description: str = ""
+    flies: str = ""
 
     def __post_init__(self) -> None:
         if self.kind not in REFERENCE_KINDS:
             raise ValueError(f"reference kind must be one of {REFERENCE_KINDS}, got {self.kind}")
+        if self.flies not in ("", "plain", "gust_ready"):
+            raise ValueError(f"flies must be '', 'plain' or 'gust_ready', got {self.flies!r}")
 
     @property
     def realisable(self) -> bool:
@@ -82,6 +90,7 @@ REFERENCES: dict[str, Reference] = {
             "log",
             log_columns=COMMAND_COLUMNS,
             description="the nominal aircraft in calm air flying the autopilot's recorded commands",
+            flies="plain",
         ),
         Reference("detrend", "trend", description="no model: the trim and a fitted trend"),
         Reference("none", "baseline", description="no model: the trim's measurement"),
@@ -101,6 +110,7 @@ REFERENCES: dict[str, Reference] = {
             "log",
             log_columns=(*GUST_SENSORS, "p_rad_s", "phi_rad", "h_ft"),
             description="the nominal aircraft in calm air flown through the gust the sensors show",
+            flies="gust_ready",
         ),
     )
 }
