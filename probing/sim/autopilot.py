@@ -31,7 +31,7 @@ and (recomputing its commands) a recorded log.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 
 from probing.sim.flight import Control, Manoeuvre
 
@@ -115,18 +115,6 @@ class Gains:
     ki_bank: float
     kp_speed: float
     ki_speed: float
-
-    def pitch(self, e: float, rate: float, integral: float) -> float:
-        """The elevator's deflection from trim, deg."""
-        return -(self.kp_pitch * e + self.kd_pitch * rate + self.ki_pitch * integral)
-
-    def bank(self, e: float, rate: float, integral: float) -> float:
-        """The aileron command from trim (normalised)."""
-        return -(self.kp_bank * e + self.kd_bank * rate + self.ki_bank * integral)
-
-    def speed(self, e: float, integral: float) -> float:
-        """The throttle command from trim (normalised)."""
-        return -(self.kp_speed * e + self.ki_speed * integral)
 
 
 def gains(control: Control, power: ControlPower) -> Gains:
@@ -233,13 +221,13 @@ class Autopilot:
             commands flown (:attr:`commands_record`), both cleared here.
         """
         get_theta, get_q, get_phi, get_p, get_v = self.reads
-        theta0, _, phi0, _, v0 = self.references
-        base = (theta0, phi0, v0)
+        base = (self.references[0], self.references[2], self.references[4])  # theta, phi, v
         moving = self.manoeuvre.offsets(first, n, self.dt_s).tolist() if self.manoeuvre else None
         c, g, integral, dt, now = self.control, self.gains, self.integral, self.dt_s, self.now
-        pitch_on = g is not None and c.pitch_hold
-        bank_on = g is not None and c.bank_hold
-        speed_on = g is not None and c.speed_hold
+        holds = (c.pitch_hold, c.bank_hold, c.speed_hold)
+        pitch_on, bank_on, speed_on = (g is not None and hold for hold in holds)
+        # the PIDs' gains as locals: the laws below are the module docstring's, a step each
+        kp_p, kd_p, ki_p, kp_b, kd_b, ki_b, kp_v, ki_v = astuple(g) if g else (0.0,) * 8
         trim = self.trim
         probed, position_of, trim_pos = trim.surface, trim.position_of, trim.surface_trim
         trim_deg, aileron0, throttle0 = trim.elevator_deg, trim.aileron_norm, trim.throttle_norm
@@ -247,12 +235,15 @@ class Autopilot:
         write_el = probed != "elevator" and pitch_on
         write_ail = probed != "aileron" and bank_on
         write_thr = probed != "throttle" and speed_on
+        # which loop's command is the probed surface's position
+        by_elevator = probed == "elevator"
+        by_aileron = probed == "aileron" and bank_on
+        by_throttle = probed == "throttle" and speed_on
         kept = self.control_record if record_control else None
         flown = self.commands_record if record_commands else None
-        if kept is not None:
-            kept.clear()
-        if flown is not None:
-            flown.clear()
+        for record in (kept, flown):
+            if record is not None:
+                record.clear()
 
         def law(k: int) -> Demand:
             theta_ref, phi_ref, v_ref = base
@@ -263,26 +254,27 @@ class Autopilot:
             if pitch_on:
                 e = get_theta() - theta_ref
                 integral[0] += e * dt
-                u_el = g.pitch(e, get_q(), integral[0])
+                u_el = -(kp_p * e + kd_p * get_q() + ki_p * integral[0])
             if bank_on:
                 e = get_phi() - phi_ref
                 integral[1] += e * dt
-                ail = min(max(aileron0 + g.bank(e, get_p(), integral[1]), -1.0), 1.0)
+                u_ail = kp_b * e + kd_b * get_p() + ki_b * integral[1]
+                ail = min(max(aileron0 - u_ail, -1.0), 1.0)
             if speed_on:
                 e = get_v() - v_ref
                 integral[2] += e * dt
-                thr = min(max(throttle0 + g.speed(e, integral[2]), 0.0), 1.0)
+                thr = min(max(throttle0 - (kp_v * e + ki_v * integral[2]), 0.0), 1.0)
             now[0], now[1] = ail, thr
-            if probed == "elevator":
+            if by_elevator:
                 asked = trim_deg + u_el
-            elif probed == "aileron" and bank_on:
+            elif by_aileron:
                 asked = position_of(ail)
-            elif probed == "throttle" and speed_on:
+            elif by_throttle:
                 asked = position_of(thr)
             else:
                 asked = trim_pos
             if kept is not None:
-                kept.append(u_el if probed == "elevator" else asked - trim_pos)
+                kept.append(u_el if by_elevator else asked - trim_pos)
             if flown is not None:
                 flown.append((u_el, ail, thr))
             return (
