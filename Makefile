@@ -76,15 +76,19 @@ gtm-damage: setup
 # realisable references gust and detrend and the oracle as the bound; faults at 0.2 and
 # 0.02 deg, the dead band over the probe's amplitude in calm air, light and moderate
 # turbulence; 40 one-hour flights without a fault), resumable, JOBS=n workers,
-# EXECUTOR=dask for Dask; then its table (docs/monitoring_summary.md) and figures
-# (figures/monitor_*.png).
+# EXECUTOR=dask for a Dask LocalCluster of JOBS workers, or EXECUTOR=dask
+# SCHEDULER=tcp://host:8786 on a running Dask cluster (docs/sweeps.md, "On a cluster": its
+# workers run this checkout's venv at the same path and share MONITOR_OUT); then its table
+# (docs/monitoring_summary.md) and figures (figures/monitor_*.png).
 MONITOR_SWEEPS := $(sort $(wildcard scenarios/monitor-realisable/*.toml))
 MONITOR_OUT ?= results/monitor
 EXECUTOR ?=
+SCHEDULER ?=
 monitor: setup
 	@for f in $(MONITOR_SWEEPS); do \
 	  $(PY) -m probing sweep $$f --out $(MONITOR_OUT) $(if $(JOBS),-j $(JOBS)) \
-	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
+	    $(if $(EXECUTOR),--executor $(EXECUTOR)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) \
+	    > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(MONITOR_OUT) --figures figures --summary docs/monitoring_summary.md
 
 # The first monitor study, with the oracle reference only (the twin that knows the gusts;
@@ -96,7 +100,8 @@ ORACLE_OUT ?= results/monitor-oracle
 monitor-oracle: setup
 	@for f in $(filter-out scenarios/monitor/base.toml,$(ORACLE_SWEEPS)); do \
 	  $(PY) -m probing sweep $$f --out $(ORACLE_OUT) $(if $(JOBS),-j $(JOBS)) \
-	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
+	    $(if $(EXECUTOR),--executor $(EXECUTOR)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) \
+	    > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(ORACLE_OUT) --figures figures/oracle \
 	  --summary docs/monitoring_oracle_summary.md
 
@@ -107,7 +112,8 @@ monitor-oracle: setup
 REFERENCES_OUT ?= results/references
 references: setup
 	$(PY) -m probing sweep scenarios/references/references.toml --out $(REFERENCES_OUT) \
-	  $(if $(JOBS),-j $(JOBS)) $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null
+	  $(if $(JOBS),-j $(JOBS)) $(if $(EXECUTOR),--executor $(EXECUTOR)) \
+	  $(if $(SCHEDULER),--scheduler $(SCHEDULER)) > /dev/null
 	$(PY) -m probing plot references $(REFERENCES_OUT) --figures figures \
 	  --summary docs/references_summary.md
 
@@ -119,7 +125,8 @@ LATERAL_OUT ?= results/monitor-lateral
 monitor-lateral: setup
 	@for f in $(filter-out scenarios/monitor-lateral/base-%,$(LATERAL_SWEEPS)); do \
 	  $(PY) -m probing sweep $$f --out $(LATERAL_OUT) $(if $(JOBS),-j $(JOBS)) \
-	    $(if $(EXECUTOR),--executor $(EXECUTOR)) > /dev/null || exit $$?; done
+	    $(if $(EXECUTOR),--executor $(EXECUTOR)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) \
+	    > /dev/null || exit $$?; done
 	$(PY) -m probing plot monitor $(LATERAL_OUT) --summary docs/monitoring_lateral_summary.md
 
 # Several surfaces probed at once (docs/simultaneous.md): every scenario in

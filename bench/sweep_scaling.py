@@ -1,8 +1,12 @@
-"""Sweep scaling for ``make bench``: 1 vs 2 workers on a 16-point sweep, and Dask's overhead.
+"""Sweep scaling for ``make bench``: 1 vs 2 workers on a 16-point sweep, and Dask's overhead;
+the monitor study's speed-up against the workers of a Dask cluster.
 
 Each measurement runs the real command line (``python -m probing sweep``) in a fresh process
 with a fresh output folder and a fresh reference-twin cache, so every repeat does the same
-work: one reference run (which simulates the shared twin) and 16 points.
+work: one reference run (which simulates the shared twin) and 16 points.  The monitor
+study's slice (:func:`monitor_slice_file`) runs the same way against a Dask cluster started
+apart from the command (``--scheduler``), with 1, 2 and 4 worker processes, against the
+local pool.
 """
 
 from __future__ import annotations
@@ -10,13 +14,17 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
+from bench.common import twin_cache_dir
 from bench.report import Rendered, Row
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -186,17 +194,383 @@ def render_sweep_scaling(r: dict) -> tuple[list[dict], list[str]]:
     return rows, lines
 
 
+# ------------------------------------------------------------------ the monitor study on Dask
+STUDY = ROOT / "scenarios" / "monitor-realisable"
+#: The references of the study's fault sweeps, in their order there (the grid's outer field).
+REFERENCES = ("gust", "detrend", "oracle")
+#: The first fault onsets of the study's effectiveness sweep (s), one per seed.
+ONSETS_S = (155.276, 185.189, 173.469, 191.169)
+SLICE_PERIODS = 100
+#: Worker processes of the measured clusters, and the counts the study is costed at.
+DASK_WORKERS = (1, 2, 4)
+MODEL_WORKERS = (1, 2, 4, 8, 16, 32, 64)
+
+
+def monitor_slice_file(folder: Path, references: Sequence[str], seeds: int) -> Path:
+    """A slice of the monitor study written like its fault sweeps
+    (``scenarios/monitor-realisable/effectiveness.toml``): the study's GTM flight of 100
+    periods (255 s), its false-alarm rates, an effectiveness fault of scale 0.5 at the
+    study's first onsets; ``references`` x ``seeds`` flights, the references the grid's
+    outer field as there (the probe at 0.2 deg only)."""
+    drifts = ", ".join(f'"{d}"' for d in references)
+    path = folder / "bench-monitor-slice.toml"
+    path.write_text(
+        'name = "bench-monitor-slice"\n'
+        f'base = "{ROOT / "scenarios" / "references" / "base.toml"}"\n'
+        'kind = "monitor"\n'
+        f'[fixed]\n"probe.periods" = {SLICE_PERIODS}\n'
+        '"monitor.false_alarms_per_hour" = 0.025\n'
+        '"monitor.trajectory_false_alarms_per_hour" = 0.025\n'
+        '"fault.type" = "effectiveness"\n"fault.scale" = 0.5\n'
+        f'[grid]\n"output.drift" = [{drifts}]\n'
+        f'[zip]\n"disturbance.seed" = {list(range(1, seeds + 1))}\n'
+        f'"fault.onset_s" = {list(ONSETS_S[:seeds])}\n'
+    )
+    return path
+
+
+def _cli_sweep_s(path: Path, out: Path, options: list[str], flights: int) -> float:
+    """Wall time of ``python -m probing sweep PATH --out OUT OPTIONS`` in a fresh process, in
+    this process's environment (its twin cache)."""
+    cmd = [sys.executable, "-m", "probing", "sweep", str(path), "--out", str(out), *options]
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0 or f"{flights} done" not in done.stdout:
+        raise RuntimeError(f"bench sweep failed: {done.stdout}{done.stderr}")
+    return wall
+
+
+@contextmanager
+def dask_cluster(workers: int) -> Iterator[str]:
+    """A Dask cluster of ``workers`` single-threaded processes on this machine, started apart
+    from the sweeps, which reach it by its address (``--scheduler``) as they would a user's
+    cluster; the workers inherit this process's environment (its twin cache)."""
+    import logging
+
+    from distributed import LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    try:
+        yield cluster.scheduler_address
+    finally:
+        cluster.close()
+
+
+def _emptied(folder: Path) -> None:
+    """Remove what ``folder`` holds (the twin cache, between two sweeps)."""
+    for entry in folder.iterdir():
+        if entry.is_dir():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+
+
+def _monitor_dask_repeat(path: Path, flights: int, out: Path) -> dict[str, float]:
+    """One repeat, every sweep from an empty twin cache into a fresh folder under ``out``: the
+    local pool with 1 and 2 workers, then a fresh cluster of each size of
+    :data:`DASK_WORKERS`, twice: ``dask-N``, its workers' first sweep (they import the
+    package, load and trim the aircraft), and ``dask-N-next``, the next sweep on the same
+    workers (as the study's next sweep: the trimmed aircraft kept)."""
+    walls = {}
+    with twin_cache_dir() as twins:
+        for jobs in (1, 2):
+            options = ["-j", str(jobs)]
+            walls[f"local-{jobs}"] = _cli_sweep_s(path, out / f"local-{jobs}", options, flights)
+            _emptied(twins)
+        for n in DASK_WORKERS:
+            with dask_cluster(n) as address:
+                options = ["--executor", "dask", "--scheduler", address]
+                for run in (f"dask-{n}", f"dask-{n}-next"):
+                    walls[run] = _cli_sweep_s(path, out / run, options, flights)
+                    _emptied(twins)
+    return walls
+
+
+def flight_walls(sweep_dir: Path) -> list[list]:
+    """``[reference, periods, wall s]`` of each flight of a finished monitor sweep, in the
+    sweep's order: from its ``point.json``, the flight alone (not its chunk's load and trim,
+    nor an oracle flight's twin, simulated before the chunk's flights fork)."""
+    manifest = json.loads((sweep_dir / "sweep.json").read_text())
+    walls = []
+    for point in manifest["points"]:
+        folder = sweep_dir / "points" / f"point_id={point['point_id']}"
+        info = json.loads((folder / "point.json").read_text())
+        scn = info["scenario"]
+        walls.append([scn["output"]["drift"], scn["probe"]["periods"], info["wall_s"]])
+    return walls
+
+
+def chunk_costs_s(costs_s: Sequence[float], scenarios: Sequence, workers: int) -> list[float]:
+    """What each chunk of a sweep costs (s), in order, for ``workers`` workers: the flights'
+    ``costs_s`` summed over the sweep's chunks
+    (:func:`probing.experiment.flight.batch.chunked_groups`)."""
+    from probing.experiment.flight.batch import chunked_groups
+
+    return [sum(costs_s[i] for i in chunk) for chunk in chunked_groups(scenarios, workers)]
+
+
+def makespan_s(chunks_s: Sequence[float], workers: int) -> float:
+    """When the last of ``workers`` workers finishes, the chunks handed out in order, each to
+    the first free worker (s)."""
+    free_s = [0.0] * workers
+    for cost in chunks_s:
+        first = free_s.index(min(free_s))
+        free_s[first] += cost
+    return max(free_s)
+
+
+def per_period_s(walls: list[list]) -> dict[str, float]:
+    """Median wall time per simulated period of each reference's flights (s)."""
+    by: dict[str, list[float]] = {}
+    for drift, periods, wall in walls:
+        by.setdefault(drift, []).append(wall / periods)
+    return {drift: statistics.median(v) for drift, v in by.items()}
+
+
+def study_bounds(cost_per_period_s: dict[str, float]) -> dict:
+    """The study as ``make monitor`` runs it (every sweep of scenarios/monitor-realisable,
+    one after another), each flight costed at its reference's wall per period times its
+    periods (a reference the slice lacks at the median of the others): its flights, their
+    simulated hours and CPU, the longest flight, and per worker count the speed-up its
+    chunks allow (:func:`makespan_s`; each sweep ends when its last chunk does), and with a
+    worker per flight."""
+    from probing.sweep import load_sweep
+
+    fallback_s = statistics.median(cost_per_period_s.values())
+    span_s = dict.fromkeys(MODEL_WORKERS, 0.0)
+    total_s = longest_s = hours = long_cpu_s = bound_s = 0.0
+    flights = long_flights = 0
+    sweeps = sorted(STUDY.glob("*.toml"))
+    for path in sweeps:
+        scenarios = [p.scenario for p in load_sweep(path).points]
+        costs = [cost_per_period_s.get(s.drift, fallback_s) * s.periods for s in scenarios]
+        for scn, cost in zip(scenarios, costs, strict=True):
+            hours += scn.periods * scn.bits_per_period * scn.bit_duration_s / 3600
+            if scn.periods > SLICE_PERIODS:
+                long_flights, long_cpu_s = long_flights + 1, long_cpu_s + cost
+        flights, total_s = flights + len(costs), total_s + sum(costs)
+        longest_s = max(longest_s, *costs)
+        bound_s += max(costs)  # a chunk per flight: the sweep's longest flight
+        for w in MODEL_WORKERS:
+            span_s[w] += makespan_s(chunk_costs_s(costs, scenarios, w), w)
+    return {
+        "sweeps": len(sweeps),
+        "flights": flights,
+        "long_flights": long_flights,
+        "hours": hours,
+        "cpu_s": total_s,
+        "long_cpu_s": long_cpu_s,
+        "longest_s": longest_s,
+        "speedup": {str(w): total_s / span_s[w] for w in MODEL_WORKERS},
+        "speedup_limit": total_s / bound_s,
+    }
+
+
+def bench_monitor_dask(quick: bool = False, repeats: int = 3) -> dict:
+    """Median wall times of the monitor study's slice (:func:`monitor_slice_file`: 3
+    references x 4 seeds; quick, gust and detrend x 1 seed) on the local pool and on Dask
+    clusters of 1, 2 and 4 workers; its flights' own walls (the last ``-j 1`` run) and what
+    its chunks allow; the whole study costed with them (:func:`study_bounds`)."""
+    from probing.sweep import load_sweep
+
+    references, seeds = (REFERENCES[:2], 1) if quick else (REFERENCES, len(ONSETS_S))
+    flights = len(references) * seeds
+    runs: dict[str, list[float]] = {}
+    with tempfile.TemporaryDirectory(prefix="bench-monitor-dask-") as tmp:
+        path = monitor_slice_file(Path(tmp), references, seeds)
+        for i in range(repeats):
+            for k, v in _monitor_dask_repeat(path, flights, Path(tmp) / f"r{i}").items():
+                runs.setdefault(k, []).append(v)
+        walls = flight_walls(Path(tmp) / f"r{repeats - 1}" / "local-1" / "bench-monitor-slice")
+        scenarios = [p.scenario for p in load_sweep(path).points]
+    costs = [wall for _, _, wall in walls]
+    chunks = {str(w): chunk_costs_s(costs, scenarios, w) for w in DASK_WORKERS}
+    return {
+        "flights": flights,
+        "references": list(references),
+        "seeds": seeds,
+        "periods": SLICE_PERIODS,
+        "repeats": repeats,
+        "cpu_count": os.cpu_count(),
+        "wall_s": {k: statistics.median(v) for k, v in runs.items()},
+        "all_wall_s": runs,
+        "flight_wall_s": walls,
+        "chunks_s": chunks,
+        "chunk_speedup": {w: sum(costs) / makespan_s(c, int(w)) for w, c in chunks.items()},
+        "study": study_bounds(per_period_s(walls)),
+    }
+
+
+def render_monitor_dask(r: dict) -> tuple[list[dict], list[str]]:
+    """Summary rows (as dicts of the report's Row fields) and markdown lines."""
+    w, n, cores = r["wall_s"], r["flights"], r["cpu_count"]
+
+    def vs_one(workers: int, sweep: str, what: str) -> dict:
+        one, many = w[f"dask-1{sweep}"], w[f"dask-{workers}{sweep}"]
+        return {
+            "quantity": what,
+            "value": f"{many:.1f} s",
+            "baseline": f"{one:.1f} s (1 worker)",
+            "ratio": f"{one / many:.2f}x",
+        }
+
+    first_ms = 1000 * (w["dask-1"] - w["local-1"]) / n
+    next_ms = 1000 * (w["dask-1-next"] - w["local-1"]) / n
+    rows = [
+        vs_one(2, "-next", f"monitor study slice ({n} flights) on a Dask cluster, 2 workers vs 1"),
+        vs_one(2, "", "same, on the workers' first sweep"),
+        vs_one(4, "-next", f"same, 4 workers vs 1 ({cores} cores)"),
+        {
+            "quantity": "Dask cluster (1 worker) over the local pool (-j 1), per flight",
+            "value": f"{first_ms:+.0f} ms first sweep, {next_ms:+.0f} ms next",
+            "baseline": f"{w['local-1']:.1f} s local pool",
+            "ratio": f"{w['dask-1'] / w['local-1']:.2f}, {w['dask-1-next'] / w['local-1']:.2f}",
+        },
+    ]
+    return rows, _monitor_dask_table(r) + _monitor_dask_limits(r)
+
+
+def _monitor_dask_table(r: dict) -> list[str]:
+    """The section's heading and its table of measured wall times."""
+    w = r["wall_s"]
+    seeds = f"{r['seeds']} seed" + ("s" if r["seeds"] > 1 else "")
+    repeats = f"{r['repeats']} repeat" + ("s" if r["repeats"] > 1 else "")
+    lines = [
+        f"## The monitor study on a Dask cluster ({r['flights']} flights of "
+        f"{r['periods']} periods: {', '.join(r['references'])} x {seeds})",
+        "",
+        "A slice of `make monitor` written like its fault sweeps "
+        "(`scenarios/monitor-realisable/effectiveness.toml`: the GTM, NASA's T2 sensors, light "
+        "turbulence, an effectiveness fault of scale 0.5 at the study's onsets, the probe at "
+        "0.2 deg), run by the real command `python -m probing sweep FILE --executor dask "
+        "--scheduler ADDRESS` against a cluster of single-threaded worker processes started "
+        "apart from it, and on the local pool; every sweep from an empty twin cache into a "
+        f"fresh folder; medians of {repeats} on {r['cpu_count']} cores. "
+        "*First sweep*: the cluster's workers have run nothing yet; *next sweep*: the same "
+        "workers again, as for the study's second sweep onwards.",
+        "",
+        "| executor | workers | wall s | speed-up over 1 worker |",
+        "|---|---|---|---|",
+        f"| local pool | 1 | {w['local-1']:.2f} | 1.00x |",
+        f"| local pool | 2 | {w['local-2']:.2f} | {w['local-1'] / w['local-2']:.2f}x |",
+    ]
+    for sweep, label in (("", "first"), ("-next", "next")):
+        for k in DASK_WORKERS:
+            wall = w[f"dask-{k}{sweep}"]
+            ratio = w[f"dask-1{sweep}"] / wall
+            lines.append(f"| Dask cluster, {label} sweep | {k} | {wall:.2f} | {ratio:.2f}x |")
+    return [*lines, ""]
+
+
+def _monitor_dask_limits(r: dict) -> list[str]:
+    """What limits the slice's speed-up, in its own numbers."""
+    w, n, cores = r["wall_s"], r["flights"], r["cpu_count"]
+    walls = r["flight_wall_s"]
+    flown_s = sum(wall for _, _, wall in walls)
+    by = {d: statistics.median(x for dd, _, x in walls if dd == d) for d in r["references"]}
+    costs = ", ".join(f"{d} {s:.2f} s" for d, s in by.items())
+    chunks = {k: " + ".join(f"{c:.1f}" for c in v) for k, v in r["chunks_s"].items()}
+    first_ms = 1000 * (w["dask-1"] - w["local-1"]) / n
+    next_ms = 1000 * (w["dask-1-next"] - w["local-1"]) / n
+    return [
+        "What limits the speed-up:",
+        "",
+        f"- **Cores.** This machine has {cores} cores: no number of workers gains more than "
+        f"{cores}x here"
+        + (
+            f"; 4 workers oversubscribe it ({w['dask-1'] / w['dask-4']:.2f}x on the first "
+            "sweep measures the oversubscription, not the cluster)."
+            if cores < 4
+            else "."
+        ),
+        "- **The flights are independent; a chunk shares one trim.** A flight shares nothing "
+        "with another: it estimates its own baseline from its own periods and keeps its own "
+        "detector, so flights are the "
+        "unit of parallel work. The study flies one condition, so each sweep is one group "
+        "with one trimmed state, cut into contiguous chunks of ceil(flights / workers) "
+        "flights (at most 64), one per worker; a chunk's worker loads and trims the GTM "
+        "(unless it holds it from its previous chunk) and forks a child per flight. On one "
+        f"worker the {n} flights take {flown_s:.1f} s of the {w['local-1']:.1f} s sweep "
+        f"(their `point.json` walls, medians: {costs}); the other "
+        f"{w['local-1'] - flown_s:.1f} s are the process start, the load and trims, "
+        + (
+            "the oracle flights' twins (simulated before a chunk's flights fork) "
+            if "oracle" in r["references"]
+            else ""
+        )
+        + "and the summary.",
+        "- **Unequal chunks.** A gust flight simulates a second aircraft (its reference's, "
+        "from a gust-ready copy), and the references are the grid's outer field (as in the "
+        "study's sweeps), so "
+        "contiguous chunks differ: with 2 workers they hold "
+        f"{chunks['2']} s of flights, with 4, {chunks['4']} s. Handed out in order, they "
+        f"allow {r['chunk_speedup']['2']:.2f}x on 2 workers and "
+        f"{r['chunk_speedup']['4']:.2f}x on 4 (with as many cores); measured on 2: "
+        f"{w['dask-1'] / w['dask-2']:.2f}x (first sweep), "
+        f"{w['dask-1-next'] / w['dask-2-next']:.2f}x (next sweep).",
+        f"- **Dask's own cost.** One Dask worker against the local pool with one: "
+        f"{first_ms:+.0f} ms per flight on the cluster's first sweep "
+        f"({w['dask-1'] - w['local-1']:+.2f} s per sweep: the client connects, the worker "
+        f"imports the package), {next_ms:+.0f} ms on the next (the worker keeps the trimmed "
+        "aircraft of the previous sweep, as it does between the study's sweeps). A chunk, "
+        "not a flight, is one Dask task.",
+        *_study_limits(r["study"], by),
+        "",
+    ]
+
+
+def _study_limits(s: dict, by: dict[str, float]) -> list[str]:
+    """The whole study's structure, costed with the slice's flights."""
+    speedups = s["speedup"]
+    costs = ", ".join(f"{d} {1000 * v / SLICE_PERIODS:.1f} ms" for d, v in by.items())
+    missing = [d for d in REFERENCES if d not in by]
+    if missing:
+        costs += f"; {', '.join(missing)}, not in the slice, at the median of these"
+    return [
+        f"- **The study's structure.** `make monitor` runs {s['sweeps']} sweeps, one after "
+        f"another, each waiting for its last chunk: {s['flights']} flights, "
+        f"{s['hours']:.0f} simulated hours. Costed at the slice's walls per period "
+        f"({costs}; flights only, no load, trim or twin), the flights take "
+        f"{s['cpu_s'] / 60:.0f} min on one worker; the {s['long_flights']} one-hour flights "
+        f"{100 * s['long_cpu_s'] / s['cpu_s']:.0f} % of it, the longest "
+        f"{s['longest_s']:.0f} s. What the chunks then allow, with as many cores as workers:",
+        "",
+        f"| workers | {' | '.join(speedups)} | a worker per flight |",
+        f"|---|{'---|' * len(speedups)}---|",
+        f"| speed-up | {' | '.join(f'{v:.2f}x' for v in speedups.values())} | "
+        f"{s['speedup_limit']:.1f}x |",
+        "",
+        "A sweep of n equal flights on w workers is cut into chunks of ceil(n / w) flights "
+        "and lasts one chunk: n / ceil(n / w), not w (30 one-hour flights: 7.5x on 8 "
+        "workers). The fault sweeps last their gust chunks. With a worker per flight each "
+        "sweep lasts its longest flight, a one-hour flight for the sweeps without a fault.",
+    ]
+
+
 if __name__ == "__main__":  # pragma: no cover - manual use
     _, text = render_sweep_scaling(bench_sweep_scaling())
     print("\n".join(text))
 
 
 def run(args: argparse.Namespace) -> dict:
-    """1 vs 2 workers and Dask on a 16-point sweep."""
-    return bench_sweep_scaling(periods=args.sweep_periods, repeats=args.repeats)
+    """1 vs 2 workers and Dask on a 16-point sweep; the monitor study's slice on Dask."""
+    results = bench_sweep_scaling(periods=args.sweep_periods, repeats=args.repeats)
+    # one repeat: each is 8 sweeps of 12 flights (~6 min); its 12 flights are the averaging
+    results["monitor_dask"] = bench_monitor_dask(quick=args.quick, repeats=1)
+    return results
 
 
 def render(r: dict) -> Rendered:
     """The summary rows and the section's text."""
     rows, lines = render_sweep_scaling(r)
+    if "monitor_dask" in r:
+        more_rows, more_lines = render_monitor_dask(r["monitor_dask"])
+        rows, lines = rows + more_rows, lines + more_lines
     return Rendered([Row(**row) for row in rows], lines)

@@ -9,7 +9,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -329,6 +331,100 @@ def test_dask_local_cluster_equals_local_pool(reference_run: Path, tmp_path: Pat
     assert not [str(w.message) for w in caught if "8787" in str(w.message)]
     assert (result.done, result.failed, result.errors) == (6, 0, 0)
     assert_same_results(tmp_path / "backlash-small", reference_run)
+
+
+@pytest.fixture
+def dask_cluster() -> Iterator[Any]:
+    """A Dask cluster started apart from the sweep, as a user's would be: a scheduler and two
+    single-threaded worker processes, which the sweeps reach by its address only.  Closed
+    after each test: its workers are this process's children, which a local pool's
+    interruption (another test) kills."""
+    import logging
+
+    from distributed import LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    try:
+        yield cluster
+    finally:
+        cluster.close()
+
+
+def _sweep_on_scheduler(cluster: Any, path: Path, out: Path) -> tuple[int, dict[str, int]]:
+    """``probing sweep PATH -j 1 --executor dask --scheduler ADDRESS``: its exit code, and
+    how many chunks (``execute_chunk`` tasks) each of the cluster's workers ran, from the
+    scheduler's task stream.  ``-j 1`` is there to show that the chunks are cut for the
+    cluster's threads, not for ``-j``."""
+    from distributed import Client, get_task_stream
+
+    address = cluster.scheduler_address
+    with Client(address) as client:
+        client.wait_for_workers(2, timeout=60)
+        with get_task_stream(client=client) as stream:
+            args = ["sweep", str(path), "--out", str(out), "-j", "1"]
+            code = cli_main([*args, "--executor", "dask", "--scheduler", address])
+        workers = list(client.scheduler_info()["workers"])
+    chunks = dict.fromkeys(workers, 0)
+    for task in stream.data:
+        if task["key"].startswith("execute_chunk-") and task["status"] == "OK":
+            chunks[task["worker"]] += 1
+    return code, chunks
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+def test_a_sweep_on_a_running_scheduler_spreads_over_its_workers_and_equals_the_local_pool(
+    dask_cluster: Any, reference_run: Path, tmp_path: Path
+) -> None:
+    """The small sweep's 7 runs (6 points and their reference, one trimmed state) are cut
+    into 2 chunks for the cluster's 2 threads; each worker runs one."""
+    code, chunks = _sweep_on_scheduler(dask_cluster, SMALL, tmp_path)
+    assert code == 0
+    assert sorted(chunks.values()) == [1, 1], chunks
+    assert_same_results(tmp_path / "backlash-small", reference_run)
+
+
+def _parquet_files(sweep_dir: Path) -> dict[str, pd.DataFrame]:
+    return {
+        str(p.relative_to(sweep_dir)): pq.read_table(p).to_pandas()
+        for p in sorted((sweep_dir / "points").glob("*/*.parquet"))
+    }
+
+
+@pytest.mark.jsbsim
+@pytest.mark.slow
+def test_a_monitor_sweep_on_a_running_scheduler_equals_one_local_worker(
+    dask_cluster: Any, tmp_path: Path
+) -> None:
+    """Two short monitored flights of the study (GTM, NASA's T2 sensors, the detrend
+    reference, an effectiveness fault) on the cluster's two workers, one each: the same
+    files, value for value, as on one local worker."""
+    path = tmp_path / "mon.toml"
+    path.write_text(
+        f'name = "mon"\nbase = "{ROOT / "scenarios" / "references" / "base.toml"}"\n'
+        'kind = "monitor"\n[fixed]\n"probe.periods" = 64\n"output.drift" = "detrend"\n'
+        '"fault.type" = "effectiveness"\n"fault.scale" = 0.5\n"fault.onset_s" = 120.0\n'
+        '[zip]\n"disturbance.seed" = [1, 2]\n'
+    )
+    local = tmp_path / "local"
+    assert cli_main(["sweep", str(path), "--out", str(local), "-j", "1"]) == 0
+    code, chunks = _sweep_on_scheduler(dask_cluster, path, tmp_path / "dask")
+    assert code == 0
+    assert sorted(chunks.values()) == [1, 1], chunks
+    ours, theirs = _parquet_files(tmp_path / "dask" / "mon"), _parquet_files(local / "mon")
+    assert len(ours) == 2 * 4 and ours.keys() == theirs.keys()  # 4 tables per flight
+    for name in ours:
+        pd.testing.assert_frame_equal(ours[name], theirs[name], check_exact=True, obj=name)
+    pd.testing.assert_frame_equal(
+        _comparable(read_summary(tmp_path / "dask" / "mon")),
+        _comparable(read_summary(local / "mon")),
+    )
 
 
 @pytest.mark.jsbsim
