@@ -63,10 +63,12 @@ def test_groups_follow_what_the_trim_depends_on() -> None:
     assert trim_key(SCENARIOS[0].flight) == trim_key(SCENARIOS[2].flight)  # turbulence, seed
     other_dt = SCENARIOS[0].replace({"simulation.dt_s": 0.005}).flight
     assert trim_key(other_dt) != trim_key(SCENARIOS[0].flight)
-    # A group of 5 on 2 workers: chunks of 3 and 2, each loading and trimming once.
+    # A group of 5 on 2 workers: chunks of 3 and 2, each loading and trimming once, the runs
+    # dealt out in turn (neighbours in a sweep cost alike).
     five = [SCENARIOS[0]] * 5
-    assert chunked_groups(five, 2) == [[0, 1, 2], [3, 4]]
-    assert chunked_groups(five, 1, largest=2) == [[0, 1], [2, 3], [4]]
+    assert chunked_groups(five, 2) == [[0, 2, 4], [1, 3]]
+    assert chunked_groups(five, 1, largest=2) == [[0, 3], [1, 4], [2]]
+    assert chunked_groups(five, 5) == [[0], [1], [2], [3], [4]]
 
 
 @pytest.fixture()

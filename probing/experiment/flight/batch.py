@@ -67,14 +67,19 @@ def chunked_groups(
 ) -> list[list[int]]:
     """:func:`group_indices`, large groups cut into chunks that ``workers`` can share.
 
-    A group of n runs is cut into chunks of ceil(n / workers) runs, at most ``largest``:
-    every worker gets a part of a single large group, and a finished chunk reports its runs
-    (progress) at least every ``largest`` runs.  Each chunk loads and trims once.
+    A group of n runs is cut into chunks of at most ceil(n / workers) runs, at most
+    ``largest``: every worker gets a part of a single large group, and a finished chunk
+    reports its runs (progress) at least every ``largest`` runs.  Each chunk loads and trims
+    once.  The chunks are interleaved (run i goes to chunk i mod chunks): a sweep lists its
+    points field by field, so consecutive points cost alike (a study's ``gust`` flights,
+    which fly a second aircraft, come together), and cut in runs one worker would get the
+    costly ones while the other idles at the end.
     """
     out = []
     for group in group_indices(scenarios):
         size = max(1, min(largest, math.ceil(len(group) / max(1, workers))))
-        out += [group[i : i + size] for i in range(0, len(group), size)]
+        count = math.ceil(len(group) / size)
+        out += [group[i::count] for i in range(count)]
     return out
 
 
