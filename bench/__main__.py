@@ -39,6 +39,7 @@ SECTIONS: list[Section] = [
     Section("fig4", "make fig4", "fig4"),
     Section("bias", "Slow-mode bias", "noise_bias"),
     Section("monitor", "The monitor", "monitor"),
+    Section("realisable", "The monitor study's flights", "realisable"),
 ]
 
 

@@ -210,10 +210,21 @@ def bench_per_point(quick: bool, repeats: int) -> dict:
 def render_per_point(r: dict) -> tuple[list[dict], list[str]]:
     """Summary rows and the section's lines."""
     sweep, mem = r["sweep"], r["memory"]
-    big = [g for g in r["groups"] if g["model"] == "gtm_t2"][-1]
+    gtm = [g for g in r["groups"] if g["model"] == "gtm_t2"]
+    big, one = gtm[-1], gtm[0]
     ratio = big["after_s"] / big["stepping_s"]
+    marginal, own = _marginal(one, big)
     growth = (mem["rss_last_kib"] - mem["rss_first_kib"]) / 1024
     rows = [
+        {
+            "quantity": f"a GTM sweep point's marginal wall ({big['points']}-point group minus "
+            f"{one['points']}-point, per point), one worker",
+            "value": f"{marginal * 1e3:.0f} ms",
+            "baseline": f"{own * 1e3:.0f} ms (bare `run()` of its {big['steps_per_point']} steps)",
+            "ratio": f"{marginal / own:.2f}",
+            "target": "<= 1.3",
+            "met": marginal / own <= 1.3,
+        },
         {
             "quantity": f"{big['points']}-point GTM group, one worker: wall over stepping",
             "value": f"{big['after_s']:.2f} s",
@@ -316,6 +327,14 @@ def _same_data_line(differing: list[str]) -> str:
             "main before [3/6] flies the same aircraft files, so only the code differs."
         )
     return f"**The point data differs from: {', '.join(differing)}.**"
+
+
+def _marginal(one: dict, big: dict) -> tuple[float, float]:
+    """A point's marginal wall (the larger group's less the smaller's, per point added) and
+    the bare stepping of its own steps (s)."""
+    added = big["points"] - one["points"]
+    per_point = big["points_stepping_s"] / big["points"]
+    return (big["after_s"] - one["after_s"]) / added, per_point
 
 
 def _remains(g: dict) -> list[str]:

@@ -494,8 +494,8 @@ def _monitor_dask_limits(r: dict) -> list[str]:
         "with another: it estimates its own baseline from its own periods and keeps its own "
         "detector, so flights are the "
         "unit of parallel work. The study flies one condition, so each sweep is one group "
-        "with one trimmed state, cut into contiguous chunks of ceil(flights / workers) "
-        "flights (at most 64), one per worker; a chunk's worker loads and trims the GTM "
+        "with one trimmed state, cut into chunks of ceil(flights / workers) flights (at most "
+        "64), dealt out flight by flight, one per worker; a chunk's worker loads and trims the GTM "
         "(unless it holds it from its previous chunk) and forks a child per flight. On one "
         f"worker the {n} flights take {flown_s:.1f} s of the {w['local-1']:.1f} s sweep "
         f"(their `point.json` walls, medians: {costs}); the other "
@@ -508,8 +508,8 @@ def _monitor_dask_limits(r: dict) -> list[str]:
         + "and the summary.",
         "- **Unequal chunks.** A gust flight simulates a second aircraft (its reference's, "
         "from a gust-ready copy), and the references are the grid's outer field (as in the "
-        "study's sweeps), so "
-        "contiguous chunks differ: with 2 workers they hold "
+        "study's sweeps): cut in runs, one chunk would hold the gust flights, so the chunks "
+        "are dealt out flight by flight. With 2 workers they hold "
         f"{chunks['2']} s of flights, with 4, {chunks['4']} s. Handed out in order, they "
         f"allow {r['chunk_speedup']['2']:.2f}x on 2 workers and "
         f"{r['chunk_speedup']['4']:.2f}x on 4 (with as many cores); measured on 2: "
@@ -549,7 +549,7 @@ def _study_limits(s: dict, by: dict[str, float]) -> list[str]:
         "",
         "A sweep of n equal flights on w workers is cut into chunks of ceil(n / w) flights "
         "and lasts one chunk: n / ceil(n / w), not w (30 one-hour flights: 7.5x on 8 "
-        "workers). The fault sweeps last their gust chunks. With a worker per flight each "
+        "workers). With a worker per flight each "
         "sweep lasts its longest flight, a one-hour flight for the sweeps without a fault.",
     ]
 

@@ -34,7 +34,7 @@ def test_every_section_is_a_module_with_run_and_render_imported_when_used() -> N
     ).stdout
     found = json.loads(out.splitlines()[-1])
     assert found["before"] == ["bench.__main__", "bench.common", "bench.report"]
-    assert len(found["shapes"]) == 10
+    assert len(found["shapes"]) == 11
     assert all(shape == [True, True] for shape in found["shapes"].values()), found["shapes"]
 
 
