@@ -125,6 +125,27 @@ def estimator_weights(
     array([-0.5, -0.5, -0.5, -0.5, -0.5, -0.5, -0.5])
     """
     ref, a = _check(reference, amplitude, estimator)
+    harm = None if harmonics is None else np.asarray(harmonics).tobytes()
+    key = (ref.tobytes(), ref.dtype.str, a, estimator, harm)
+    found = _WEIGHTS.get(key)
+    if found is None:
+        if len(_WEIGHTS) >= 4:
+            _WEIGHTS.pop(next(iter(_WEIGHTS)))  # the oldest
+        z, h = _weights_of(ref, a, estimator, harmonics)
+        z.flags.writeable = h.flags.writeable = False
+        found = _WEIGHTS[key] = (z, h)
+    return found
+
+
+#: :func:`estimator_weights` remembered (read-only arrays), at most four: a sweep's points
+#: share their probe, and a (M, 2M) pair of M = 511 takes ~15 ms to build, in every forked
+#: point again unless its parent built it first.
+_WEIGHTS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _weights_of(
+    ref: np.ndarray, a: float, estimator: str, harmonics: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
     m = ref.size
     if estimator == SPECTRAL:
         z, _, h = spectral_estimates(np.eye(m), ref, a, harmonics)  # row n: y = e_n
