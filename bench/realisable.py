@@ -79,6 +79,37 @@ for drift in sys.argv[3].split(","):
     elif drift == "oracle":  # the nominal aircraft through the same turbulence
         floor += bare(scn.flight.nominal, steps)
     found[drift] = [wall, floor, steps]
+if "split" in sys.argv[4:]:  # the gust flight again, its time inside JSBSim's run() summed
+    import probing.sim.world as world
+    inside = [0.0]
+    class Timed:  # the plant's FGFDMExec, its run() timed
+        def __init__(self, fdm):
+            object.__setattr__(self, "fdm", fdm)
+        def __getattr__(self, name):
+            return getattr(self.fdm, name)
+        def __getitem__(self, key):
+            return self.fdm[key]
+        def __setitem__(self, key, value):
+            self.fdm[key] = value
+        def run(self):
+            t0 = time.perf_counter()
+            out = self.fdm.run()
+            inside[0] += time.perf_counter() - t0
+            return out
+    fly = world.JSBSimWorld.fly
+    def timed_fly(self, *args, **kwargs):
+        fdm, self.plant.fdm = self.plant.fdm, Timed(self.plant.fdm)
+        try:
+            return fly(self, *args, **kwargs)
+        finally:
+            self.plant.fdm = fdm
+    world.JSBSimWorld.fly = timed_fly
+    scn = base.replace({"output.drift": "gust", "probe.periods": periods, "name": "b-split"})
+    def split(s, aircraft):
+        wall = work(s, aircraft)
+        return wall, inside[0]
+    ((_, outcome),) = list(run_grouped([scn], lambda s: s, split))
+    found["split"] = list(outcome.get())
 print(json.dumps(found))
 """
 
@@ -99,9 +130,10 @@ kind = "monitor"
 """
 
 
-def _flights(tree: Path, periods: int) -> dict:
+def _flights(tree: Path, periods: int, split: bool = False) -> dict:
+    args = [str(periods), str(tree), ",".join(DRIFTS), *(["split"] if split else [])]
     done = subprocess.run(
-        [sys.executable, "-c", FLIGHT_CODE, str(periods), str(tree), ",".join(DRIFTS)],
+        [sys.executable, "-c", FLIGHT_CODE, *args],
         cwd=tree,
         capture_output=True,
         text=True,
@@ -116,10 +148,17 @@ def bench_flights(periods: int, repeats: int) -> dict:
     runs: dict[str, list[dict]] = {"after": [], "before": []}
     with project_at(BEFORE_SPEED) as old_tree:
         for _ in range(repeats):
-            runs["after"].append(_flights(ROOT, periods))
+            runs["after"].append(_flights(ROOT, periods, split=True))
             if old_tree is not None:
                 runs["before"].append(_flights(old_tree, periods))
-    out: dict = {"periods": periods, "revision": BEFORE_SPEED, "drifts": {}}
+    splits = [f.pop("split") for f in runs["after"]]
+    out: dict = {
+        "periods": periods,
+        "revision": BEFORE_SPEED,
+        "drifts": {},
+        # the gust flight again with JSBSim's run() timed inside it: (wall s, in run() s)
+        "split": sorted(splits, key=lambda s: s[1] / s[0])[len(splits) // 2],
+    }
     for drift in DRIFTS:
         row = {}
         for code, found in runs.items():
@@ -244,7 +283,18 @@ def render(r: dict) -> Rendered:
                 f"{v['wall_s'] / v['bare_s']:.2f} | {ratios} |"
             )
     lines.append("")
-    lines += [f"The previous figures, for comparison: {PREVIOUS}.", ""]
+    wall, inside = f["split"]
+    lines += [
+        f"Where a `gust` flight's time goes (this code, the flight again with JSBSim's `run()` "
+        f"timed inside it, each call through a thin timer): {wall:.2f} s, of which "
+        f"{inside:.2f} s ({100 * inside / wall:.0f} %) inside `run()` of its two aircraft and "
+        f"{wall - inside:.2f} s in this project's code (the flight computer's law, the "
+        "sensors, the property writes and reads of each step, the gust estimator, the "
+        "estimates, the monitor and the files).",
+        "",
+        f"The previous figures, for comparison: {PREVIOUS}.",
+        "",
+    ]
     if not s.get("skipped"):
         after = ", ".join(f"{x:.1f}" for x in s["walls"]["after"])
         before = ", ".join(f"{x:.1f}" for x in s["walls"]["before"])
