@@ -12,7 +12,7 @@ them on the flight computer's side to what the separate simulator gives.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -77,12 +77,11 @@ class SensorBank:
         true: np.ndarray,
         draws: np.ndarray,
         stepped: dict[int, list[float]],
-        after: Callable[[int, list[float]], list[float]] | None = None,
     ) -> np.ndarray:
         """The block's measurements ``(n, sensors)``: the columns in ``stepped`` as they were
         measured step by step, every other column's sensor run over its true values (the
-        same floats as step by step, :meth:`probing.core.sensors.Sensor.run`), then
-        ``after(column, values)`` for each of these (a sensor fault, in order).
+        same floats as step by step, :meth:`probing.core.sensors.Sensor.run`); a sensor
+        fault is the caller's.
 
         Parameters
         ----------
@@ -92,8 +91,6 @@ class SensorBank:
             ``(n, sensors)``: the block's :meth:`draws`.
         stepped : dict
             Column -> its measurements, already made step by step (:attr:`live`).
-        after : callable, optional
-            Applied to each column measured here (not to ``stepped``'s).
         """
         n = true.shape[0]
         out = np.empty((n, len(self.sensors)))
@@ -101,10 +98,7 @@ class SensorBank:
             if j in stepped:
                 out[:, j] = stepped[j]
                 continue
-            column = sensor.run(true[:, j], draws[:, j])
-            out[:, j] = column if after is None else after(j, column.tolist())
-        if n:
-            self.current[:] = out[-1].tolist()
+            out[:, j] = sensor.run(true[:, j], draws[:, j])
         return out
 
     def measure(self, true: np.ndarray) -> np.ndarray:

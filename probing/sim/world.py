@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from probing.core.faults import onset_step
+from probing.core.faults import apply_sensor_fault, onset_step
 from probing.sim.autopilot import Autopilot, Demand
 from probing.sim.drive import SurfaceDrive
 from probing.sim.flight import ActuatorFault
@@ -360,18 +360,16 @@ class JSBSimWorld:
         self, true: np.ndarray, draws: np.ndarray, stepped: dict[int, list[float]], first: int
     ) -> np.ndarray:
         """The sensors' block of ``true`` values from step ``first`` on, the columns read step
-        by step already measured (``stepped``); the sensor fault on a column measured here
-        acts here, in order (:meth:`probing.sim.sensing.Sensing.complete`)."""
+        by step already measured (``stepped``); a sensor fault on a column measured here acts
+        here, in order (:func:`probing.core.faults.apply_sensor_fault`)."""
         sensing = self.sensing
         assert sensing is not None
-        fault, at, onset = sensing.fault, sensing.fault_channel, sensing.fault_onset
-
-        def after(j: int, column: list[float]) -> list[float]:
-            if fault is None or j != at:
-                return column
-            return [fault.measure(v, first + i, onset) for i, v in enumerate(column)]
-
-        return sensing.complete(true, draws, stepped, after)
+        block = sensing.complete(true, draws, stepped)
+        if sensing.fault is not None and sensing.fault_channel not in stepped:
+            apply_sensor_fault(sensing.fault, block, sensing.channels, first, self.plant.dt_s)
+        if len(block):
+            sensing.current[:] = block[-1].tolist()
+        return block
 
 
 #: JSBSim's integrator choices, one per kind of state (0 holds the state still).
