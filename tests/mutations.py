@@ -107,7 +107,25 @@ MUTATIONS = [
         "tests/experiment/test_storage.py::test_a_failed_run_leaves_nothing_half_written",
     ),
     (
-        "probing/sweep/execute.py",
+        "probing/experiment/flight/run.py",
+        "if all(r.diverged for r in readers):",
+        "if any(r.diverged for r in readers):",
+        "tests/sweep/test_flight_families.py::test_references_of_one_flight_write_what_they_write_alone",
+    ),
+    (
+        "probing/experiment/flight/run.py",
+        "r.computer.finish(r.outputs, r.diverged or rig.ended)",
+        "r.computer.finish(r.outputs, rig.ended)",
+        "tests/sweep/test_flight_families.py::test_references_of_one_flight_write_what_they_write_alone",
+    ),
+    (
+        "probing/experiment/flight/run.py",
+        "commanded=rig.autopilot is not None,",
+        "commanded=None,",
+        "tests/sweep/test_flight_families.py::test_references_of_one_flight_write_what_they_write_alone",
+    ),
+    (
+        "probing/sweep/tasks.py",
         "Path(task.failed_file).unlink(missing_ok=True)",
         "pass",
         "tests/sweep/test_sweep.py::test_a_retry_that_succeeds_removes_the_old_failure_record",

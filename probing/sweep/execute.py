@@ -1,9 +1,10 @@
-"""Running a sweep: tasks, the local and Dask executors, the folder lock, resume.
+"""Running a sweep: the local and Dask executors, the folder lock, resume.
 
 Each run (a point, or a shared reference) is computed in a hidden temporary folder and
 renamed into ``points/point_id=<id>/`` (``references/...``) when complete; a failed run is
-recorded in ``failed/<id>.json`` and the sweep goes on.  The executor is opened *before*
-anything is written: an unreachable Dask scheduler leaves no trace.
+recorded in ``failed/<id>.json`` and the sweep goes on (:mod:`probing.sweep.tasks`).  The
+executor is opened *before* anything is written: an unreachable Dask scheduler leaves no
+trace.
 """
 
 from __future__ import annotations
@@ -17,21 +18,18 @@ import shutil
 import signal
 import sys
 import time
-import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import Any, TextIO
 
 from probing.core.forked import INTERRUPTS, STOPS
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.storage import write_json_atomic
 from probing.experiment.scenario import Scenario
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
-from probing.sweep.summary import predictions, settled_stats, summarise, write_summary
-
-if TYPE_CHECKING:  # the sim layer loads JSBSim: only where runs are executed
-    from probing.sim.fork import TrimmedAircraft
+from probing.sweep.summary import summarise, write_summary
+from probing.sweep.tasks import Task, execute_chunk, execute_task, import_task_code
 
 __all__ = [
     "EXECUTORS",
@@ -54,169 +52,6 @@ class SchedulerError(ValueError):
     """The Dask scheduler named by ``--scheduler`` cannot be reached (or the address is bad)."""
 
 
-# ------------------------------------------------------------------ running one task
-@dataclass(frozen=True)
-class _Task:
-    kind: str  # "point" | "reference"
-    run_id: str
-    scenario: Scenario
-    target: str  # final folder
-    failed_file: str
-    monitor: bool = False  # a monitored flight (probing monitor) instead of a run
-
-
-def execute_task(task: _Task, aircraft: TrimmedAircraft | None = None) -> dict[str, Any]:
-    """Run one point or reference into its folder, atomically; never raises for a failed run.
-
-    ``aircraft``: the trimmed aircraft of the task's chunk, in a child forked from its owner
-    (:func:`execute_chunk`); None loads and trims.  Returns a record: ``kind``, ``run_id``,
-    ``status`` (``done``, ``failed`` for a trim failure or divergence, ``error`` for
-    anything unexpected, ``skipped`` when the folder already existed), ``message``,
-    ``wall_s``.
-    """
-    from probing.sim.errors import DivergenceError, TrimError
-
-    final = Path(task.target)
-    record: dict[str, Any] = {"kind": task.kind, "run_id": task.run_id, "message": ""}
-    if (final / POINT_FILE).exists():
-        return {**record, "status": "skipped", "wall_s": math.nan}
-    final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-    t0 = time.perf_counter()
-    try:
-        result, monitored = _fly_task(task, final, tmp, aircraft)
-    except (TrimError, DivergenceError) as exc:
-        status, message = "failed", str(exc)
-    except Exception as exc:  # recorded, reported, and the sweep goes on
-        status, message = "error", f"{exc.__class__.__name__}: {exc}"
-    else:
-        wall = time.perf_counter() - t0
-        _store_done(task, final, tmp, result, monitored, wall)
-        return {**record, "status": "done", "wall_s": wall}
-    shutil.rmtree(tmp, ignore_errors=True)
-    wall = time.perf_counter() - t0
-    write_json_atomic(
-        Path(task.failed_file),
-        {
-            "kind": task.kind,
-            "point_id": task.run_id,
-            "status": status,
-            "message": message,
-            "wall_s": wall,
-        },
-    )
-    return {**record, "status": status, "message": message, "wall_s": wall}
-
-
-def _fly_task(
-    task: _Task, final: Path, tmp: Path, aircraft: TrimmedAircraft | None
-) -> tuple[Any, Any]:
-    """Fly a task's scenario into ``tmp``: the run's result, and the monitor's (or None)."""
-    from probing.experiment.flight.monitor import monitor_scenario
-    from probing.experiment.flight.run import run_scenario
-
-    if task.monitor:
-        monitored = monitor_scenario(
-            task.scenario, final.parent, progress=False, folder=tmp, aircraft=aircraft
-        )
-        return monitored.run, monitored
-    result = run_scenario(
-        task.scenario,
-        final.parent,
-        progress=False,
-        folder=tmp,
-        aircraft=aircraft,
-        keep_settled=True,
-    )
-    return result, None
-
-
-def _store_done(
-    task: _Task, final: Path, tmp: Path, result: Any, monitored: Any, wall: float
-) -> None:
-    """Write a finished run's ``point.json``, move its folder into place, clear its failure."""
-    info = {
-        "kind": task.kind,
-        "point_id": task.run_id,
-        "status": "done",
-        "wall_s": wall,
-        "steps_simulated": result.steps_simulated,
-        "scenario": task.scenario.to_dict(),
-    }
-    if monitored is not None:
-        info["monitor"] = monitored.facts()
-    else:
-        # Statistics of the first channel, computed here, in parallel, for the summary.
-        info["settled"] = settled_stats(tmp, task.scenario, result.settled)
-        info["predicted"] = predictions(task.scenario) if task.kind == "point" else {}
-    write_json_atomic(tmp / POINT_FILE, info, compact=True)
-    try:
-        os.rename(tmp, final)
-    except OSError:  # another worker finished the same run first: keep theirs
-        shutil.rmtree(tmp, ignore_errors=True)
-    Path(task.failed_file).unlink(missing_ok=True)
-
-
-def execute_chunk(tasks: list[_Task]) -> list[dict[str, Any]]:
-    """Run tasks that share one trimmed state: one load and trim, one forked child per run.
-
-    The records of :func:`execute_task`, in the order of ``tasks``.  A child that ended
-    without a record (killed) gives an ``error`` record and no ``failed/`` file, so the run
-    is tried again by the next invocation.
-    """
-    from probing.experiment.flight.batch import run_grouped
-
-    _import_task_code()
-
-    records: list[dict[str, Any]] = []
-    todo = []
-    for task in tasks:
-        if (Path(task.target) / POINT_FILE).exists():  # another worker finished it: no fork
-            records.append(execute_task(task))
-        else:
-            todo.append(task)
-    outcomes = run_grouped(todo, _scenario_of, execute_task, prepare=_shared_predictions)
-    for i, outcome in outcomes:
-        if outcome.error is None:
-            records.append(outcome.value)
-        else:
-            message = f"{outcome.error.__class__.__name__}: {outcome.error}"
-            task = todo[i]
-            records.append(
-                {"kind": task.kind, "run_id": task.run_id, "message": message}
-                | {"status": "error", "wall_s": math.nan}
-            )
-    return records
-
-
-def _import_task_code() -> None:
-    """Import what :func:`execute_task` imports when it runs, here, before the runs fork: a
-    module imported in a forked child is imported (and, without bytecode files, compiled)
-    again in every child, ~8 ms a run for the monitor alone."""
-    import probing.experiment.design.noise
-    import probing.experiment.flight.monitor
-    import probing.experiment.flight.run
-    import probing.sim.errors  # noqa: F401
-
-
-def _scenario_of(task: _Task) -> Scenario:
-    return task.scenario
-
-
-def _shared_predictions(scenarios: list[Scenario], aircraft: TrimmedAircraft) -> None:
-    """Compute, before the chunk's children fork, what their predictions share: the
-    linearisation at the trim (of a copy of the chunk's trimmed aircraft) and its step
-    response; each child would otherwise compute them again."""
-    from probing.experiment.design.noise import linear_model
-
-    first = scenarios[0]
-    try:
-        linear_model(first.flight, first.channels, aircraft)
-    except Exception:  # recorded by each point's prediction, as without the warm-up
-        return
-    predictions(first)
-
-
 # ------------------------------------------------------------------ executors
 class _Local:
     """A pool of forked worker processes on this machine."""
@@ -227,7 +62,7 @@ class _Local:
     def close(self) -> None:
         """Nothing to release between sweeps."""
 
-    def run(self, chunks: list[list[_Task]]) -> Iterator[list[dict[str, Any]]]:
+    def run(self, chunks: list[list[Task]]) -> Iterator[list[dict[str, Any]]]:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -236,7 +71,7 @@ class _Local:
         import pandas  # noqa: F401
         import pyarrow.parquet  # noqa: F401
 
-        _import_task_code()
+        import_task_code()
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         workers = min(self.jobs, len(chunks))
         with (
@@ -323,7 +158,7 @@ class _Dask:
         if self.cluster is not None:
             self.cluster.close()
 
-    def run(self, chunks: list[list[_Task]]) -> Iterator[list[dict[str, Any]]]:
+    def run(self, chunks: list[list[Task]]) -> Iterator[list[dict[str, Any]]]:
         from distributed import as_completed
 
         futures = self.client.map(execute_chunk, chunks, pure=False)
@@ -514,7 +349,7 @@ def _pending(sweep: Sweep, sweep_dir: Path, retry_failed: bool, result: SweepRes
 
 def _execute(
     pool: _Local | _Dask,
-    todo: list[_Task],
+    todo: list[Task],
     name: str,
     result: SweepResult,
     progress: bool | None,
@@ -529,7 +364,8 @@ def _execute(
             return
     from probing.experiment.flight.batch import chunked_groups
 
-    chunks = chunked_groups([t.scenario for t in todo], pool.jobs)
+    shares = [t.shares for t in todo]  # a study's references of one flight fly it once
+    chunks = chunked_groups([t.scenario for t in todo], pool.jobs, shares=shares)
     workers = min(pool.jobs, len(chunks))  # the ETA: runs' wall time over the workers
     with progress_bar(
         len(todo), name, "runs", stream, progress, lines=True, intro=intro, workers=workers
@@ -553,8 +389,8 @@ def _execute(
 
 def _task(
     kind: str, run_id: str, scn: Scenario, base: Path, failed_dir: Path, monitor: bool = False
-) -> _Task:
-    return _Task(
+) -> Task:
+    return Task(
         kind=kind,
         run_id=run_id,
         scenario=scn,

@@ -66,8 +66,11 @@ SUMMARY_COLUMNS: dict[str, tuple[str, str]] = {
         "(measured_gain's, on the reference's, is predicted_gain times it)",
     ),
     "predicted_h_bias": (PER_DEG, "the slow modes' transient in the settled h_est, RMS over taps"),
-    "wall_s": ("s", "wall time of the point's run"),
-    "steps_simulated": ("1", "JSBSim steps the point's run simulated"),
+    "wall_s": ("s", "wall time of the point's run (its share of a flight it shared)"),
+    "steps_simulated": (
+        "1",
+        "JSBSim steps the point's run simulated (a shared flight's aircraft: on its flown point)",
+    ),
     "reference_id": ("", "point_id of the run without the nonlinearity"),
     # monitor sweeps (probing monitor's points)
     "fault_type": ("", "the point's [fault] type, none without one"),

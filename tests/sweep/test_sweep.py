@@ -633,14 +633,15 @@ def test_forked_runs_import_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     """A chunk imports what its runs need before it forks them: a module imported in a child
     is imported (and compiled, without bytecode files) again in every child."""
     import probing.sweep.execute as execute
+    import probing.sweep.tasks as tasks_module
 
-    def recording(task, aircraft=None):  # runs in the forked child
+    def recording(tasks, aircraft=None):  # runs in the forked child
         before = set(sys.modules)
-        record = run_task(task, aircraft)
-        return {**record, "imported": sorted(set(sys.modules) - before)}
+        records = run_flight(tasks, aircraft)
+        return [{**r, "imported": sorted(set(sys.modules) - before)} for r in records]
 
-    run_task = execute.execute_task
-    monkeypatch.setattr(execute, "execute_task", recording)
+    run_flight = tasks_module.execute_flight
+    monkeypatch.setattr(tasks_module, "execute_flight", recording)
     sweep = load_sweep(SMALL)
     points_dir, _, failed_dir = execute.sweep_folders(tmp_path / sweep.name)
     tasks = [

@@ -25,6 +25,7 @@ from typing import Any, TypeVar
 
 from probing.core.forked import Outcome, can_fork, forked_map
 from probing.experiment.flight.onboard import twin_flight
+from probing.experiment.flight.run import flight_key
 from probing.experiment.output.storage import batch_of_runs
 from probing.experiment.scenario import Scenario
 from probing.experiment.scenario.references import REFERENCES
@@ -33,7 +34,7 @@ from probing.sim.flight import Flight
 from probing.sim.fork import TrimmedAircraft, trim_key
 from probing.sim.twins import store_twin, twin_stored
 
-__all__ = ["chunked_groups", "group_indices", "run_grouped"]
+__all__ = ["chunked_groups", "flight_families", "group_indices", "run_grouped"]
 
 T = TypeVar("T")
 
@@ -62,24 +63,42 @@ def group_indices(scenarios: Sequence[Scenario]) -> list[list[int]]:
     return list(groups.values())
 
 
+def flight_families(scenarios: Sequence[Scenario], shares: Sequence[bool]) -> list[list[int]]:
+    """Indices of ``scenarios`` grouped into flights, in order of first appearance: those that
+    may share a flight (``shares``: monitored flights) and differ only in their reference
+    (:func:`probing.experiment.flight.run.flight_key`) fly it once, the first flying, the others
+    its companions; every other scenario flies alone.
+    """
+    families: dict[object, list[int]] = {}
+    for i, (scn, share) in enumerate(zip(scenarios, shares, strict=True)):
+        key = flight_key(scn) if share else i
+        families.setdefault(key, []).append(i)
+    return list(families.values())
+
+
 def chunked_groups(
-    scenarios: Sequence[Scenario], workers: int, largest: int = 64
+    scenarios: Sequence[Scenario],
+    workers: int,
+    largest: int = 64,
+    shares: Sequence[bool] | None = None,
 ) -> list[list[int]]:
     """:func:`group_indices`, large groups cut into chunks that ``workers`` can share.
 
-    A group of n runs is cut into chunks of at most ceil(n / workers) runs, at most
-    ``largest``: every worker gets a part of a single large group, and a finished chunk
-    reports its runs (progress) at least every ``largest`` runs.  Each chunk loads and trims
-    once.  The chunks are interleaved (run i goes to chunk i mod chunks): a sweep lists its
-    points field by field, so consecutive points cost alike (a study's ``gust`` flights,
-    which fly a second aircraft, come together), and cut in runs one worker would get the
-    costly ones while the other idles at the end.
+    A group of n flights (:func:`flight_families` with ``shares``: each flight's scenarios
+    stay together, in one chunk) is cut into chunks of at most ceil(n / workers) flights, at
+    most ``largest``: every worker gets a part of a single large group, and a finished chunk
+    reports its runs (progress) at least every ``largest`` flights.  Each chunk loads and
+    trims once.  The chunks are interleaved (flight i goes to chunk i mod chunks): a sweep
+    lists its points field by field, so consecutive points cost alike (a study's ``gust``
+    flights, which fly a second aircraft, come together), and cut in runs one worker would
+    get the costly ones while the other idles at the end.
     """
+    families = flight_families(scenarios, shares or [False] * len(scenarios))
     out = []
-    for group in group_indices(scenarios):
+    for group in group_indices([scenarios[f[0]] for f in families]):
         size = max(1, min(largest, math.ceil(len(group) / max(1, workers))))
         count = math.ceil(len(group) / size)
-        out += [group[i::count] for i in range(count)]
+        out += [[i for k in group[j::count] for i in families[k]] for j in range(count)]
     return out
 
 
@@ -105,6 +124,7 @@ def run_grouped(
     *,
     jobs: int = 1,
     prepare: Callable[[list[Scenario], TrimmedAircraft], None] | None = None,
+    others: Callable[[T], Sequence[Scenario]] | None = None,
 ) -> Iterator[tuple[int, Outcome]]:
     """Run ``work(item, aircraft)`` for every item, one load and trim per group.
 
@@ -125,6 +145,10 @@ def run_grouped(
         ``prepare(scenarios, aircraft)``, called in this process with each group's
         scenarios and trimmed aircraft before its children fork, to compute what they all
         share once (what it caches, they inherit; it may fork copies of ``aircraft``).
+    others : callable, optional
+        ``others(item)``: the scenarios an item computes besides its own, from its flight
+        (:class:`~probing.experiment.flight.run.Companion`): the group readies what
+        they fly too.
 
     Yields
     ------
@@ -132,7 +156,7 @@ def run_grouped(
         The item's position and what ``work`` returned or raised, as the runs finish.
     """
     with batch_of_runs():
-        yield from _run_grouped(items, scenario_of, work, jobs, prepare)
+        yield from _run_grouped(items, scenario_of, work, jobs, prepare, others)
 
 
 def _run_grouped(
@@ -141,8 +165,10 @@ def _run_grouped(
     work: Callable[[T, TrimmedAircraft | None], Any],
     jobs: int,
     prepare: Callable[[list[Scenario], TrimmedAircraft], None] | None,
+    others: Callable[[T], Sequence[Scenario]] | None,
 ) -> Iterator[tuple[int, Outcome]]:
     scenarios = [scenario_of(item) for item in items]
+    besides = [list(others(item)) if others else [] for item in items]
     if not can_fork():
         for i, item in enumerate(items):
             try:
@@ -151,7 +177,7 @@ def _run_grouped(
                 yield i, Outcome(i, error=exc)
         return
     for group in group_indices(scenarios):
-        members = [scenarios[i] for i in group]
+        members = [s for i in group for s in (scenarios[i], *besides[i])]
         try:
             aircraft: TrimmedAircraft | None = _trimmed(members[0].flight)
         except Exception:  # each run loads and trims itself, and reports the failure as usual

@@ -181,15 +181,19 @@ class FlightComputer:
         *,
         log_channels: list[str] | None = None,
         keep_settled: bool = False,
+        commanded: bool | None = None,
         **log_meta: Any,
     ) -> None:
         """Open the flight's files in ``outputs``: the estimates, the monitor's, and with
         ``log_channels`` the log of those channels (its footer: the trim as measured and
-        ``log_meta``)."""
+        ``log_meta``); ``commanded``: the log holds the autopilot's commands (default: this
+        computer flies one; a computer reading another's flight has none of its own)."""
         scn = self.scn
         self.estimates = EstimatesFile(outputs, scn, lag_s, keep_settled)
         if log_channels is not None:
-            schema = sensors_schema(log_channels, self.autopilot is not None, scn.surface)
+            if commanded is None:
+                commanded = self.autopilot is not None
+            schema = sensors_schema(log_channels, commanded, scn.surface)
             writer = outputs.writer(
                 "sensors.parquet", log_channels, scn.surface_unit, schema=schema
             )

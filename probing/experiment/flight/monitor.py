@@ -28,14 +28,14 @@ import pyarrow.parquet as pq
 from probing.core.isolation import DETECTORS, ISOLATION_CHECKS, isolated_verdict
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.trajectory import TrajectoryDetector
-from probing.experiment.flight.flight_computer import FlightComputer, ReferenceDiverged
+from probing.experiment.flight.flight_computer import FlightComputer, ReferenceDiverged, folder_of
 from probing.experiment.flight.onboard import (
     isolation_columns,
     log_columns,
     open_reference_twin,
     reference_source,
 )
-from probing.experiment.flight.run import CHUNK_STEPS, RunResult, run_scenario
+from probing.experiment.flight.run import CHUNK_STEPS, Companion, RunResult, run_scenario
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.storage import (
     MONITOR_SCHEMA,
@@ -55,6 +55,7 @@ __all__ = [
     "ReplayError",
     "logged_chunk_periods",
     "logged_scenario",
+    "monitor_flight",
     "monitor_scenario",
     "replay_monitor",
 ]
@@ -368,22 +369,57 @@ def monitor_scenario(
     probing.experiment.scenario.ScenarioError
         If the run is too short for the baseline (checked before anything runs).
     """
-    monitor = Monitor(scn, scn.monitor_settings())
+    folder = folder_of(out, scn.name, folder)
+    options = {"progress": progress, "stream": stream, "twin_cache": twin_cache}
+    return monitor_flight([scn], [folder], aircraft=aircraft, timeseries=timeseries, **options)[0]
+
+
+def monitor_flight(
+    scenarios: Sequence[Scenario],
+    folders: Sequence[str | Path],
+    *,
+    progress: bool | None = None,
+    stream: TextIO | None = None,
+    twin_cache: bool = True,
+    aircraft: TrimmedAircraft | None = None,
+    timeseries: bool = False,
+) -> list[MonitorResult]:
+    """Fly the first scenario with the monitor, and monitor the others from the same flight:
+    scenarios that differ from it only in their reference (``output.drift``), each into its
+    folder, with the files and results it would have had flown alone
+    (:class:`~probing.experiment.flight.run.Companion`).  The aircraft flies once.
+
+    ``scenarios``: one flight (:func:`~probing.experiment.flight.run.flight_key`), distinct
+    references; ``folders``: each one's; the rest as for :func:`monitor_scenario`
+    (``timeseries``: the first scenario's).  Returns each scenario's result, in order.
+
+    Raises
+    ------
+    probing.experiment.scenario.ScenarioError
+        If the run is too short for a baseline (checked before anything runs).
+    ValueError
+        If the scenarios are not one flight with distinct references.
+    """
+    monitors = [Monitor(s, s.monitor_settings()) for s in scenarios]
+    paths = [Path(f) for f in folders]
+    others = zip(scenarios[1:], paths[1:], monitors[1:], strict=True)
     run = run_scenario(
-        scn,
-        out,
+        scenarios[0],
+        paths[0].parent,
         progress=progress,
         stream=stream,
-        folder=folder,
+        folder=paths[0],
         twin_cache=twin_cache,
         aircraft=aircraft,
-        observer=monitor,
+        observer=monitors[0],
         timeseries=timeseries,
         nominal_twin=True,
         stop_on_divergence=True,
         record=True,
+        companions=[Companion(s, f, m) for s, f, m in others],
     )
-    return monitor.result(run, run.out_dir, run.ended)
+    runs = [run, *run.companions]
+    return [m.result(r, r.out_dir, r.ended) for m, r in zip(monitors, runs, strict=True)]
 
 
 class ReplayError(ValueError):

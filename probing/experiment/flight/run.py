@@ -17,10 +17,11 @@ whole periods), a drift correction per ``output.drift`` mode (:class:`_Streaming
 
 from __future__ import annotations
 
+import json
 import time
-from collections.abc import Iterator
-from contextlib import nullcontext
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -35,7 +36,12 @@ from probing.experiment.flight.flight_computer import (
     flight_autopilot,
     folder_of,
 )
-from probing.experiment.flight.onboard import calm_nominal, open_reference_twin, reference_source
+from probing.experiment.flight.onboard import (
+    Estimated,
+    calm_nominal,
+    open_reference_twin,
+    reference_source,
+)
 from probing.experiment.flight.runners import runner_of
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.settled import SettledMean
@@ -47,7 +53,7 @@ from probing.experiment.output.storage import (
     timeseries_schema,
 )
 from probing.experiment.scenario import Scenario
-from probing.experiment.scenario.references import REFERENCES
+from probing.experiment.scenario.references import REFERENCE_FIELDS, REFERENCES
 from probing.sim.autopilot import Autopilot
 from probing.sim.control import control_power
 from probing.sim.errors import DivergenceError
@@ -58,7 +64,7 @@ from probing.sim.surfaces import SURFACES
 from probing.sim.twins import ReferenceTwin
 from probing.sim.world import JSBSimWorld
 
-__all__ = ["RunObserver", "RunResult", "SettledMean", "run_scenario"]
+__all__ = ["Companion", "RunObserver", "RunResult", "SettledMean", "flight_key", "run_scenario"]
 
 #: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
 #: least one; the plant is still stepped and checked period by period.
@@ -92,6 +98,10 @@ class RunResult:
     ended : str or None
         With ``stop_on_divergence``: why the flight ended before its last period (the
         divergence), None if it flew them all.
+    companions : list of RunResult
+        What each :class:`Companion` of the run computed, in their order; their
+        ``steps_simulated`` count their own reference's steps only (the aircraft's are the
+        run's), their ``wall_s`` is the whole call's.
     """
 
     out_dir: Path
@@ -103,6 +113,40 @@ class RunResult:
     twin_key: str | None = None
     settled: Settled | None = None
     ended: str | None = None
+    companions: list[RunResult] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Companion:
+    """A scenario computed from the flight of another: the two differ only in their reference
+    (``output.drift``, :func:`flight_key`), so the aircraft, its turbulence, sensors,
+    autopilot and probe fly the same steps.  Its own flight computer reads the flight's log
+    chunk by chunk, with its own reference, estimates, monitor and files, exactly as if it had
+    flown them (``tests/sweep/test_flight_families.py``): a study's references of one flight
+    fly it once (:mod:`probing.sweep.tasks`).
+
+    Attributes
+    ----------
+    scn : Scenario
+        Its scenario.
+    folder : pathlib.Path
+        Where its files go.
+    observer : RunObserver, optional
+        Its monitor.
+    """
+
+    scn: Scenario
+    folder: Path
+    observer: RunObserver | None = None
+
+
+def flight_key(scn: Scenario) -> str:
+    """What makes two scenarios one flight (a :class:`Companion` of each other): everything
+    of the scenario but its reference and the reference's settings (:data:`REFERENCE_FIELDS`),
+    which only the flight computer's estimates read."""
+    resolved = scn.to_dict()
+    output = {k: v for k, v in resolved["output"].items() if k not in REFERENCE_FIELDS}
+    return json.dumps({**resolved, "output": output}, sort_keys=True)
 
 
 # ------------------------------------------------------------------ set-up
@@ -119,22 +163,13 @@ class _Rig:
     autopilot: Autopilot | None  # stepping one step at a time: a loop, a fault, sensors
     nodes: list
     y_trim: np.ndarray
-    twin: ReferenceTwin | None
-    nominal_twin: bool = False
     stop_on_divergence: bool = False
     ended: str | None = None  # why the flight ended early (stop_on_divergence)
-    follower: Plant | None = None  # drift "follow": the nominal aircraft to fly our commands
     periods_flown: int = 0
     record: bool = False  # write sensors.parquet: the autopilot's commands are kept then
 
     @classmethod
-    def build(
-        cls,
-        scn: Scenario,
-        twin_cache: bool,
-        aircraft: TrimmedAircraft | None,
-        nominal_twin: bool = False,
-    ) -> _Rig:
+    def build(cls, scn: Scenario, aircraft: TrimmedAircraft | None) -> _Rig:
         flight = scn.flight
         power = control_power(flight) if flight.closed_loop else None
         plant = aircraft.plant_for(flight) if aircraft else make_plant(flight)
@@ -148,32 +183,7 @@ class _Rig:
             y_trim = np.array([sensing.current[sensing.index(c)] for c in scn.channels])
         else:
             y_trim = np.array([n.get_double_value() for n in nodes])
-        twin = open_reference_twin(scn, nominal=nominal_twin, use_cache=twin_cache)
-        follower = None
-        flies = REFERENCES[scn.drift].flies  # a trimmed nominal aircraft the reference flies
-        if flies:
-            gust_inputs = flies == "gust_ready"
-            try:
-                calm = calm_nominal(flight)  # a model of the aircraft knows no gusts
-                if aircraft is not None and aircraft.key == trim_key(calm):
-                    follower = aircraft.second_for(calm, gust_inputs)
-                follower = follower or make_plant(calm, gust_inputs=gust_inputs)
-            except BaseException:
-                if twin is not None:
-                    twin.close(success=False)  # its temporary file goes
-                raise
-        return cls(
-            scn,
-            scn.probe,
-            plant,
-            world,
-            autopilot,
-            nodes,
-            y_trim,
-            twin,
-            nominal_twin,
-            follower=follower,
-        )
+        return cls(scn, scn.probe, plant, world, autopilot, nodes, y_trim)
 
     @property
     def period_steps(self) -> int:
@@ -185,8 +195,24 @@ class _Rig:
         """Periods post-processed together: about :data:`CHUNK_STEPS` steps, at least one."""
         return max(1, CHUNK_STEPS // self.period_steps)
 
-    def metadata(self) -> dict[bytes, bytes]:
-        """The key-value metadata of the run's files."""
+
+@dataclass
+class _Reader:
+    """A flight computer reading the flight, with what its reference flies and its files: the
+    flown scenario's, or a :class:`Companion`'s."""
+
+    scn: Scenario
+    folder: Path
+    computer: FlightComputer
+    twin: ReferenceTwin | None
+    follower: Plant | None  # a log reference's own aircraft (``follow``, ``gust``)
+    nominal_twin: bool
+    outputs: OutputFolder | None = None
+    diverged: str | None = None  # why its reference ended its reading (stop_on_divergence)
+    periods: int = 0  # periods it read
+
+    def metadata(self, trim: TrimResult) -> dict[bytes, bytes]:
+        """The key-value metadata of its files."""
         scn = self.scn
         meta: dict[str, object] = {
             "drift": scn.drift,
@@ -197,7 +223,54 @@ class _Rig:
             meta["twin"] = {"key": self.twin.key}  # not whether it was cached: same bytes
             if self.nominal_twin:
                 meta["twin"]["nominal"] = True  # the fault-free model, not the flown one
-        return scenario_provenance(scn, self.plant.trim_result, **meta)
+        return scenario_provenance(scn, trim, **meta)
+
+    def read(self, c: _Chunk, stop_on_divergence: bool) -> Estimated | None:
+        """Its flight computer's reading of a chunk; None once its reference has diverged
+        (with ``stop_on_divergence``, else that raises)."""
+        if self.diverged is not None:
+            return None
+        self.periods = c.first + c.count
+        try:
+            return self.computer.consume(c.log, c.first)
+        except ReferenceDiverged as exc:
+            if not stop_on_divergence:
+                raise
+            self.diverged = str(exc)  # the periods before this chunk are kept
+            return None
+
+
+def _reader(
+    stack: ExitStack,
+    rig: _Rig,
+    companion: Companion,
+    options: tuple[bool, TrimmedAircraft | None, bool],
+    taken: set[str],
+) -> _Reader:
+    """A reader of ``rig``'s flight for ``companion``: its twin (closed with ``stack``) and its
+    follower (``taken``: the kinds of second aircraft already handed out), its flight
+    computer (with the autopilot for the flown scenario only).  ``options``: the run's
+    ``twin_cache``, ``aircraft`` and ``nominal_twin``."""
+    twin_cache, aircraft, nominal_twin = options
+    scn = companion.scn
+    twin = open_reference_twin(scn, nominal=nominal_twin, use_cache=twin_cache)
+    if twin is not None:
+        stack.enter_context(twin)  # a simulated twin is stored, or dropped
+    follower = None
+    flies = REFERENCES[scn.drift].flies  # a trimmed nominal aircraft the reference flies
+    if flies:
+        gust_inputs = flies == "gust_ready"
+        calm = calm_nominal(scn.flight)  # a model of the aircraft knows no gusts
+        if aircraft is not None and aircraft.key == trim_key(calm) and flies not in taken:
+            follower = aircraft.second_for(calm, gust_inputs)
+        taken.add(flies)
+        follower = follower or make_plant(calm, gust_inputs=gust_inputs)
+    source = reference_source(scn, twin, follower)
+    autopilot = rig.autopilot if scn is rig.scn else None
+    computer = FlightComputer(
+        scn, autopilot, rig.y_trim, source, rig.chunk_periods, companion.observer
+    )
+    return _Reader(scn, companion.folder, computer, twin, follower, nominal_twin)
 
 
 def scenario_provenance(scn: Scenario, trim: TrimResult, **items: Any) -> dict[bytes, bytes]:
@@ -334,6 +407,7 @@ def run_scenario(
     nominal_twin: bool = False,
     stop_on_divergence: bool = False,
     record: bool = False,
+    companions: Sequence[Companion] = (),
 ) -> RunResult:
     """Simulate a scenario and write ``out/<name>/probing.parquet``, ``bounds.parquet``
     (:func:`~.bounds.write_settled_bounds`) and ``timeseries.parquet``.
@@ -376,84 +450,126 @@ def run_scenario(
     record : bool
         Also write ``sensors.parquet``, what the flight computer recorded (a monitored
         flight's log, which ``probing monitor --replay`` reads).
+    companions : sequence of Companion
+        Scenarios computed from this flight with references of their own
+        (:class:`Companion`, needs ``stop_on_divergence``): one flight instead of one each,
+        the same files.  A companion's reference that diverges ends its reading only; the
+        aircraft's divergence ends all.
 
     Returns
     -------
     RunResult
-        Trim, averaged pulse-response estimates and timing.
+        Trim, averaged pulse-response estimates and timing (the companions' in
+        ``RunResult.companions``).
 
     Raises
     ------
     probing.sim.errors.TrimError, probing.sim.errors.DivergenceError
         On trim failure or divergence; no output file is left behind.
+    ValueError
+        If a companion is not this flight with another reference.
     """
     if runner_of(scn).name != "steady":
         raise ValueError("a [simultaneous] or [manoeuvre] scenario has its own runner")
+    _check_companions(scn, companions, stop_on_divergence)
     t_start = time.perf_counter()
-    rig = _Rig.build(scn, twin_cache, aircraft, nominal_twin)
-    with rig.twin or nullcontext():  # a simulated twin is stored, or dropped
+    folder = folder_of(out, scn.name, folder)
+    with ExitStack() as stack:
+        rig = _Rig.build(scn, aircraft)
         rig.stop_on_divergence, rig.record = stop_on_divergence, record
-        source = reference_source(scn, rig.twin, rig.follower)
-        computer = FlightComputer(
-            scn, rig.autopilot, rig.y_trim, source, rig.chunk_periods, observer
-        )
-        channels = list(scn.channels)
+        options, taken = (twin_cache, aircraft, nominal_twin), set()
+        flown = Companion(scn, folder, observer)
+        readers = [_reader(stack, rig, c, options, taken) for c in (flown, *companions)]
+        _open_files(stack, rig, readers, keep_settled)
         lag_s = np.arange(rig.probe.length) * rig.probe.bit_duration_s
-        folder = folder_of(out, scn.name, folder)
-        with_reference = rig.twin is not None or scn.follows or scn.drift == "gust"
-        stepped = rig.autopilot is not None
-        ts_schema = timeseries_schema(channels, with_reference, stepped, scn.surface)
-        sensing = rig.world.sensing
-        logged = list(sensing.channels if sensing is not None else scn.channels)
-        with output_folder(folder, rig.metadata()) as outputs:
-            w_ts = _timeseries_writer(outputs, scn, channels, ts_schema, timeseries)
-            computer.open(
-                outputs, lag_s, log_channels=logged if record else None, keep_settled=keep_settled
-            )
-            with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
-                for c in _chunks(rig, computer):
-                    try:
-                        done = computer.consume(c.log, c.first)
-                    except ReferenceDiverged as exc:
-                        if not rig.stop_on_divergence:
-                            raise
-                        rig.ended = str(exc)  # the periods before this chunk are kept
-                        break
-                    if w_ts is not None:
-                        rows = _timeseries_rows(c, done.measured, done.reference, scn, channels)
-                        w_ts.write(rows)
-                    bar.advance(c.count)
-                    INTERRUPTS.check()  # a SIGTERM or Ctrl-C held in an import: stop here
-            computer.finish(outputs, rig.ended)
-    return _run_result(rig, computer, folder, lag_s, t_start)
+        w_ts = _timeseries_writer(readers[0], rig, timeseries)
+        with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
+            for c in _chunks(rig, readers[0].computer):
+                done = [r.read(c, stop_on_divergence) for r in readers]
+                if w_ts is not None and done[0] is not None:
+                    channels = list(scn.channels)
+                    w_ts.write(
+                        _timeseries_rows(c, done[0].measured, done[0].reference, scn, channels)
+                    )
+                bar.advance(c.count)
+                INTERRUPTS.check()  # a SIGTERM or Ctrl-C held in an import: stop here
+                if all(r.diverged for r in readers):
+                    break
+        for r in readers:
+            assert r.outputs is not None
+            r.computer.finish(r.outputs, r.diverged or rig.ended)
+    results = [_run_result(rig, r, lag_s, t_start, r is readers[0]) for r in readers]
+    results[0].companions = results[1:]
+    return results[0]
 
 
-def _timeseries_writer(
-    outputs: OutputFolder, scn: Scenario, channels: list[str], ts_schema: Any, timeseries: bool
-) -> Any:
-    """The writer of ``timeseries.parquet`` (None without ``timeseries``)."""
+def _check_companions(
+    scn: Scenario, companions: Sequence[Companion], stop_on_divergence: bool
+) -> None:
+    """Raise ValueError unless every companion is ``scn``'s flight with a reference of its own
+    (and a reference's divergence ends only its own reading: ``stop_on_divergence``)."""
+    if not companions:
+        return
+    if not stop_on_divergence:
+        raise ValueError("companions read a flight that stops on a divergence only")
+    key = flight_key(scn)
+    drifts = [scn.drift, *(c.scn.drift for c in companions)]
+    if any(flight_key(c.scn) != key for c in companions) or len(set(drifts)) < len(drifts):
+        raise ValueError(f"{scn.name}: a companion must be the same flight with another drift")
+
+
+def _open_files(stack: ExitStack, rig: _Rig, readers: list[_Reader], keep_settled: bool) -> None:
+    """Open each reader's folder (closed with ``stack``: all files appear at the end, or
+    none) and its flight computer's files; with ``rig.record`` each logs what the sensors
+    measured."""
+    sensing = rig.world.sensing
+    logged = list(sensing.channels if sensing is not None else rig.scn.channels)
+    lag_s = np.arange(rig.probe.length) * rig.probe.bit_duration_s
+    for r in readers:
+        r.outputs = stack.enter_context(output_folder(r.folder, r.metadata(rig.plant.trim_result)))
+        r.computer.open(
+            r.outputs,
+            lag_s,
+            log_channels=logged if rig.record else None,
+            keep_settled=keep_settled,
+            commanded=rig.autopilot is not None,
+        )
+
+
+def _timeseries_writer(flown: _Reader, rig: _Rig, timeseries: bool) -> Any:
+    """The writer of the flown scenario's ``timeseries.parquet`` (None without
+    ``timeseries``)."""
     if not timeseries:
         return None
-    return outputs.writer("timeseries.parquet", channels, scn.surface_unit, schema=ts_schema)
+    scn, channels = rig.scn, list(rig.scn.channels)
+    with_reference = flown.twin is not None or scn.follows or scn.drift == "gust"
+    stepped = rig.autopilot is not None
+    schema = timeseries_schema(channels, with_reference, stepped, scn.surface)
+    assert flown.outputs is not None
+    return flown.outputs.writer("timeseries.parquet", channels, scn.surface_unit, schema=schema)
 
 
 def _run_result(
-    rig: _Rig, computer: FlightComputer, folder: Path, lag_s: np.ndarray, t_start: float
+    rig: _Rig, reader: _Reader, lag_s: np.ndarray, t_start: float, flown: bool
 ) -> RunResult:
-    """What a finished run hands back (``t_start``: when it began, for ``wall_s``)."""
-    assert computer.estimates is not None
-    settled = computer.estimates.settled
+    """What a finished run hands back for one reader (``flown``: the flown scenario's, which
+    counts the aircraft's steps; ``t_start``: when the run began, for ``wall_s``)."""
+    estimates = reader.computer.estimates
+    assert estimates is not None
+    settled = estimates.settled
+    twin = reader.twin
+    steps = rig.periods_flown * rig.period_steps if flown else 0
+    steps += reader.periods * rig.period_steps if reader.follower else 0
     return RunResult(
-        out_dir=folder,
+        out_dir=reader.folder,
         trim=rig.plant.trim_result,
         h_est=settled.mean(),
-        steps_simulated=rig.periods_flown * rig.period_steps * (2 if rig.follower else 1)
-        + (rig.twin.steps_simulated if rig.twin else 0),
+        steps_simulated=steps + (twin.steps_simulated if twin else 0),
         wall_s=time.perf_counter() - t_start,
-        twin_cached=bool(rig.twin and rig.twin.cached),
-        twin_key=rig.twin.key if rig.twin else None,
+        twin_cached=bool(twin and twin.cached),
+        twin_key=twin.key if twin else None,
         settled=settled.first_channel(lag_s),
-        ended=rig.ended,
+        ended=reader.diverged or rig.ended,
     )
 
 

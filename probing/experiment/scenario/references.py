@@ -17,6 +17,7 @@ __all__ = [
     "GUST_KNOWING_DRIFTS",
     "REALISABLE_DRIFTS",
     "REFERENCES",
+    "REFERENCE_FIELDS",
     "REFERENCE_KINDS",
     "TWIN_DRIFTS",
     "Reference",
@@ -114,6 +115,11 @@ REFERENCES: dict[str, Reference] = {
         ),
     )
 }
+
+#: The fields of ``[output]`` that choose the reference and set it: the flight computer's
+#: estimates read them, the flight does not, so scenarios that differ only in them fly the same
+#: flight (:func:`probing.experiment.flight.run.flight_key`).
+REFERENCE_FIELDS = ("drift", "detrend_order")
 
 #: ``output.drift``'s values, in the table's order.
 DRIFT_MODES = tuple(REFERENCES)
