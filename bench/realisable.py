@@ -9,7 +9,9 @@ and a slice of the study against the code before issue [5/5].
   the child against the bare ``fdm.run()`` stepping of its aircraft (freshly trimmed, the
   same steps), measured in the same process right after.  The same code runs from this
   tree and from the tree before [5/5] (:data:`BEFORE_SPEED`), in fresh processes,
-  interleaved.
+  interleaved.  This code also flies the three references as the study does, as one flight
+  (:func:`probing.experiment.flight.monitor.monitor_flight`), against the stepping of the
+  aircraft and both twins and against the three flights alone.
 * The study: ``probing sweep`` of a slice of ``make monitor`` (case 5, two seeds, the three
   references; two workers, as ``make monitor`` runs) by this code and by the code before,
   in pairs, and their point files compared column by column.
@@ -110,6 +112,23 @@ if "split" in sys.argv[4:]:  # the gust flight again, its time inside JSBSim's r
         return wall, inside[0]
     ((_, outcome),) = list(run_grouped([scn], lambda s: s, split))
     found["split"] = list(outcome.get())
+if "family" in sys.argv[4:]:  # the three references as the study flies them: one flight
+    from probing.experiment.flight.monitor import monitor_flight
+    scns = [
+        base.replace({"output.drift": d, "probe.periods": periods, "name": "b-family"})
+        for d in sys.argv[3].split(",")
+    ]
+    def family(f, aircraft):
+        with tempfile.TemporaryDirectory() as out:
+            t0 = time.perf_counter()
+            folders = [Path(out) / s.drift for s in f]
+            monitor_flight(f, folders, progress=False, twin_cache=False, aircraft=aircraft)
+            return time.perf_counter() - t0
+    ((_, outcome),) = list(run_grouped([scns], lambda f: f[0], family, others=lambda f: f[1:]))
+    flight, steps = scns[0].flight, scns[0].total_steps
+    calm = dataclasses.replace(flight.nominal, turbulence="none", seed=0)
+    floor = bare(flight, steps) + bare(calm, steps, gust_inputs=True) + bare(flight.nominal, steps)
+    found["family"] = [outcome.get(), floor, steps]
 print(json.dumps(found))
 """
 
@@ -130,8 +149,10 @@ kind = "monitor"
 """
 
 
-def _flights(tree: Path, periods: int, split: bool = False) -> dict:
-    args = [str(periods), str(tree), ",".join(DRIFTS), *(["split"] if split else [])]
+def _flights(tree: Path, periods: int, after: bool = False) -> dict:
+    """One repeat of :data:`FLIGHT_CODE` in ``tree`` (``after``: this code, which also flies
+    the gust flight with ``run()`` timed and the three references as one flight)."""
+    args = [str(periods), str(tree), ",".join(DRIFTS), *(["split", "family"] if after else [])]
     done = subprocess.run(
         [sys.executable, "-c", FLIGHT_CODE, *args],
         cwd=tree,
@@ -148,16 +169,20 @@ def bench_flights(periods: int, repeats: int) -> dict:
     runs: dict[str, list[dict]] = {"after": [], "before": []}
     with project_at(BEFORE_SPEED) as old_tree:
         for _ in range(repeats):
-            runs["after"].append(_flights(ROOT, periods, split=True))
+            runs["after"].append(_flights(ROOT, periods, after=True))
             if old_tree is not None:
                 runs["before"].append(_flights(old_tree, periods))
     splits = [f.pop("split") for f in runs["after"]]
+    families = [(f.pop("family"), sum(f[d][0] for d in DRIFTS)) for f in runs["after"]]
     out: dict = {
         "periods": periods,
         "revision": BEFORE_SPEED,
         "drifts": {},
         # the gust flight again with JSBSim's run() timed inside it: (wall s, in run() s)
         "split": sorted(splits, key=lambda s: s[1] / s[0])[len(splits) // 2],
+        # the three references as one flight: ([wall s, stepping s, steps], the three flown
+        # alone in the same repeat, s), the repeat with the median ratio to its stepping
+        "family": sorted(families, key=lambda f: f[0][0] / f[0][1])[len(families) // 2],
     }
     for drift in DRIFTS:
         row = {}
@@ -243,14 +268,28 @@ def _flight_rows(f: dict) -> list[Row]:
     return rows
 
 
+def _family_row(f: dict) -> Row:
+    """The three references of one flight, flown once, against their stepping."""
+    (wall, floor, _), alone = f["family"]
+    return Row(
+        f"the three references of one flight ({f['periods']} periods) flown once: wall over "
+        "stepping",
+        f"{wall:.2f} s",
+        f"{floor:.2f} s (bare `run()` of its three aircraft)",
+        f"{wall / floor:.2f}; flown alone {alone:.2f} s ({wall / alone:.2f} of it)",
+        "",
+        None,
+    )
+
+
 def render(r: dict) -> Rendered:
     """Summary rows and details."""
     f, s = r["flights"], r["slice"]
-    rows = _flight_rows(f)
+    rows = [*_flight_rows(f), _family_row(f)]
     if not s.get("skipped"):
         rows.append(
             Row(
-                "monitor study slice (6 flights, 2 workers)",
+                "monitor study slice (6 points: 2 flights of 3 references, 2 workers)",
                 f"{statistics.median(s['walls']['after']):.1f} s",
                 f"{statistics.median(s['walls']['before']):.1f} s (main before [5/5], "
                 f"{s['revision']}; same data: {'yes' if s['same_data'] else '**no**'})",
@@ -292,6 +331,13 @@ def render(r: dict) -> Rendered:
         "sensors, the property writes and reads of each step, the gust estimator, the "
         "estimates, the monitor and the files).",
         "",
+        "The study's three references of one seed, fault and amplitude fly the aircraft "
+        'once (docs/sweeps.md, "One flight, several references"): the first flies, the '
+        "others read its log with flight computers of their own. Their flight (this code, "
+        f"the repeat with the median ratio): {f['family'][0][0]:.2f} s against "
+        f"{f['family'][0][1]:.2f} s of bare stepping of the aircraft and both twins, and "
+        f"{f['family'][1]:.2f} s for the three flights above flown alone in the same repeat.",
+        "",
         f"The previous figures, for comparison: {PREVIOUS}.",
         "",
     ]
@@ -300,7 +346,8 @@ def render(r: dict) -> Rendered:
         before = ", ".join(f"{x:.1f}" for x in s["walls"]["before"])
         lines += [
             "A slice of `make monitor` (NASA's case 5, seeds 1 and 2, the three references: "
-            "6 flights of 100 periods), `probing sweep -j 2` in fresh processes and folders, "
+            "6 points of 100 periods, which this code flies as 2 flights and the code before "
+            "as 6), `probing sweep -j 2` in fresh processes and folders, "
             f"this code ({after} s) and the code before [5/5] ({before} s) in pairs. "
             f"The point files hold the same column data: {'yes' if s['same_data'] else 'NO'}.",
             "",

@@ -294,9 +294,10 @@ def _monitor_dask_repeat(path: Path, flights: int, out: Path) -> dict[str, float
 
 
 def flight_walls(sweep_dir: Path) -> list[list]:
-    """``[reference, periods, wall s]`` of each flight of a finished monitor sweep, in the
-    sweep's order: from its ``point.json``, the flight alone (not its chunk's load and trim,
-    nor an oracle flight's twin, simulated before the chunk's flights fork)."""
+    """``[reference, periods, wall s]`` of each point of a finished monitor sweep, in the
+    sweep's order: from its ``point.json``, its share of its flight (the references of one
+    flight fly it once; not its chunk's load and trim, nor an oracle flight's twin,
+    simulated before the chunk's flights fork)."""
     manifest = json.loads((sweep_dir / "sweep.json").read_text())
     walls = []
     for point in manifest["points"]:
@@ -308,12 +309,22 @@ def flight_walls(sweep_dir: Path) -> list[list]:
 
 
 def chunk_costs_s(costs_s: Sequence[float], scenarios: Sequence, workers: int) -> list[float]:
-    """What each chunk of a sweep costs (s), in order, for ``workers`` workers: the flights'
-    ``costs_s`` summed over the sweep's chunks
-    (:func:`probing.experiment.flight.batch.chunked_groups`)."""
+    """What each chunk of a monitor sweep costs (s), in order, for ``workers`` workers: the
+    points' ``costs_s`` summed over the sweep's chunks
+    (:func:`probing.experiment.flight.batch.chunked_groups`, a flight's references together)."""
     from probing.experiment.flight.batch import chunked_groups
 
-    return [sum(costs_s[i] for i in chunk) for chunk in chunked_groups(scenarios, workers)]
+    chunks = chunked_groups(scenarios, workers, shares=[True] * len(scenarios))
+    return [sum(costs_s[i] for i in chunk) for chunk in chunks]
+
+
+def flight_costs_s(costs_s: Sequence[float], scenarios: Sequence) -> list[float]:
+    """What each flight of a monitor sweep costs (s): its points' ``costs_s`` summed
+    (:func:`probing.experiment.flight.batch.flight_families`)."""
+    from probing.experiment.flight.batch import flight_families
+
+    families = flight_families(scenarios, [True] * len(scenarios))
+    return [sum(costs_s[i] for i in family) for family in families]
 
 
 def makespan_s(chunks_s: Sequence[float], workers: int) -> float:
@@ -336,8 +347,9 @@ def per_period_s(walls: list[list]) -> dict[str, float]:
 
 def study_bounds(cost_per_period_s: dict[str, float]) -> dict:
     """The study as ``make monitor`` runs it (every sweep of scenarios/monitor-realisable,
-    one after another), each flight costed at its reference's wall per period times its
-    periods (a reference the slice lacks at the median of the others): its flights, their
+    one after another), each point costed at its reference's wall per period (its share of
+    a shared flight, so a flight alone is under-costed) times its periods (a reference the
+    slice lacks at the median of the others): its flights, their
     simulated hours and CPU, the longest flight, and per worker count the speed-up its
     chunks allow (:func:`makespan_s`; each sweep ends when its last chunk does), and with a
     worker per flight."""
@@ -356,8 +368,8 @@ def study_bounds(cost_per_period_s: dict[str, float]) -> dict:
             if scn.periods > SLICE_PERIODS:
                 long_flights, long_cpu_s = long_flights + 1, long_cpu_s + cost
         flights, total_s = flights + len(costs), total_s + sum(costs)
-        longest_s = max(longest_s, *costs)
-        bound_s += max(costs)  # a chunk per flight: the sweep's longest flight
+        longest_s = max(longest_s, *flight_costs_s(costs, scenarios))
+        bound_s += max(flight_costs_s(costs, scenarios))  # a chunk per flight: the longest
         for w in MODEL_WORKERS:
             span_s[w] += makespan_s(chunk_costs_s(costs, scenarios, w), w)
     return {
@@ -537,8 +549,11 @@ def _study_limits(s: dict, by: dict[str, float]) -> list[str]:
         f"- **The study's structure.** `make monitor` runs {s['sweeps']} sweeps, one after "
         f"another, each waiting for its last chunk: {s['flights']} flights, "
         f"{s['hours']:.0f} simulated hours. Costed at the slice's walls per period "
-        f"({costs}; flights only, no load, trim or twin), the flights take "
-        f"{s['cpu_s'] / 60:.0f} min on one worker; the {s['long_flights']} one-hour flights "
+        f"({costs}; each a point's share of a flight its three references fly once; "
+        "flights only, no load, trim or twin), the flights take "
+        f"{s['cpu_s'] / 60:.0f} min on one worker, a lower bound: the flights that fly "
+        "alone (the one-hour `gust` flights, the fine dead band) cost more than a share; "
+        f"the {s['long_flights']} one-hour flights "
         f"{100 * s['long_cpu_s'] / s['cpu_s']:.0f} % of it, the longest "
         f"{s['longest_s']:.0f} s. What the chunks then allow, with as many cores as workers:",
         "",
