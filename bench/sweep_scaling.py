@@ -436,11 +436,11 @@ def render_monitor_dask(r: dict) -> tuple[list[dict], list[str]]:
     first_ms = 1000 * (w["dask-1"] - w["local-1"]) / n
     next_ms = 1000 * (w["dask-1-next"] - w["local-1"]) / n
     rows = [
-        vs_one(2, "-next", f"monitor study slice ({n} flights) on a Dask cluster, 2 workers vs 1"),
+        vs_one(2, "-next", f"monitor study slice ({n} points) on a Dask cluster, 2 workers vs 1"),
         vs_one(2, "", "same, on the workers' first sweep"),
         vs_one(4, "-next", f"same, 4 workers vs 1 ({cores} cores)"),
         {
-            "quantity": "Dask cluster (1 worker) over the local pool (-j 1), per flight",
+            "quantity": "Dask cluster (1 worker) over the local pool (-j 1), per point",
             "value": f"{first_ms:+.0f} ms first sweep, {next_ms:+.0f} ms next",
             "baseline": f"{w['local-1']:.1f} s local pool",
             "ratio": f"{w['dask-1'] / w['local-1']:.2f}, {w['dask-1-next'] / w['local-1']:.2f}",
@@ -455,8 +455,8 @@ def _monitor_dask_table(r: dict) -> list[str]:
     seeds = f"{r['seeds']} seed" + ("s" if r["seeds"] > 1 else "")
     repeats = f"{r['repeats']} repeat" + ("s" if r["repeats"] > 1 else "")
     lines = [
-        f"## The monitor study on a Dask cluster ({r['flights']} flights of "
-        f"{r['periods']} periods: {', '.join(r['references'])} x {seeds})",
+        f"## The monitor study on a Dask cluster ({r['flights']} points of "
+        f"{r['periods']} periods: {', '.join(r['references'])} x {seeds}, a flight per seed)",
         "",
         "A slice of `make monitor` written like its fault sweeps "
         "(`scenarios/monitor-realisable/effectiveness.toml`: the GTM, NASA's T2 sensors, light "
@@ -503,14 +503,15 @@ def _monitor_dask_limits(r: dict) -> list[str]:
             else "."
         ),
         "- **The flights are independent; a chunk shares one trim.** A flight shares nothing "
-        "with another: it estimates its own baseline from its own periods and keeps its own "
-        "detector, so flights are the "
+        "with another: each of its references estimates its own baseline from its own periods "
+        "and keeps its own detector, so flights (a seed's three references, flown once: "
+        "docs/sweeps.md) are the "
         "unit of parallel work. The study flies one condition, so each sweep is one group "
         "with one trimmed state, cut into chunks of ceil(flights / workers) flights (at most "
         "64), dealt out flight by flight, one per worker; a chunk's worker loads and trims the GTM "
         "(unless it holds it from its previous chunk) and forks a child per flight. On one "
-        f"worker the {n} flights take {flown_s:.1f} s of the {w['local-1']:.1f} s sweep "
-        f"(their `point.json` walls, medians: {costs}); the other "
+        f"worker the {n} points take {flown_s:.1f} s of the {w['local-1']:.1f} s sweep "
+        f"(their `point.json` walls, each a third of its flight's; medians: {costs}); the other "
         f"{w['local-1'] - flown_s:.1f} s are the process start, the load and trims, "
         + (
             "the oracle flights' twins (simulated before a chunk's flights fork) "
@@ -518,17 +519,16 @@ def _monitor_dask_limits(r: dict) -> list[str]:
             else ""
         )
         + "and the summary.",
-        "- **Unequal chunks.** A gust flight simulates a second aircraft (its reference's, "
-        "from a gust-ready copy), and the references are the grid's outer field (as in the "
-        "study's sweeps): cut in runs, one chunk would hold the gust flights, so the chunks "
-        "are dealt out flight by flight. With 2 workers they hold "
+        "- **Few, whole flights.** A flight's references stay in one chunk, so the slice is "
+        "as many flights as seeds, and the chunks are dealt out flight by flight. With 2 "
+        "workers they hold "
         f"{chunks['2']} s of flights, with 4, {chunks['4']} s. Handed out in order, they "
         f"allow {r['chunk_speedup']['2']:.2f}x on 2 workers and "
         f"{r['chunk_speedup']['4']:.2f}x on 4 (with as many cores); measured on 2: "
         f"{w['dask-1'] / w['dask-2']:.2f}x (first sweep), "
         f"{w['dask-1-next'] / w['dask-2-next']:.2f}x (next sweep).",
         f"- **Dask's own cost.** One Dask worker against the local pool with one: "
-        f"{first_ms:+.0f} ms per flight on the cluster's first sweep "
+        f"{first_ms:+.0f} ms per point on the cluster's first sweep "
         f"({w['dask-1'] - w['local-1']:+.2f} s per sweep: the client connects, the worker "
         f"imports the package), {next_ms:+.0f} ms on the next (the worker keeps the trimmed "
         "aircraft of the previous sweep, as it does between the study's sweeps). A chunk, "
