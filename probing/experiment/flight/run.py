@@ -195,6 +195,11 @@ class _Rig:
         """Periods post-processed together: about :data:`CHUNK_STEPS` steps, at least one."""
         return max(1, CHUNK_STEPS // self.period_steps)
 
+    @property
+    def lag_s(self) -> np.ndarray:
+        """The estimates' lags: one per bit of a period, s."""
+        return np.arange(self.probe.length) * self.probe.bit_duration_s
+
 
 @dataclass
 class _Reader:
@@ -481,7 +486,6 @@ def run_scenario(
         flown = Companion(scn, folder, observer)
         readers = [_reader(stack, rig, c, options, taken) for c in (flown, *companions)]
         _open_files(stack, rig, readers, keep_settled)
-        lag_s = np.arange(rig.probe.length) * rig.probe.bit_duration_s
         w_ts = _timeseries_writer(readers[0], rig, timeseries)
         with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
             for c in _chunks(rig, readers[0].computer):
@@ -498,7 +502,7 @@ def run_scenario(
         for r in readers:
             assert r.outputs is not None
             r.computer.finish(r.outputs, r.diverged or rig.ended)
-    results = [_run_result(rig, r, lag_s, t_start, r is readers[0]) for r in readers]
+    results = [_run_result(rig, r, t_start, r is readers[0]) for r in readers]
     results[0].companions = results[1:]
     return results[0]
 
@@ -524,12 +528,11 @@ def _open_files(stack: ExitStack, rig: _Rig, readers: list[_Reader], keep_settle
     measured."""
     sensing = rig.world.sensing
     logged = list(sensing.channels if sensing is not None else rig.scn.channels)
-    lag_s = np.arange(rig.probe.length) * rig.probe.bit_duration_s
     for r in readers:
         r.outputs = stack.enter_context(output_folder(r.folder, r.metadata(rig.plant.trim_result)))
         r.computer.open(
             r.outputs,
-            lag_s,
+            rig.lag_s,
             log_channels=logged if rig.record else None,
             keep_settled=keep_settled,
             commanded=rig.autopilot is not None,
@@ -549,9 +552,7 @@ def _timeseries_writer(flown: _Reader, rig: _Rig, timeseries: bool) -> Any:
     return flown.outputs.writer("timeseries.parquet", channels, scn.surface_unit, schema=schema)
 
 
-def _run_result(
-    rig: _Rig, reader: _Reader, lag_s: np.ndarray, t_start: float, flown: bool
-) -> RunResult:
+def _run_result(rig: _Rig, reader: _Reader, t_start: float, flown: bool) -> RunResult:
     """What a finished run hands back for one reader (``flown``: the flown scenario's, which
     counts the aircraft's steps; ``t_start``: when the run began, for ``wall_s``)."""
     estimates = reader.computer.estimates
@@ -568,7 +569,7 @@ def _run_result(
         wall_s=time.perf_counter() - t_start,
         twin_cached=bool(twin and twin.cached),
         twin_key=twin.key if twin else None,
-        settled=settled.first_channel(lag_s),
+        settled=settled.first_channel(rig.lag_s),
         ended=reader.diverged or rig.ended,
     )
 
