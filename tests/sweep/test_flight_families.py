@@ -125,7 +125,7 @@ def test_a_companion_of_another_flight_is_refused_before_anything_runs(tmp_path:
     text = SWEEP.replace('"disturbance.seed" = 9\n', "") + '"disturbance.seed" = [1, 2]\n'
     first, *others = [p.scenario for p in _sweep(tmp_path, text).points]
     other_seed = next(s for s in others if s.seed != first.seed)
-    with pytest.raises(ValueError, match="same flight with another drift"):
+    with pytest.raises(ValueError, match="same flight with another reference"):
         run_scenario(
             first,
             tmp_path / "out",
@@ -133,3 +133,32 @@ def test_a_companion_of_another_flight_is_refused_before_anything_runs(tmp_path:
             companions=[Companion(other_seed, tmp_path / "other")],
         )
     assert not (tmp_path / "out").exists() and not (tmp_path / "other").exists()
+
+
+@pytest.mark.jsbsim
+def test_a_reference_s_settings_alone_make_companions_too(tmp_path: Path) -> None:
+    """Two detrend orders of one flight (Fig. 4's GTM, open loop) are one flight: the
+    companion with the same drift is accepted, and each writes what it writes alone."""
+    from probing.experiment.flight.run import Companion, run_scenario
+    from probing.experiment.scenario import load_scenario
+
+    base = load_scenario(ROOT / "scenarios" / "fig4" / "baseline.toml")
+    first = base.replace({"output.drift": "detrend", "output.detrend_order": 1})
+    second = base.replace({"output.drift": "detrend", "output.detrend_order": 2})
+    options = {"progress": False, "timeseries": False, "stop_on_divergence": True}
+    shared = run_scenario(
+        first,
+        tmp_path,
+        folder=tmp_path / "one",
+        companions=[Companion(second, tmp_path / "two")],
+        **options,
+    )
+    assert [r.out_dir.name for r in (shared, *shared.companions)] == ["one", "two"]
+    for scn, name in ((first, "one"), (second, "two")):
+        run_scenario(scn, tmp_path, folder=tmp_path / f"alone-{name}", **options)
+        for file in ("probing.parquet", "bounds.parquet"):
+            alone = _content(tmp_path / f"alone-{name}" / file)
+            assert _content(tmp_path / name / file) == alone, (name, file)
+    assert _content(tmp_path / "one" / "bounds.parquet") != _content(
+        tmp_path / "two" / "bounds.parquet"
+    )

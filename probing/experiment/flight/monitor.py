@@ -389,16 +389,17 @@ def monitor_flight(
     folder, with the files and results it would have had flown alone
     (:class:`~probing.experiment.flight.run.Companion`).  The aircraft flies once.
 
-    ``scenarios``: one flight (:func:`~probing.experiment.flight.run.flight_key`), distinct
-    references; ``folders``: each one's; the rest as for :func:`monitor_scenario`
-    (``timeseries``: the first scenario's).  Returns each scenario's result, in order.
+    ``scenarios``: one flight (:func:`~probing.experiment.flight.run.flight_key`), each with
+    its reference and the reference's settings; ``folders``: each one's; the rest as for
+    :func:`monitor_scenario` (``timeseries``: the first scenario's).  Returns each
+    scenario's result, in order.
 
     Raises
     ------
     probing.experiment.scenario.ScenarioError
         If the run is too short for a baseline (checked before anything runs).
     ValueError
-        If the scenarios are not one flight with distinct references.
+        If the scenarios are not one flight.
     """
     monitors = [Monitor(s, s.monitor_settings()) for s in scenarios]
     paths = [Path(f) for f in folders]

@@ -487,11 +487,11 @@ def run_scenario(
         readers = [_reader(stack, rig, c, options, taken) for c in (flown, *companions)]
         _open_files(stack, rig, readers, keep_settled)
         w_ts = _timeseries_writer(readers[0], rig, timeseries)
+        channels = list(scn.channels)
         with progress_bar(scn.periods, scn.name, "periods", stream, progress) as bar:
             for c in _chunks(rig, readers[0].computer):
                 done = [r.read(c, stop_on_divergence) for r in readers]
                 if w_ts is not None and done[0] is not None:
-                    channels = list(scn.channels)
                     w_ts.write(
                         _timeseries_rows(c, done[0].measured, done[0].reference, scn, channels)
                     )
@@ -510,16 +510,16 @@ def run_scenario(
 def _check_companions(
     scn: Scenario, companions: Sequence[Companion], stop_on_divergence: bool
 ) -> None:
-    """Raise ValueError unless every companion is ``scn``'s flight with a reference of its own
-    (and a reference's divergence ends only its own reading: ``stop_on_divergence``)."""
+    """Raise ValueError unless every companion is ``scn``'s flight (:func:`flight_key`; its
+    reference and the reference's settings its own), and a reference's divergence ends only
+    its own reading (``stop_on_divergence``)."""
     if not companions:
         return
     if not stop_on_divergence:
         raise ValueError("companions read a flight that stops on a divergence only")
     key = flight_key(scn)
-    drifts = [scn.drift, *(c.scn.drift for c in companions)]
-    if any(flight_key(c.scn) != key for c in companions) or len(set(drifts)) < len(drifts):
-        raise ValueError(f"{scn.name}: a companion must be the same flight with another drift")
+    if any(flight_key(c.scn) != key for c in companions):
+        raise ValueError(f"{scn.name}: a companion must be the same flight with another reference")
 
 
 def _open_files(stack: ExitStack, rig: _Rig, readers: list[_Reader], keep_settled: bool) -> None:
