@@ -106,7 +106,7 @@ class Interrupts:
 
     def __init__(self) -> None:
         self.depth = 0
-        self.forking = 0
+        self.deferring = 0
         #: The interrupt noted (its exception class: KeyboardInterrupt, or the caller's
         #: subclass for SIGTERM), None without one.
         self.noted: type[KeyboardInterrupt] | None = None
@@ -136,13 +136,14 @@ class Interrupts:
 
     def interrupt(self, kind: type[KeyboardInterrupt], frame: Any) -> None:
         """A signal handler's body: note the interrupt ``kind`` (a KeyboardInterrupt class)
-        and raise it at once, unless it landed while forking or inside an import (where
-        Python would drop it or turn it into another error) and this is active: then the
-        next :meth:`check` raises it.  The command line's SIGTERM handler comes here too."""
+        and raise it at once, unless it landed while deferred (:meth:`deferred`) or inside an
+        import (where Python would drop it or turn it into another error) and this is
+        active: then the next :meth:`check` (or the end of the deferral) raises it.  The
+        command line's SIGTERM handler comes here too."""
         if self.depth == 0:
             raise kind
         self.noted = self.noted or kind
-        if not self.forking and not _importing(frame):
+        if not self.deferring and not _importing(frame):
             raise kind
 
     def check(self) -> None:
@@ -184,15 +185,27 @@ class Interrupts:
         handlers), and a Ctrl-C noted before or meanwhile is raised when the block ends, also
         in place of an error it caused there (a process pool whose workers it ended)."""
         self.check()
-        self.forking += 1
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
-        try:
+        with self.deferred():
             yield
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending one is noted here
-            self.forking -= 1
-            if self.noted and not self.forking:
-                raise self.noted
+
+    @contextlib.contextmanager
+    def deferred(self) -> Iterator[None]:
+        """Ctrl-C and SIGTERM deferred to the end of the block: blocked in this thread, and
+        only noted if they land in another (a library's thread pool); one noted meanwhile is
+        raised when the block ends (at the outermost, when nested), also in place of an
+        error it caused there.  Around what must not stop half-way: :meth:`forked`, the
+        removal of a command's unfinished files
+        (:mod:`probing.experiment.output.staging`)."""
+        with self:  # active, so that a Ctrl-C meanwhile is noted, not raised
+            self.deferring += 1
+            held = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
+            try:
+                yield
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending one is noted
+                self.deferring -= 1
+                if self.noted and not self.deferring:
+                    raise self.noted
 
 
 def _importing(frame: Any) -> bool:

@@ -4,6 +4,9 @@ with the folders it created, and the one a killed writer left removed by the nex
 
 from __future__ import annotations
 
+import os
+import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -64,3 +67,22 @@ def test_a_dead_writers_work_folder_is_removed_and_a_live_ones_kept(tmp_path: Pa
     finally:
         live.kill()
         live.wait()
+
+
+@pytest.mark.parametrize("fails", [False, True])
+def test_a_ctrl_c_in_its_clean_up_is_raised_after_it(tmp_path, monkeypatch, fails) -> None:
+    """Ctrl-C landing while the folder is being removed (after the work, or after an error)
+    is raised once it is gone, with the folders made for it: it was raised inside the
+    removal and left the folder behind (``probing monitor --replay`` interrupted then)."""
+    real = shutil.rmtree
+
+    def interrupted(path, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        real(path, *args, **kwargs)
+
+    monkeypatch.setattr(shutil, "rmtree", interrupted)
+    with pytest.raises(KeyboardInterrupt), work_folder(tmp_path / "out" / "run") as work:
+        (work / "probing.parquet").write_text("x")
+        if fails:
+            raise RuntimeError("the work failed")
+    assert list(tmp_path.iterdir()) == []

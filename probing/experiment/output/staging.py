@@ -91,18 +91,34 @@ def staged_output(path: Path, *, stream: TextIO | None = None, hold: bool = True
         if hold:
             INTERRUPTS.hold_to_the_end()
     except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        for p in reversed(created):
-            shutil.rmtree(p, ignore_errors=True)
+        _remove(staging, created)
         raise
-    staged = sorted(p for p in staging.iterdir() if not p.name.startswith("."))
-    earlier = earlier_files(path, {p.name for p in staged})
-    for stale in earlier:
-        stale.unlink(missing_ok=True)
-    for p in staged:
-        os.replace(p, path / p.name)
-    shutil.rmtree(staging, ignore_errors=True)
+    with INTERRUPTS.deferred():  # moved whole, or (hold False) not at all
+        staged = sorted(p for p in staging.iterdir() if not p.name.startswith("."))
+        earlier = earlier_files(path, {p.name for p in staged})
+        for stale in earlier:
+            stale.unlink(missing_ok=True)
+        for p in staged:
+            os.replace(p, path / p.name)
+        shutil.rmtree(staging, ignore_errors=True)
     report_removed(path, earlier, stream)
+
+
+def _remove(folder: Path, created: list[Path], *, whole: bool = True) -> None:
+    """Remove ``folder`` and the folders ``created`` for it (``whole`` False: only those
+    left empty, another writer's may be in them), with Ctrl-C deferred to the end: one
+    that lands in the middle of it (the success path's clean-up, or a second one) must
+    not leave half of it (:meth:`probing.core.forked.Interrupts.deferred`)."""
+    with INTERRUPTS.deferred():
+        shutil.rmtree(folder, ignore_errors=True)
+        for p in reversed(created):
+            if whole:
+                shutil.rmtree(p, ignore_errors=True)
+                continue
+            try:
+                p.rmdir()
+            except OSError:  # not empty: another writer's
+                break
 
 
 @contextmanager
@@ -132,16 +148,9 @@ def work_folder(place: Path | None = None) -> Iterator[Path]:
         for p in reversed(created):
             shutil.rmtree(p, ignore_errors=True)
         raise
+    done = False
     try:
         yield work
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        for p in reversed(created):
-            shutil.rmtree(p, ignore_errors=True)
-        raise
-    shutil.rmtree(work, ignore_errors=True)
-    for p in reversed(created):
-        try:
-            p.rmdir()
-        except OSError:  # not empty: another writer's
-            break
+        done = True
+    finally:
+        _remove(work, created, whole=not done)

@@ -30,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core.forked import INTERRUPTS
 from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.experiment.output.layouts import (
     CHANNEL_UNIT,
@@ -448,8 +449,7 @@ def output_folder(
     of another scenario go.  Temporaries a killed writer left in the folder are removed
     on entry (:func:`probing.core.tempfiles.remove_dead_writers_files`).
 
-    On any exception every partial file is dropped and the folders this call created are
-    removed, so a failed run leaves nothing behind, and an earlier run's files stay whole.
+    On any exception the partial files and the folders made here go; earlier files stay whole.
     """
     path = Path(path)
     created = [p for p in (*reversed(path.parents), path) if not p.exists()]
@@ -468,10 +468,11 @@ def output_folder(
         for w in folder.writers:
             w.commit()
     except BaseException:
-        for w in folder.writers:
-            w.abort()
-        for p in reversed(created):
-            shutil.rmtree(p, ignore_errors=True)
+        with INTERRUPTS.deferred():
+            for w in folder.writers:
+                w.abort()
+            for p in reversed(created):
+                shutil.rmtree(p, ignore_errors=True)
         raise
     report_removed(path, earlier, stream)
 
