@@ -8,7 +8,10 @@ temporaries of a folder whose writer is a process of this host that no longer ex
 live process's temporaries, this process's and another host's (a folder on a shared file
 system) are never touched, so two runs at once cannot delete each other's files.
 
-Standard library only.
+A writer that makes its folder removes what it made when it fails
+(:func:`missing_folders`, :func:`remove_created`).
+
+Standard library, and :mod:`probing.core.forked`'s deferral of Ctrl-C.
 """
 
 from __future__ import annotations
@@ -17,9 +20,18 @@ import os
 import re
 import shutil
 import socket
+from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["pid_alive", "remove_dead_writers_files", "writer_tag"]
+from probing.core.forked import INTERRUPTS
+
+__all__ = [
+    "missing_folders",
+    "pid_alive",
+    "remove_created",
+    "remove_dead_writers_files",
+    "writer_tag",
+]
 
 _TAG = re.compile(r"^(\d+)(?:@([A-Za-z0-9-]+))?$")
 
@@ -103,3 +115,30 @@ def remove_dead_writers_files(folder: Path, suffix: str, folders: bool = False) 
         except OSError:
             pass  # gone already (another process cleaned up), or not ours to remove
     return removed
+
+
+def missing_folders(path: Path) -> list[Path]:
+    """The folders of ``path`` (its parents and itself) that do not exist yet, outermost
+    first: those a writer into ``path`` makes, to remove again (:func:`remove_created`)."""
+    return [p for p in (*reversed(path.parents), path) if not p.exists()]
+
+
+def remove_created(
+    created: Sequence[Path], folder: Path | None = None, *, whole: bool = True
+) -> None:
+    """Remove ``folder`` (a command's staging or work folder, if any) and then the folders
+    ``created`` for it (:func:`missing_folders`), innermost first (``whole`` False: only
+    those left empty; another writer's files may be in them), with Ctrl-C deferred to the
+    end (:meth:`probing.core.forked.Interrupts.deferred`): one that lands in the middle of
+    it (after the work, or a second one after an error) must not leave half of it."""
+    with INTERRUPTS.deferred():
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
+        for p in reversed(created):
+            if whole:
+                shutil.rmtree(p, ignore_errors=True)
+                continue
+            try:
+                p.rmdir()
+            except OSError:  # not empty: another writer's
+                break

@@ -19,7 +19,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from probing.core.forked import INTERRUPTS
-from probing.core.tempfiles import remove_dead_writers_files, writer_tag
+from probing.core.tempfiles import (
+    missing_folders,
+    remove_created,
+    remove_dead_writers_files,
+    writer_tag,
+)
 from probing.experiment.output.layouts import RUN_FILES
 
 __all__ = ["DIGEST_KEY", "earlier_files", "report_removed", "staged_output", "work_folder"]
@@ -80,7 +85,7 @@ def staged_output(path: Path, *, stream: TextIO | None = None, hold: bool = True
     On any exception the staging folder and the folders this call created are removed.
     """
     path = Path(path)
-    created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    created = missing_folders(path)
     staging = path / f".staged.{writer_tag()}.tmp"
     if not created:
         remove_dead_writers_files(path, ".tmp", folders=True)  # a killed command's staging
@@ -91,7 +96,7 @@ def staged_output(path: Path, *, stream: TextIO | None = None, hold: bool = True
         if hold:
             INTERRUPTS.hold_to_the_end()
     except BaseException:
-        _remove(staging, created)
+        remove_created(created, staging)
         raise
     with INTERRUPTS.deferred():  # moved whole, or (hold False) not at all
         staged = sorted(p for p in staging.iterdir() if not p.name.startswith("."))
@@ -102,23 +107,6 @@ def staged_output(path: Path, *, stream: TextIO | None = None, hold: bool = True
             os.replace(p, path / p.name)
         shutil.rmtree(staging, ignore_errors=True)
     report_removed(path, earlier, stream)
-
-
-def _remove(folder: Path, created: list[Path], *, whole: bool = True) -> None:
-    """Remove ``folder`` and the folders ``created`` for it (``whole`` False: only those
-    left empty, another writer's may be in them), with Ctrl-C deferred to the end: one
-    that lands in the middle of it (the success path's clean-up, or a second one) must
-    not leave half of it (:meth:`probing.core.forked.Interrupts.deferred`)."""
-    with INTERRUPTS.deferred():
-        shutil.rmtree(folder, ignore_errors=True)
-        for p in reversed(created):
-            if whole:
-                shutil.rmtree(p, ignore_errors=True)
-                continue
-            try:
-                p.rmdir()
-            except OSError:  # not empty: another writer's
-                break
 
 
 @contextmanager
@@ -138,19 +126,18 @@ def work_folder(place: Path | None = None) -> Iterator[Path]:
             yield Path(tmp)
         return
     place = Path(place)
-    created = [p for p in (*reversed(place.parents), place) if not p.exists()]
+    created = missing_folders(place)
     if not created:
         remove_dead_writers_files(place, ".tmp", folders=True)
     try:
         place.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=f".work.{writer_tag()}.", suffix=".tmp", dir=place))
     except BaseException:
-        for p in reversed(created):
-            shutil.rmtree(p, ignore_errors=True)
+        remove_created(created)
         raise
     done = False
     try:
         yield work
         done = True
     finally:
-        _remove(work, created, whole=not done)
+        remove_created(created, work, whole=not done)

@@ -16,7 +16,6 @@ import json
 import math
 import os
 import platform
-import shutil
 import subprocess
 import uuid
 from collections.abc import Iterator, Sequence
@@ -30,8 +29,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core import tempfiles
 from probing.core.forked import INTERRUPTS
-from probing.core.tempfiles import remove_dead_writers_files, writer_tag
 from probing.experiment.output.layouts import (
     CHANNEL_UNIT,
     MANOEUVRE_SCHEMA,
@@ -235,7 +234,7 @@ def write_text_atomic(path: Path, text: str) -> None:
     a reader sees the old file or the whole new one, never a part (parents are created)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{writer_tag()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp = path.with_name(f".{path.name}.{tempfiles.writer_tag()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         tmp.write_text(text)
         os.replace(tmp, path)
@@ -284,7 +283,7 @@ class AtomicParquetWriter:
             twice = sorted({n for n in names if names.count(n) > 1})
             raise ValueError(f"{Path(path).name}: column names given twice: {twice}")
         self.path = Path(path)
-        self.tmp = self.path.with_name(f".{self.path.name}.{writer_tag()}.tmp")
+        self.tmp = self.path.with_name(f".{self.path.name}.{tempfiles.writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
         self.pandas_attrs = pandas_attrs
         self.row_group_rows = int(row_group_rows)
@@ -452,9 +451,9 @@ def output_folder(
     On any exception the partial files and the folders made here go; earlier files stay whole.
     """
     path = Path(path)
-    created = [p for p in (*reversed(path.parents), path) if not p.exists()]
+    created = tempfiles.missing_folders(path)
     if not created:
-        remove_dead_writers_files(path, ".tmp")
+        tempfiles.remove_dead_writers_files(path, ".tmp")
     path.mkdir(parents=True, exist_ok=True)
     folder = OutputFolder(path, metadata)
     try:
@@ -471,8 +470,7 @@ def output_folder(
         with INTERRUPTS.deferred():
             for w in folder.writers:
                 w.abort()
-            for p in reversed(created):
-                shutil.rmtree(p, ignore_errors=True)
+            tempfiles.remove_created(created)
         raise
     report_removed(path, earlier, stream)
 
