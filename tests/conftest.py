@@ -46,13 +46,38 @@ def installed_version(name: str) -> str | None:
         return None
 
 
-#: OpenBLAS's x86-64 kernels and the CPU flag each needs (forcing one the CPU lacks crashes).
-BLAS_KERNELS = {"Sandybridge": "avx", "Haswell": "avx2", "Zen": "avx2", "SkylakeX": "avx512f"}
+#: OpenBLAS's x86-64 kernels and the CPU flag each needs (forcing one the CPU lacks crashes):
+#: the generic SSE3 kernels OpenBLAS falls back to on a processor it does not know, and those
+#: of the processors since 2011.
+BLAS_KERNELS = {
+    "Prescott": "pni",  # SSE3, as /proc/cpuinfo names it
+    "Sandybridge": "avx",
+    "Haswell": "avx2",
+    "Zen": "avx2",
+    "SkylakeX": "avx512f",
+}
+#: numpy's own run-time targets that use AVX-512 (its exp, log, power, ... differ in the
+#: last bit from its AVX2 ones): a process given the kernel of a processor without AVX-512
+#: runs without them, as numpy would on that processor.
+NUMPY_AVX512 = ("X86_V4", "AVX512_ICL", "AVX512_SPR")
+
+
+def blas_kernel_environment(kernel: str) -> dict[str, str]:
+    """The environment of a process that computes as a processor of OpenBLAS's ``kernel``
+    would: OpenBLAS forced to it (and saying which it ran), and numpy without its AVX-512
+    paths unless the kernel is an AVX-512 one."""
+    from numpy._core._multiarray_umath import __cpu_dispatch__
+
+    env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "OPENBLAS_VERBOSE": "2"}
+    if BLAS_KERNELS[kernel] != "avx512f":
+        env["NPY_DISABLE_CPU_FEATURES"] = " ".join(f for f in NUMPY_AVX512 if f in __cpu_dispatch__)
+    return env
 
 
 def run_with_blas_kernel(kernel: str, args: list[str]) -> str:
-    """Run ``python ARGS`` with OpenBLAS forced to ``kernel`` and return its stdout; skip the
-    test where the CPU cannot run that kernel, fail if OpenBLAS ran another or the run fails."""
+    """Run ``python ARGS`` as a processor of OpenBLAS's ``kernel`` would
+    (:func:`blas_kernel_environment`) and return its stdout; skip the test where the CPU
+    cannot run that kernel, fail if OpenBLAS ran another or the run fails."""
     import subprocess
     import sys
 
@@ -63,10 +88,12 @@ def run_with_blas_kernel(kernel: str, args: list[str]) -> str:
     flags = {f for line in cpuinfo.splitlines() if line.startswith("flags") for f in line.split()}
     if BLAS_KERNELS[kernel] not in flags:
         pytest.skip(f"this CPU has no {BLAS_KERNELS[kernel]} for OpenBLAS's {kernel} kernel")
-    env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "OPENBLAS_VERBOSE": "2"}
+    env = blas_kernel_environment(kernel)
     run = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
-    runs = "Haswell" if kernel == "Zen" else kernel  # OpenBLAS runs Zen on Haswell's kernels
+    # OpenBLAS runs Zen on Haswell's kernels, and names its Prescott kernels by the first
+    # core that shares them, Katmai
+    runs = {"Zen": "Haswell", "Prescott": "Katmai"}.get(kernel, kernel)
     assert f"Core: {runs}" in run.stdout + run.stderr  # the kernel OpenBLAS says it ran
     return run.stdout
 
