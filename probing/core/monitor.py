@@ -54,6 +54,21 @@ baseline) points at the actuator side; a change of shape points at the airframe.
    airframe changed beyond the noise.  An alarmed period is ``"airframe"`` if it did,
    ``"actuator"`` otherwise.
 
+**Estimates without an offset.**  Some estimates have no offset to change: the drift mode
+``detrend`` removes each period's mean, so every period's taps sum to zero, and with the
+windows partitioning the taps (W'W 1 = 1) every reduced period is orthogonal to the offset's
+direction u = W 1: u'v = 1'h = 0.  The baseline's covariance S is then singular along u
+(what is left there is rounding), and S^-1, floored, multiplied rounding by 1e12: T^2 and
+the gain-and-offset fit took their values from the last bits of the sums, and a gain
+change moved by 0.2 when a BLAS kernel summed in another order.  A baseline whose periods
+all sum to zero (:data:`_ZERO_SUM`) is therefore learned and tested in the K - 1 directions
+orthogonal to u, and the channel's isolation fits a gain alone (its residual keeps K - 2
+dimensions, as before).  Nothing is lost: no estimate of such a channel has a component
+along u.
+
+Every sum above is taken in a fixed order (:mod:`probing.core.fixedorder`), so
+``monitor.parquet`` has the same bytes whatever BLAS kernel the processor gets.
+
 All of it is exact for independent Gaussian periods (the ``cyclic`` and ``ac`` estimators
 with white sensor noise); the streaming estimator's periods overlap and are correlated, so
 the false-alarm rate holds only approximately there, and P0 fitted from the baseline itself
@@ -73,6 +88,7 @@ import numpy as np
 from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
 from probing.core.baseline import BaselineWindow
+from probing.core.fixedorder import cov, dot, inv, solve, vdot
 
 __all__ = [
     "ChangeDetector",
@@ -86,6 +102,12 @@ __all__ = [
 
 #: Smallest p-value reported (its -log10, 300, caps the statistic).
 _P_FLOOR = 1e-300
+
+#: A baseline whose every period's taps sum to zero within this fraction of the sum of their
+#: magnitudes carries no offset (module docstring, "Estimates without an offset"): the
+#: drift mode ``detrend`` removes each period's mean, which leaves sum(h) at rounding,
+#: 1e-16 to 1e-13 of sum |h| (M terms); an estimate with an offset is at 1e-3 and more.
+_ZERO_SUM = 1e-9
 
 
 def window_variance_factor(window_periods: int, baseline_periods: int) -> float:
@@ -127,6 +149,23 @@ def window_matrix(m: int, windows: int) -> np.ndarray:
     return w
 
 
+def _offset_complement(u: np.ndarray) -> np.ndarray:
+    """(K, K - 1): orthonormal columns that span the directions orthogonal to ``u`` (K,),
+    the last K - 1 columns of the Householder reflection that takes u to the first axis.
+
+    Examples
+    --------
+    >>> q = _offset_complement(np.array([1.0, 1.0, 1.0]))
+    >>> np.allclose(q.T @ q, np.eye(2)), np.allclose(q.T @ np.ones(3), 0.0)
+    (True, True)
+    """
+    unit = u / math.sqrt(vdot(u, u))
+    v = unit.copy()
+    v[0] += math.copysign(1.0, unit[0])
+    reflection = np.eye(u.size) - np.multiply.outer(v, v) * (2.0 / vdot(v, v))
+    return np.ascontiguousarray(reflection[:, 1:])
+
+
 @dataclass(frozen=True)
 class Decision:
     """One period's test.
@@ -162,17 +201,17 @@ class _Hotelling:
     def __init__(self, v: np.ndarray) -> None:
         self.b, self.k = v.shape
         self.mean = v.mean(axis=0)
-        s = np.cov(v, rowvar=False, ddof=1)
+        s = cov(v)
         # a floor far below any noise (1e-12 of the estimate) keeps S invertible when the
         # baseline repeats exactly
-        floor = 1e-12 * np.trace(s) / self.k + 1e-24 * float(self.mean @ self.mean) / self.k
+        floor = 1e-12 * np.trace(s) / self.k + 1e-24 * vdot(self.mean, self.mean) / self.k
         s += (floor + 1e-300) * np.eye(self.k)
         self.s = s
-        self.s_inv = np.linalg.inv(s)
+        self.s_inv = inv(s)
 
     def t2(self, d: np.ndarray, n: int) -> float:
         """T^2 of a deviation ``d`` of a mean of ``n`` new periods from the baseline mean."""
-        return float(d @ self.s_inv @ d) / (1.0 / n + 1.0 / self.b)
+        return vdot(d, dot(self.s_inv, d)) / (1.0 / n + 1.0 / self.b)
 
     def p_value(self, t2: float, k: int | None = None) -> float:
         """P(T^2 > t2) under no change, for a ``k``-dimensional statistic (default K)."""
@@ -377,6 +416,11 @@ class ChangeDetector:
             raise ValueError(f"alpha must be in (0, 1), got {alpha}")
         self.settings = settings
         self.w = window_matrix(m, settings.windows)
+        #: the reduction of estimates without an offset (:data:`_ZERO_SUM`): W's rows
+        #: turned into K - 1 orthonormal ones orthogonal to the offset's W 1
+        self._offset_free_w = dot(_offset_complement(dot(self.w, np.ones(m))).T, self.w)
+        self._reduce = self.w  # the reduction the baseline was learned with
+        self._shape_dims = settings.windows - 2  # the airframe test's dimensions
         self.m, self.k, self.b = m, settings.windows, settings.baseline_periods
         self.alpha, self.shape_alpha = alpha, settings.shape_false_alarm
         self.surface = settings.surface
@@ -428,7 +472,7 @@ class ChangeDetector:
             return math.nan
         if self.surface:
             return self._r.threshold(self.shape_alpha)
-        return self._v.threshold(self.shape_alpha, self.k - 2)
+        return self._v.threshold(self.shape_alpha, self._shape_dims)
 
     def update(self, h: np.ndarray, surface: np.ndarray | None = None) -> Decision:
         """Add one period's estimate ``h`` (M taps), and with ``surface`` the surface's own
@@ -456,12 +500,12 @@ class ChangeDetector:
     def _test(self) -> Decision:
         n = len(self._recent)
         h = np.mean([x[0] for x in self._recent], axis=0)
-        v = self.w @ h
+        v = dot(self._reduce, h)
         d = v - self._v.mean
         p_t2, p_gain = self._p_values(v, n)
         p = min(1.0, 2.0 * min(p_t2, p_gain))
         statistic = -math.log10(max(p, _P_FLOOR))
-        gain = 1.0 + float((self._fit @ d)[0])
+        gain = 1.0 + float(dot(self._fit, d)[0])
         alarm = statistic > self.threshold
         if self._alarmed and len(self._since_alarm) < self.isolation_periods:
             self._since_alarm.append(self._recent[-1])
@@ -478,8 +522,8 @@ class ChangeDetector:
         base = self._v
         v0 = base.mean
         p_t2 = base.p_value(base.t2(v - v0, n))
-        g = float(v0 @ v / (v0 @ v0))
-        var = float(v0 @ base.s @ v0) / float(v0 @ v0) ** 2  # one period's gain
+        g = vdot(v0, v) / vdot(v0, v0)
+        var = vdot(v0, dot(base.s, v0)) / vdot(v0, v0) ** 2  # one period's gain
         scale = math.sqrt(var * window_variance_factor(n, self.b))
         p_gain = 2.0 * float(stdtr(self.b - 1, -abs(g - 1.0) / scale)) if scale > 0 else 1.0
         return p_t2, p_gain
@@ -508,20 +552,20 @@ class ChangeDetector:
             s = np.mean([x[1] for x in periods], axis=0)
             if self._surface_lost(s, n):
                 return 0.0  # the probe no longer reaches the airframe
-            r = self.w @ self._residual_of(h, s) - self._r.mean
+            r = dot(self._reduce, self._residual_of(h, s)) - self._r.mean
             return self._r.t2(r, n) / self._r.threshold(self.shape_alpha)
         base = self._v
-        d = self.w @ h - base.mean
-        e = d - self._xfit @ d  # less the GLS fit of gain and offset
-        return base.t2(e, n) / base.threshold(self.shape_alpha, self.k - 2)
+        d = dot(self._reduce, h) - base.mean
+        e = d - dot(self._xfit, d)  # less the GLS fit of gain (and offset)
+        return base.t2(e, n) / base.threshold(self.shape_alpha, self._shape_dims)
 
     def _surface_lost(self, s: np.ndarray, n: int) -> bool:
         """True if the surface's response to the probe is indistinguishable from none (its
         gain against the baseline's within the shape test's two-sided t interval of 0): a
         stuck surface, through which nothing can be learned about the airframe."""
-        s0, cov = self._s.mean, self._s.s
-        gain = float(s0 @ (self.w @ s)) / float(s0 @ s0)
-        se = math.sqrt(float(s0 @ cov @ s0) / float(s0 @ s0) ** 2 / n)
+        s0, spread = self._s.mean, self._s.s
+        gain = vdot(s0, dot(self._reduce, s)) / vdot(s0, s0)
+        se = math.sqrt(vdot(s0, dot(spread, s0)) / vdot(s0, s0) ** 2 / n)
         return abs(gain) < float(stdtrit(self.b - 1, 1.0 - self.shape_alpha / 2)) * se
 
     def _residual_of(self, h: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -531,10 +575,17 @@ class ChangeDetector:
     def _learn(self) -> None:
         baseline = self._baseline.items
         hs = np.array([x[0] for x in baseline])
-        self._v = base = _Hotelling(hs @ self.w.T)
-        x = np.column_stack((base.mean, self.w @ np.ones(self.m)))
-        self._fit = np.linalg.solve(x.T @ base.s_inv @ x, x.T @ base.s_inv)  # GLS: beta = fit d
-        self._xfit = x @ self._fit  # the S^-1-orthogonal projector on (v0, u)
+        offset_free = bool(np.all(np.abs(hs.sum(axis=1)) <= _ZERO_SUM * np.abs(hs).sum(axis=1)))
+        self._reduce = self._offset_free_w if offset_free else self.w
+        self._v = base = _Hotelling(dot(hs, self._reduce.T))
+        if offset_free:  # no offset to fit: the estimates have none
+            x = base.mean[:, None]
+        else:
+            x = np.column_stack((base.mean, dot(self.w, np.ones(self.m))))
+        self._shape_dims = base.k - x.shape[1]
+        xs = dot(x.T, base.s_inv)
+        self._fit = solve(dot(xs, x), xs)  # GLS: beta = fit d
+        self._xfit = dot(x, self._fit)  # the S^-1-orthogonal projector on (v0[, u])
         if self.surface:
             ss = np.array([x[1] for x in baseline])
             hy, hs_ = np.fft.rfft(hs, axis=1), np.fft.rfft(ss, axis=1)
@@ -549,8 +600,8 @@ class ChangeDetector:
             p0 = my * np.conj(ms) / np.where(power > 0, power, 1.0)
             self._p0 = p0
             residuals = np.array([self._residual_of(h, s) for h, s in baseline])
-            self._r = _Hotelling(residuals @ self.w.T)
-            self._s = _Hotelling(ss @ self.w.T)
+            self._r = _Hotelling(dot(residuals, self._reduce.T))
+            self._s = _Hotelling(dot(ss, self._reduce.T))
 
 
 def flight_verdict(verdicts: Sequence[str]) -> str:

@@ -440,3 +440,91 @@ def test_from_settings_gives_each_setting_to_its_detector_parameter() -> None:
     assert (d.m, d.b, d.k, d.alpha) == (31, 17, 5, 0.003)
     assert (d.shape_alpha, d.surface, d.isolation_periods) == (0.02, True, 4)
     assert d._recent.maxlen == 2  # the periods averaged into each test
+
+
+# --- estimates without an offset (drift mode "detrend") -------------------------------------
+
+
+def _zero_sum_periods(rng: np.random.Generator, n: int, gain: float = 1.0) -> list[np.ndarray]:
+    """``n`` periods of H0 with noise, each less its own mean (what ``detrend`` leaves): every
+    period's taps sum to zero, to rounding."""
+    periods = []
+    for _ in range(n):
+        h = gain * H0 + SIGMA * rng.standard_normal(M)
+        periods.append(h - h.mean())
+    return periods
+
+
+def _decisions(periods: list[np.ndarray], surfaces: list[np.ndarray] | None) -> np.ndarray:
+    det = _detector(1e-3, baseline_periods=20, surface=surfaces is not None)
+    pairs = zip(periods, surfaces or periods, strict=True)
+    rows = [det.update(h, None if surfaces is None else s) for h, s in pairs]
+    return np.array([(d.statistic, d.gain_change, d.shape_change) for d in rows[20:]])
+
+
+@pytest.mark.parametrize("surface", [False, True])
+def test_the_last_bits_of_detrended_estimates_do_not_move_the_decisions(surface):
+    """Estimates whose taps sum to zero, and the same with every tap moved in its last bits
+    (1e-15 of itself, what another BLAS kernel's sums do): statistic, gain and shape agree
+    to 1e-9, isolated with the surface or without.  Tested in the full K windows, the
+    baseline's covariance is singular along the offset: here they moved by 3e-5, in the
+    study's damage-case-5 flight the gain by 0.2."""
+    rng = np.random.default_rng(11)
+    periods = _zero_sum_periods(rng, 20) + _zero_sum_periods(rng, 8, gain=1.3)
+    surfaces = _zero_sum_periods(rng, 28) if surface else None
+    wobble = np.random.default_rng(12)
+
+    def moved(xs):
+        return None if xs is None else [x * (1.0 + 1e-15 * wobble.standard_normal(M)) for x in xs]
+
+    a, b = _decisions(periods, surfaces), _decisions(moved(periods), moved(surfaces))
+    assert np.all(np.isfinite(a))
+    np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9)
+
+
+def test_detrended_estimates_are_hotellings_test_in_the_directions_without_the_offset():
+    """The detector on zero-sum estimates against an independent computation: the reduced
+    periods projected on scipy's null space of the offset direction u = W 1, numpy's
+    covariance and inverse, Hotelling's T^2 and the gain's t test with K - 1 dimensions;
+    the gain change is the GLS fit of v0 alone."""
+    from scipy.linalg import null_space
+    from scipy.stats import f, t
+
+    rng = np.random.default_rng(13)
+    b, k = 20, 6
+    baseline = _zero_sum_periods(rng, b)
+    tested = _zero_sum_periods(rng, 1, gain=1.2)[0]
+    det = _detector(1e-3, baseline_periods=b, windows=k)
+    for h in baseline:
+        det.update(h)
+    got = det.update(tested)
+
+    w = window_matrix(M, k)
+    q = null_space((w @ np.ones(M))[None, :])  # (K, K - 1)
+    v = np.array(baseline) @ w.T @ q
+    v0, s = v.mean(axis=0), np.cov(v, rowvar=False)
+    d = tested @ w.T @ q - v0
+    t2 = d @ np.linalg.inv(s) @ d / (1 + 1 / b)
+    dims = k - 1
+    p_t2 = f.sf(t2 * (b - dims) / ((b - 1) * dims), dims, b - dims)
+    g = v0 @ (d + v0) / (v0 @ v0)
+    se = np.sqrt(v0 @ s @ v0 / (v0 @ v0) ** 2 * (1 + 1 / b))
+    p_gain = 2 * t.sf(abs(g - 1) / se, b - 1)
+    statistic = -np.log10(min(1.0, 2 * min(p_t2, p_gain)))
+    gls = (v0 @ np.linalg.solve(s, d)) / (v0 @ np.linalg.solve(s, v0))
+    assert got.statistic == pytest.approx(statistic, rel=1e-9)
+    assert got.gain_change == pytest.approx(1 + gls, rel=1e-9)
+
+
+@pytest.mark.parametrize(("fraction", "dims"), [(0.9, 5), (1.1, 6)])
+def test_a_baseline_is_without_an_offset_up_to_its_zero_sum_tolerance(fraction, dims):
+    """Periods whose taps sum to 0.9 of the tolerance (1e-9 of the sum of their magnitudes)
+    are learned in K - 1 directions; at 1.1 of it, in all K."""
+    from probing.core import monitor
+
+    rng = np.random.default_rng(14)
+    det = _detector(1e-3, baseline_periods=20, windows=6)
+    for h in _zero_sum_periods(rng, 20):
+        h = h + fraction * monitor._ZERO_SUM * np.abs(h).sum() / M  # sum: fraction x tol
+        det.update(h)
+    assert det._v.k == dims
