@@ -34,6 +34,7 @@ import pandas as pd
 
 from probing.analysis import fig4
 from probing.core.excitation import band_limited, crest_factor
+from probing.core.fixedorder import norm
 from probing.core.metrics import gain_and_shape, harmonic_ratio, through_nonlinearity
 from probing.core.nonlinearities import NoApparentFormError, compensate
 from probing.experiment.flight.drift import predicted_probing
@@ -110,7 +111,7 @@ def collect(results: Path) -> Study:
 
 def rel(a: np.ndarray, b: np.ndarray) -> float:
     """||a - b|| / ||b||."""
-    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+    return norm(a - b) / norm(b)
 
 
 # ----------------------------------------------------------------- the tables' rows

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.fixedorder import norm
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import NoApparentFormError, RateLimit, compensate
 from probing.core.prbs import Probe
@@ -175,7 +176,7 @@ def _panel_result(
         zc = per_period.mean(axis=0)
         res.compensated_z = zc
         res.compensated_periods = per_period
-        res.compensation_error = float(np.linalg.norm(zc - z0) / np.linalg.norm(z0))
+        res.compensation_error = norm(zc - z0) / norm(z0)
     return res
 
 
@@ -201,7 +202,7 @@ def _remedy_row(
     remedy_row.measured_gain_z, remedy_row.shape_error_z = gain_and_shape(remedy.z.mean(axis=0), z0)
     remedy_row.compensated_z = zr
     remedy_row.compensated_periods = remedy.z / sat.predicted_gain
-    remedy_row.compensation_error = float(np.linalg.norm(zr - z0) / np.linalg.norm(z0))
+    remedy_row.compensation_error = norm(zr - z0) / norm(z0)
     return remedy_row
 
 

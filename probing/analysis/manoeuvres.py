@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import RC, save_figure
+from probing.core.fixedorder import norm
 from probing.experiment.output.storage import read_table
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
@@ -66,7 +67,7 @@ def period_table(table: pd.DataFrame) -> pd.DataFrame:
                 "time_mid_s": g.time_mid_s.iloc[0],
                 "reference": g.reference.iloc[0],
                 "achieved": g.achieved.iloc[0],
-                "error": np.linalg.norm(est - pulse) / np.linalg.norm(pulse),
+                "error": norm(est - pulse) / norm(pulse),
                 "peak_pulse": np.abs(pulse).max(),
                 "peak_est": np.abs(est).max(),
             }

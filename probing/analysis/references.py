@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.figures import save_figure
+from probing.core.fixedorder import dot, vdot
 from probing.experiment.output.storage import read_footer, read_table
 
 __all__ = [
@@ -62,7 +63,7 @@ def gain_scatter(h: np.ndarray, h0: np.ndarray) -> float:
     >>> round(gain_scatter(h, np.array([2.0, 2.0])), 12)  # gains 0.5, 1, 1.5
     0.5
     """
-    gains = h @ h0 / (h0 @ h0)
+    gains = dot(h, h0) / vdot(h0, h0)
     return float(gains.std(ddof=1))
 
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from probing.analysis.tables import fmt
+from probing.core.fixedorder import dot, vdot
 from probing.core.noise import noise_model, white
 from probing.experiment.output.storage import read_settled
 
@@ -109,7 +110,7 @@ def _group(data: Any, indices: list[int], label: str) -> list[GroupStats]:
         h = np.array([s.h.mean(axis=0) for s in settled])
         z = np.array([s.z.mean(axis=0) for s in settled])
         h_bar = h.mean(axis=0)
-        gains = h @ h_bar / (h_bar @ h_bar)
+        gains = dot(h, h_bar) / vdot(h_bar, h_bar)
         predicted = [info.get("predicted", {}).get(channel) or {} for info in infos]
         first = predicted[0]
         periods = int(settled[0].h.shape[0])

@@ -34,6 +34,8 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import fdtri, stdtrit
 
+from probing.core.fixedorder import cholesky, dot, norm, solve_lower
+
 __all__ = ["SAMPLES", "detection_scale", "detection_within"]
 
 #: Monte Carlo draws: the probability's standard error is at most 0.5 / sqrt(SAMPLES).
@@ -68,10 +70,10 @@ def _draws(k: int, window_periods: int, within_periods: int, baseline_periods: i
 
 def _whitened(change: np.ndarray, covariance: np.ndarray, v0: np.ndarray) -> tuple:
     """The change in whitened coordinates, and the gain test's unit direction there."""
-    chol = np.linalg.cholesky(np.asarray(covariance, dtype=float))
-    delta = np.linalg.solve(chol, np.asarray(change, dtype=float))
-    a = chol.T @ np.asarray(v0, dtype=float)
-    return delta, a / np.linalg.norm(a)
+    chol = cholesky(np.asarray(covariance, dtype=float))
+    delta = solve_lower(chol, np.asarray(change, dtype=float))
+    a = dot(chol.T, np.asarray(v0, dtype=float))
+    return delta, a / norm(a)
 
 
 def detection_within(
@@ -123,11 +125,11 @@ def detection_within(
     gain_limit = float(stdtrit(dof, 1.0 - false_alarm / 4.0))
     x = noise + changed[:, :, None] * delta  # (samples, N, K)
     # the learnt covariance S^ = C C' / dof (whitened): T^2 = dof |C^-1 x|^2 / factor
-    y = np.linalg.solve(bartlett, np.swapaxes(x, 1, 2))  # (samples, K, N)
-    t2 = dof * np.einsum("skm,skm->sm", y, y) / factor
-    spread = np.einsum("skj,k->sj", bartlett, a)  # C' a: a' S^ a = |C' a|^2 / dof
-    gain_se = np.sqrt(np.einsum("sj,sj->s", spread, spread) / dof * factor)
-    gain = np.abs(x @ a) / gain_se[:, None]
+    y = solve_lower(bartlett, np.swapaxes(x, 1, 2))  # (samples, K, N)
+    t2 = dof * np.multiply(y, y).sum(axis=1) / factor
+    spread = np.multiply(bartlett, a[None, :, None]).sum(axis=1)  # C' a: a' S^ a = |C' a|^2 / dof
+    gain_se = np.sqrt(np.multiply(spread, spread, order="C").sum(axis=-1) / dof * factor)
+    gain = np.abs(dot(x, a)) / gain_se[:, None]
     alarm = (t2 > t2_limit) | (gain > gain_limit)
     return float(np.mean(alarm.any(axis=1)))
 

@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from probing.core.excitation import harmonic_mask
+from probing.core.fixedorder import vdot
 from probing.core.nonlinearities import NoApparentFormError, Nonlinearity, RateLimit
 
 __all__ = ["gain_and_shape", "harmonic_ratio", "predicted_apparent", "through_nonlinearity"]
@@ -30,10 +31,12 @@ def gain_and_shape(h: np.ndarray, h0: np.ndarray) -> tuple[float, float]:
     shape_error : float
         ||h - g h0|| / ||g h0|| (dimensionless); ``inf`` when g = 0.
     """
-    g = float(np.dot(h, h0) / np.dot(h0, h0))
+    h, h0 = np.asarray(h, dtype=float), np.asarray(h0, dtype=float)
+    g = vdot(h, h0) / vdot(h0, h0)
     if g == 0.0:
         return 0.0, math.inf
-    return g, float(np.linalg.norm(h - g * h0) / np.linalg.norm(g * h0))
+    rest, fitted = h - g * h0, g * h0
+    return g, math.sqrt(vdot(rest, rest)) / math.sqrt(vdot(fitted, fitted))
 
 
 def predicted_apparent(

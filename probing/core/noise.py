@@ -51,7 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.excitation import SPECTRAL, spectral_estimates
-from probing.core.trend import detrend_matrix, window_periods
+from probing.core.fixedorder import dot, vdot
+from probing.core.trend import detrend_rows, window_periods
 
 __all__ = [
     "ESTIMATORS",
@@ -240,7 +241,7 @@ def _sampled_variance(
         ],
         axis=1,
     )
-    return np.var(window_sum @ rows.T / periods, axis=0, ddof=1)
+    return np.var(dot(window_sum, rows.T) / periods, axis=0, ddof=1)
 
 
 def _variance(rows: np.ndarray, acov: np.ndarray, m: int, periods: int) -> np.ndarray:
@@ -269,7 +270,7 @@ def _variance(rows: np.ndarray, acov: np.ndarray, m: int, periods: int) -> np.nd
     for d in ds:
         lag = np.abs(d * m + taus)
         r = np.where(lag < acov.size, acov[np.minimum(lag, acov.size - 1)], 0.0)
-        out += (periods - abs(d)) * (c @ r)
+        out += (periods - abs(d)) * dot(c, r)
     return np.maximum(out, 0.0) / periods**2
 
 
@@ -319,14 +320,14 @@ class NoiseModel:
 
     def projection_std(self, v: np.ndarray) -> float:
         """Standard deviation of ``v @ h`` for the mean settled h."""
-        row = np.asarray(v, dtype=float) @ self.h_rows
+        row = dot(np.asarray(v, dtype=float), self.h_rows)
         return float(np.sqrt(self._variance(row[None, :])[0]))
 
     def gain_std(self, h_ref: np.ndarray) -> float:
         """Standard deviation of the least-squares gain <h, h_ref> / <h_ref, h_ref> of the
         mean settled h against a noise-free ``h_ref`` (dimensionless)."""
         h_ref = np.asarray(h_ref, dtype=float)
-        return self.projection_std(h_ref) / float(h_ref @ h_ref)
+        return self.projection_std(h_ref) / vdot(h_ref, h_ref)
 
 
 def noise_model(
@@ -379,7 +380,7 @@ def noise_model(
         m = z.shape[0]
         width = window_periods(detrend_order) * m
         pad = ((0, 0), (width - z.shape[1], 0))  # the estimate reads the window's end
-        d = detrend_matrix(width, m, detrend_order)
-        z, h = np.pad(z, pad) @ d, np.pad(h, pad) @ d
+        z = detrend_rows(np.pad(z, pad), m, detrend_order)
+        h = detrend_rows(np.pad(h, pad), m, detrend_order)
     acov = np.atleast_1d(np.asarray(acov, dtype=float))
     return NoiseModel(estimator, z, h, z.shape[0], int(periods), acov)

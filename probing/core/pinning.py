@@ -41,6 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from probing.core.fixedorder import dot, vdot
+
 __all__ = [
     "SETTLED_TAIL",
     "TAIL_FLOOR",
@@ -186,7 +188,7 @@ def pin_settled_tail(h: np.ndarray, n_tail: int, level: float = TAIL_LEVEL) -> T
     miss = (1.0 - level) / 2.0  # each test's share of the false-unsettled budget
     threshold = float(stats.f.ppf(1.0 - miss, dfn, dfd))
     k = np.arange(n_tail) - (n_tail - 1) / 2.0
-    slopes = flat @ k / (k @ k)  # (P, C): each period's least-squares slope over the tail
+    slopes = dot(flat, k) / vdot(k, k)  # (P, C): each period's least-squares slope over the tail
     sd = slopes.std(axis=0, ddof=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = slopes.mean(axis=0) / (sd / np.sqrt(periods))

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from probing.core.convolution import causal_convolve
+from probing.core.fixedorder import dot, eigvals, expm, matrix_power, solve
 from probing.sim.channels import CHANNELS
 from probing.sim.modes import LongitudinalModes
 from probing.sim.plant import Plant
@@ -45,8 +46,9 @@ def longitudinal_matrix(plant: Plant) -> np.ndarray:
 
 
 def longitudinal_modes(plant: Plant) -> LongitudinalModes:
-    """Short period and phugoid of a trimmed plant (eigenvalues of :func:`longitudinal_matrix`)."""
-    return LongitudinalModes.from_eigenvalues(np.linalg.eigvals(longitudinal_matrix(plant)))
+    """Short period and phugoid of a trimmed plant (eigenvalues of :func:`longitudinal_matrix`,
+    by :func:`probing.core.fixedorder.eigvals`: the same bits on any processor)."""
+    return LongitudinalModes.from_eigenvalues(eigvals(longitudinal_matrix(plant)))
 
 
 @dataclass(frozen=True)
@@ -93,16 +95,13 @@ class LinearResponse:
         """Output after each of ``n`` steps for a one-step unit pulse of the *realised*
         surface at step 0, (n, C): 0, then ``C B + D``, then ``C A^(k-1) B``.
 
-        Computed on the eigenvectors of A (four longitudinal modes), all steps at once.
+        The states A^(k-1) B are made by doubling (:func:`_powers_times`), every sum in a
+        fixed order: the same bits whatever BLAS kernel the processor gets.
         """
         out = np.zeros((n, len(self.channels)))
         if n < 2:
             return out
-        lam, vec = np.linalg.eig(self.a)
-        left = self.c @ vec  # (C, n_states)
-        right = np.linalg.solve(vec, self.b)  # (n_states,)
-        powers = lam[None, :] ** np.arange(n - 1)[:, None]  # A^(k-1), k = 1 .. n-1
-        out[1:] = np.real((powers * right[None, :]) @ left.T)
+        out[1:] = dot(_powers_times(self.a, self.b, n - 1), self.c.T)
         out[1] += self.d
         return out
 
@@ -120,21 +119,39 @@ class LinearResponse:
         over one period, (N, C).
 
         The cyclic convolution of the realised surface with the step response folded onto
-        one period, sum over j of g[k + jN]; on the eigenvectors of A that sum is the
-        geometric series 1 / (1 - lambda^N), so it is exact and costs one FFT.
+        one period, sum over j of g[k + jN] = C A^(k-1) (I - A^N)^-1 B: the geometric series
+        of A^N summed exactly, then one FFT.
         """
         u = self.surface(u, periodic=True)
         n = u.size
-        lam, vec = np.linalg.eig(self.a)
-        left = self.c @ vec  # (C, n_states)
-        right = np.linalg.solve(vec, self.b) / (1.0 - lam**n)  # the folded geometric series
+        eye = np.eye(self.a.shape[0])
+        folded_b = solve(eye - matrix_power(self.a, n), self.b)  # the folded geometric series
         # folded[k] = sum_j g[k + jN]: C A^(k-1) B for k = 1 .. N, where k = N lands on 0
-        powers = lam[None, :] ** np.arange(n)[:, None]  # A^(k-1), k = 1 .. N
-        g = np.real((powers * right[None, :]) @ left.T)  # (N, C): folded g[1 .. N]
+        g = dot(_powers_times(self.a, folded_b, n), self.c.T)  # (N, C): folded g[1 .. N]
         folded = np.roll(g, 1, axis=0)  # folded[0] = g[N] (+ g[2N] + ...), folded[1] = g[1] ...
         folded[1 % n] += self.d  # the feed-through acts once, one step after its input
         spectrum = np.fft.rfft(folded, axis=0) * np.fft.rfft(u)[:, None]
         return np.fft.irfft(spectrum, n, axis=0)
+
+
+def _powers_times(a: np.ndarray, x: np.ndarray, n: int) -> np.ndarray:
+    """Rows A^k x for k = 0 .. n - 1, shape (n, len(x)): by doubling, the block of the first
+    2^j rows times (A^(2^j))' giving the next, each product in a fixed order.
+
+    Examples
+    --------
+    >>> _powers_times(np.array([[2.0, 0.0], [0.0, 3.0]]), np.array([1.0, 1.0]), 3)
+    array([[1., 1.],
+           [2., 3.],
+           [4., 9.]])
+    """
+    rows = np.asarray(x, dtype=float)[None, :]
+    power = np.asarray(a, dtype=float)  # A^(rows so far)
+    while rows.shape[0] < n:
+        rows = np.concatenate((rows, dot(rows, power.T)))
+        if rows.shape[0] < n:
+            power = dot(power, power)
+    return rows[:n]
 
 
 def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -142,10 +159,8 @@ def zoh(a: np.ndarray, b: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarr
 
     The exponential of the block matrix [[A, B], [0, 0]] dt holds both A_d = e^(A dt) and
     B_d = int_0^dt e^(A s) ds B (what :func:`scipy.signal.cont2discrete` computes for
-    ``"zoh"``; scipy.linalg is lighter to import than scipy.signal).
+    ``"zoh"``), with :func:`probing.core.fixedorder.expm`: the same bits on any processor.
     """
-    from scipy.linalg import expm
-
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     n = a.shape[0]

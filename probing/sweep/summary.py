@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.fixedorder import vdot
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import RateLimit
 from probing.core.tempfiles import remove_dead_writers_files, writer_tag
@@ -249,7 +250,7 @@ def _fill_done_row(
         sigma = scn.sensor_noise.get(channel, 0.0)
         row["h_stderr_naive"] = sigma / (scn.amplitude_deg * math.sqrt(m * n_p))
         h0 = h if p.is_own_reference else mean_h(p.reference_id, p.reference)
-        if h0 is not None and np.dot(h0, h0) > 0:
+        if h0 is not None and vdot(h0, h0) > 0:
             row["measured_gain"], row["shape_error"] = gain_and_shape(h, h0)
 
 

@@ -8,6 +8,7 @@ import pytest
 from probing.core.trend import (
     detrend_matrix,
     detrend_periodic,
+    detrend_rows,
     periodic_trend_basis,
     remove_periodic_trend,
     trend_projector,
@@ -113,3 +114,16 @@ def test_made_up_system_old_detrend_against_joint_fit() -> None:
         assert err(h_new) == pytest.approx(0.127, abs=0.002)
         np.testing.assert_allclose(h_new, h - h.sum() / m, atol=1e-12)
         assert err(h_whole) < 1e-12
+
+
+@pytest.mark.parametrize("order", [0, 1, 3])
+def test_detrend_rows_is_the_product_with_the_detrend_map(order: int) -> None:
+    """Weights on the detrended record, from the map's factors, equal the weights times D =
+    (I - J)(I - T) built here with numpy's pseudo-inverse (an independent construction)."""
+    length, period = 36, 9
+    trend, orth = periodic_trend_basis(length, period, order)
+    t = trend @ np.linalg.pinv(orth) if order else np.zeros((length, length))
+    d = np.eye(length) - t
+    d = d - d.mean(axis=0, keepdims=True)
+    rows = np.random.default_rng(order).standard_normal((5, length))
+    np.testing.assert_allclose(detrend_rows(rows, period, order), rows @ d, atol=1e-13)

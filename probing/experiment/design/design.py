@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from probing.core.detection import detection_scale
+from probing.core.fixedorder import dot
 from probing.core.monitor import MonitorSettings, window_matrix
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
@@ -404,7 +405,7 @@ def _window(
 
         def factor_of(design: Scenario, sigma: float) -> float:
             cov = period_covariance(design, flown[design.amplitude_deg], request.channel, reduce)
-            v0 = reduce @ noise_free_reference(design)[request.channel]
+            v0 = dot(reduce, noise_free_reference(design)[request.channel])
             change = -request.detect_gain_change * v0  # a drop: the test is two-sided
             return detection_scale(change, cov, v0, alpha, periods, request.detection_probability)
 

@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.fixedorder import dot, vdot
+
 __all__ = ["main", "measured", "period_h"]
 
 
@@ -72,13 +74,13 @@ def measured(toml: str, seeds: int) -> dict[str, float]:
     """``period_gain_std``, ``gain_std`` (dimensionless) and ``h_std`` (channel unit per
     deg) of the module docstring, and the mean gain."""
     h, ref = period_h(toml, seeds)
-    gains = h @ ref / float(ref @ ref)
+    gains = dot(h, ref) / vdot(ref, ref)
     per_period = float(np.sqrt(np.mean(gains.var(axis=0, ddof=1))))
     settled = h.mean(axis=1)  # (seeds, M): each run's mean settled h
     return {
         "period_gain_std": per_period,
         "mean_gain": float(gains.mean()),
-        "gain_std": float((settled @ ref / float(ref @ ref)).std(ddof=1)),
+        "gain_std": float((dot(settled, ref) / vdot(ref, ref)).std(ddof=1)),
         "h_std": float(np.sqrt(np.mean(settled.var(axis=0, ddof=1)))),
     }
 

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from probing.core.fixedorder import dot, eigvals
 from probing.core.forked import can_fork, forked_map
 from probing.experiment.output.scatter import scatter_models
 from probing.experiment.scenario import Scenario
@@ -166,7 +167,7 @@ def _rms(x: np.ndarray) -> float:
 
 def _decay_periods(lin: LinearResponse, steps_per_period: int) -> int:
     """Periods after which the slowest mode has decayed by 1e-6 (the transient is gone)."""
-    slowest = float(np.max(np.abs(np.linalg.eigvals(lin.a))))
+    slowest = float(np.max(np.abs(eigvals(lin.a))))
     if slowest >= 1.0:
         return 10**9
     return max(1, math.ceil(math.log(1e-6) / math.log(slowest) / steps_per_period))
@@ -202,9 +203,9 @@ def _deterministic(
         if two:
             previous = y_bits[(first - 1) * m : (n - 1) * m].reshape(n - first, m).sum(axis=0)
             per_period = np.concatenate((previous, per_period))
-        steady_h = h_rows @ (np.tile(y_steady, 2) if two else y_steady)
+        steady_h = dot(h_rows, np.tile(y_steady, 2) if two else y_steady)
         late = scn.periods - n  # the periods not simulated: at the steady state
-        return (h_rows @ per_period + late * steady_h) / (scn.periods - first)
+        return (dot(h_rows, per_period) + late * steady_h) / (scn.periods - first)
 
     pulse = (step_response or lin.step_response)(x.size)
     y_rest = lin.respond(q, pulse)[spb - 1 :: spb]  # bit samples
@@ -212,7 +213,7 @@ def _deterministic(
     expected, steady = {}, {}
     for j, channel in enumerate(lin.channels):
         expected[channel] = settled_mean(y_rest[:, j], y_ss[:, j])
-        steady[channel] = h_rows @ (np.tile(y_ss[:, j], 2) if two else y_ss[:, j])
+        steady[channel] = dot(h_rows, np.tile(y_ss[:, j], 2) if two else y_ss[:, j])
     return expected, steady
 
 

@@ -27,6 +27,7 @@ from typing import TextIO
 
 import numpy as np
 
+from probing.core.fixedorder import norm
 from probing.core.forked import forked_map
 from probing.core.noise import cyclic_estimates
 from probing.experiment.flight.run import scenario_provenance
@@ -122,7 +123,7 @@ def _append_period(
         rows["lag_s"].append(taps * scn.bit_duration_s)
         rows["h_est"].append(h_est[j])
         rows["h_pulse"].append(h_pulse[j])
-        errors[c].append(float(np.linalg.norm(h_est[j] - h_pulse[j]) / np.linalg.norm(h_pulse[j])))
+        errors[c].append(norm(h_est[j] - h_pulse[j]) / norm(h_pulse[j]))
 
 
 def _write_rows(scn: Scenario, out: str | Path, rows: dict[str, list], trim_result) -> Path:
