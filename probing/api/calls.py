@@ -346,7 +346,8 @@ def analyze(
     Raises
     ------
     probing.experiment.recorded.record.RecordError
-        The file cannot be read, or a column or the probe is not what it should be.
+        The file cannot be read or holds no rows, a column or the probe is not what it
+        should be (a column of text, a time column off its grid: the first wrong row named).
     """
     from probing.experiment.recorded.analyze import AnalysisRequest, write_analysis
     from probing.experiment.recorded.analyze import analyze as analyze_record
@@ -407,7 +408,10 @@ def replay(
     Raises
     ------
     probing.experiment.flight.monitor.ReplayError
-        Not a monitored flight's log, a column or key missing, a bad map.
+        Not a monitored flight's log, a column or key missing, a bad map; or a log that is
+        not its flight's (a column of another type, time off the flight's grid, another
+        probe, not whole periods: :mod:`probing.experiment.flight.flight_log`), naming the
+        first wrong column or row; checked before anything is written.
     StoredFileError
         The log cannot be read.
     """

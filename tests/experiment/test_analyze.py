@@ -13,6 +13,7 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -190,6 +191,10 @@ def _backwards(f: pd.DataFrame) -> pd.DataFrame:
     return f
 
 
+def _text(f: pd.DataFrame) -> pd.DataFrame:
+    return f.assign(y=f.y.astype(str))  # numbers written as text: not a column of numbers
+
+
 def _not_msequence(f: pd.DataFrame) -> pd.DataFrame:
     f.loc[700, "u_deg"] = 3.0 - f.loc[700, "u_deg"]  # one bit flipped
     return f
@@ -200,8 +205,10 @@ def _not_msequence(f: pd.DataFrame) -> pd.DataFrame:
     [
         (_gap, ".csv", (), "not uniform at row 300"),
         (_nan, ".parquet", (), "column y has NaN"),
-        (_backwards, ".mat", (), "not strictly increasing"),
+        (_backwards, ".mat", (), "time is not uniform at row 200 (it steps by 0.1 s"),
         (_not_msequence, ".csv", (), "not an m-sequence of order 8"),
+        (_text, ".parquet", (), "column y holds text, not numbers"),
+        (lambda f: f.iloc[:0], ".csv", (), "rec.csv: it holds no rows"),
         (lambda f: f, ".csv", ("--output", "pitch"), "no column pitch"),
         (lambda f: f, ".txt", (), "unknown file type"),
     ],
@@ -218,6 +225,22 @@ def test_bad_input_one_line_exit_2_nothing_written(
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("probing: error: ") and needle in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".mat"])
+def test_an_empty_record_is_one_line(tmp_path: Path, suffix: str) -> None:
+    """No rows, the step given (no time column to count them): RecordError naming the file,
+    nothing written; was numpy's ValueError of a minimum of nothing."""
+    import probing
+    from probing.experiment.recorded.record import RecordError
+
+    path = write(make_record().iloc[:0], tmp_path / f"rec{suffix}")
+    with pytest.raises(RecordError, match=rf"^{re.escape(str(path))}: it holds no rows$"):
+        probing.analyze(
+            path, input="u_deg", outputs=["y"], order=ORDER, bit_duration_s=DT_S, dt_s=DT_S,
+            scratch=tmp_path / "scratch",
+        )  # fmt: skip
+    assert not (tmp_path / "scratch").exists()
 
 
 @pytest.mark.parametrize("drift", ["none", "detrend"])
@@ -352,4 +375,4 @@ def test_a_datetime_column_with_a_gap_is_refused_in_seconds(
     capsys.readouterr()
     assert _analyze_with_time(path, tmp_path / "out", "when", DT_S) == 2
     err = capsys.readouterr().err
-    assert "not uniform at row 300 (0.1 s, elsewhere 0.05 s)" in err, err
+    assert "not uniform at row 300 (it steps by 0.1 s, not 0.05 s)" in err, err

@@ -226,6 +226,25 @@ def _backwards(df, m):
     return df, m
 
 
+def _repeated(df, m):
+    return pd.concat([df.iloc[:110], df.iloc[100:]]), m
+
+
+def _half_a_step_late(df, m):
+    df["rec.time_s"] += 0.005
+    return df, m
+
+
+def _empty(df, m):
+    return df.iloc[:0], m
+
+
+def _text(df, m):
+    df["rec.theta_rad"] = df["rec.theta_rad"].astype(object)
+    df.loc[100, "rec.theta_rad"] = "x"
+    return df, m
+
+
 def _mapped_but_absent(df, m):
     return df, m.replace('alpha_rad = "rec.alpha_rad"', 'alpha_rad = "AoA"')
 
@@ -243,16 +262,32 @@ def _wrong_probe(df, m):
     ("change", "needle"),
     [
         (_nan, "column 'rec.theta_rad' (for theta_rad): no value at row 100"),
-        (_backwards, "time does not increase at row 50 (0.49 s)"),
+        (_backwards, "time does not increase at row 50 (0.49 s after 0.5 s)"),
+        (_repeated, "time does not increase at row 110 (1.01 s after 1.1 s)"),
+        (_half_a_step_late, "time at row 0 is 0.015 s, not 0.01 s"),
+        (_empty, "log.csv: it holds no rows"),
+        (_text, "column 'rec.theta_rad' (for theta_rad): text, not numbers"),
         (_mapped_but_absent, "no column 'AoA' (the map's for alpha_rad)"),
         (_required_channel_missing, "no column 'theta_rad', and the map names none for it"),
-        (_wrong_probe, "is not the scenario's from step"),
+        (_wrong_probe, "its probe (rec.probe_deg) is not the scenario's from row 0 on"),
     ],
 )
 def test_a_bad_log_is_one_line_exit_2_and_nothing_written(
     flown: dict, tmp_path: Path, capsys, change, needle: str
 ) -> None:
     refused(small_log(flown, tmp_path, change), tmp_path, capsys, needle)
+
+
+def test_a_parquet_log_of_numbers_written_as_text_is_refused(flown: dict, tmp_path: Path) -> None:
+    """A Parquet column of text, even text that reads as numbers, is not a column of
+    numbers: refused naming it (was read as the numbers)."""
+    df, trim = foreign(flown["log"])
+    df["rec.theta_rad"] = df["rec.theta_rad"].astype(str)
+    df.to_parquet(tmp_path / "log.parquet")
+    names = [c.removeprefix("rec.") for c in df.columns]
+    with pytest.raises(ReplayError, match=r"'rec\.theta_rad' \(for theta_rad\): text, not numbers"):
+        replay_foreign(flown, tmp_path / "log.parquet", map_text(names, trim), tmp_path / "o")
+    assert not (tmp_path / "o").exists()
 
 
 def test_the_command_monitors_a_foreign_log(flown: dict, tmp_path: Path, capsys) -> None:

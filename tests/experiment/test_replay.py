@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -229,6 +230,11 @@ def _nan_at(table: pa.Table, column: str, row: int) -> pa.Table:
     return table.set_column(table.schema.get_field_index(column), column, pa.array(values))
 
 
+def _text(table: pa.Table, column: str) -> pa.Table:
+    index = table.schema.get_field_index(column)
+    return table.set_column(index, column, table.column(column).cast(pa.string()))
+
+
 @pytest.mark.parametrize(
     ("drift", "spoil", "needle"),
     [
@@ -236,13 +242,16 @@ def _nan_at(table: pa.Table, column: str, row: int) -> pa.Table:
         ("gust", lambda t: _nan_at(t, "alpha_rad", 200), "column alpha_rad has NaN at row 200"),
         ("nominal", lambda t: _nan_at(t, "time_s", 0), "column time_s has NaN at row 0"),
         ("gust", lambda t: t.drop_columns(["alpha_rad"]), "no column alpha_rad"),
+        ("nominal", lambda t: pa.concat_tables([t.slice(0, 110), t.slice(100)]), "row 110 (1.01 s"),
+        ("nominal", lambda t: _text(t, "theta_rad"), "column theta_rad holds string, not double"),
     ],
 )  # fmt: skip
 def test_a_spoilt_log_is_one_line_exit_2_nothing_written(
     flights, tmp_path, capsys, drift, spoil, needle
 ):
-    """A value missing (null, NaN) or a column dropped: one line naming the file, the column
-    (and the row), exit 2, nothing written; was ArrowInvalid, IndexError or KeyError."""
+    """A value missing (null, NaN) or a column dropped, rows repeated, a column of text: one
+    line naming the file, the column (and the row), exit 2, nothing written; was ArrowInvalid,
+    IndexError or KeyError, an alarm the flight never had, or ArrowInvalid."""
     from probing.cli import main as cli_main
 
     log = flights[drift].out_dir / "sensors.parquet"
@@ -255,6 +264,67 @@ def test_a_spoilt_log_is_one_line_exit_2_nothing_written(
     assert len(err) == 1 and err[0].startswith(f"probing: error: {spoilt}: "), err
     assert needle in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+def _duplicated(df):
+    """Ten rows logged twice: time goes back at the first repeated row."""
+    return pd.concat([df.iloc[:110], df.iloc[100:]])
+
+
+def _a_period_more(df):
+    """A period appended on the flight's grid, its probe the scenario's: more than it flew."""
+    more = df.iloc[:255].assign(time_s=np.arange(6121, 6376) * 0.01)
+    return pd.concat([df, more], ignore_index=True)
+
+
+def _one_probe_value_off(df):
+    probe = df.probe_deg.to_numpy().copy()
+    probe[3000] *= 1.01
+    return df.assign(probe_deg=probe)
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (lambda d: d.sample(frac=1, random_state=0), "time at row 0 is 28.5 s, not 0.01 s"),
+        (_duplicated, "time does not increase at row 110 (1.01 s after 1.1 s)"),
+        (lambda d: d.iloc[255:], "time at row 0 is 2.56 s, not 0.01 s"),
+        (lambda d: d.iloc[:0], "it holds no rows"),
+        (lambda d: d.iloc[:1], "1 row, not whole probe periods of 255 steps"),
+        (lambda d: d.iloc[:-1], "6119 rows, not whole probe periods of 255 steps"),
+        (_a_period_more, "6375 rows, more than its scenario's 24 periods (6120 steps)"),
+        (lambda d: d.assign(theta_rad=d.theta_rad.astype(str)), "column theta_rad holds"),
+        (
+            lambda d: d.assign(theta_rad=d.theta_rad.astype("f4")),
+            "theta_rad holds float, not double",
+        ),
+        (
+            lambda d: d.assign(probe_deg=-d.probe_deg),
+            "(probe_deg) is not the scenario's from row 0 on",
+        ),
+        (_one_probe_value_off, "its probe (probe_deg) is not the scenario's from row 3000 on"),
+        (lambda d: d.drop(columns="probe_deg"), "no column probe_deg"),
+    ],
+)
+def test_a_log_edited_into_another_flights_is_refused_in_one_line(flights, tmp_path, edit, needle):
+    """A log edited with pandas (as a user would: read_parquet, edit, to_parquet) so that it
+    is not the flight's: rows reordered, repeated, cut or added, a column of another type,
+    another probe or none.  probing.replay raises ReplayError, one line naming the file and
+    the first wrong row or column, and writes nothing; was accepted (a different estimate, an
+    alarm the flight never had, an empty result), or a traceback."""
+    import probing
+
+    log = flights["nominal"].out_dir / "sensors.parquet"
+    df = pd.read_parquet(log)
+    edited = edit(df)
+    edited.attrs = df.attrs  # pandas keeps the keys there: the edited log is still a log
+    path = tmp_path / "edited.parquet"
+    edited.to_parquet(path)
+    with pytest.raises(ReplayError) as err:
+        probing.replay(path, scratch=tmp_path / "scratch")
+    line = str(err.value)
+    assert line.startswith(f"{path}: ") and "\n" not in line and needle in line, line
+    assert not (tmp_path / "scratch").exists()
 
 
 REPLAY_FILES = ["bounds.parquet", "monitor.parquet", "probing.parquet"]

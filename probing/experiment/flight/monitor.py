@@ -27,11 +27,19 @@ import pyarrow.parquet as pq
 
 from probing.core.isolation import DETECTORS, ISOLATION_CHECKS, isolated_verdict
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
+from probing.core.time_grid import WrongRow
 from probing.core.trajectory import TrajectoryDetector
 from probing.experiment.flight.flight_computer import FlightComputer, ReferenceDiverged, folder_of
+from probing.experiment.flight.flight_log import (
+    probe_column,
+    replay_columns,
+    wrong_length,
+    wrong_probe,
+    wrong_time,
+    wrong_type,
+)
 from probing.experiment.flight.onboard import (
     isolation_columns,
-    log_columns,
     open_reference_twin,
     reference_source,
 )
@@ -482,8 +490,9 @@ def replay_monitor(
     Raises
     ------
     ReplayError
-        If the file is not a monitored flight's log, or lacks a column its reference reads
-        (``follow``: the autopilot's commands).
+        If the file is not a monitored flight's log, lacks a column its reference reads
+        (``follow``: the autopilot's commands), or is not that flight's (:func:`logged_scenario`),
+        before any folder is made.
     probing.experiment.output.storage.StoredFileError
         If the file cannot be read.
     """
@@ -530,43 +539,63 @@ def _batches(log: Path, table: pa.Table | None, rows: int) -> Iterator[pa.Record
     return iter(table.combine_chunks().to_batches(max_chunksize=rows))
 
 
-def _check_values(log: Path, table: pa.Table | None, names: Sequence[str]) -> None:
-    """Every row of the columns ``names`` holds a finite number (ReplayError: the first
-    that does not, by column and row)."""
+def _check_rows(log: Path, table: pa.Table | None, scn: Scenario, names: Sequence[str]) -> None:
+    """Every row of the columns ``names`` holds a finite number, its time is on the flight's
+    grid and its probe is the scenario's (:mod:`~probing.experiment.flight.flight_log`), and
+    the rows are whole probe periods of the flight (ReplayError: the first row that is
+    wrong, by column, or the count)."""
     batches = (
         pq.ParquetFile(log).iter_batches(columns=list(names))
         if table is None
         else table.select(list(names)).to_batches()
     )
-    first = 0
+    probe = probe_column(scn)
+    first, before = 0, None
     for batch in batches:
-        for name in names:
-            column = batch.column(name)
-            if column.null_count:
-                row = first + int(np.flatnonzero(column.is_null().to_numpy(False))[0])
-                raise ReplayError(f"{log}: column {name} has no value at row {row}")
-            try:
-                values = column.to_numpy(zero_copy_only=False).astype(float)
-            except (TypeError, ValueError):
-                raise ReplayError(f"{log}: column {name} does not hold numbers") from None
-            bad = np.flatnonzero(~np.isfinite(values))
-            if bad.size:
-                what = "NaN" if np.isnan(values[bad[0]]) else "an infinity"
-                raise ReplayError(f"{log}: column {name} has {what} at row {first + bad[0]}")
+        found = [_missing_value(name, batch.column(name), first) for name in names]
+        time_s = batch.column("time_s").to_numpy(zero_copy_only=False)
+        found.append(wrong_time(time_s, scn, first, before))
+        logged = batch.column(probe).to_numpy(zero_copy_only=False)
+        found.append(wrong_probe(probe, logged, scn, first))
+        wrong = min((f for f in found if f is not None), key=lambda f: f.row, default=None)
+        if wrong is not None:
+            raise ReplayError(f"{log}: {wrong.reason}")
+        if batch.num_rows:
+            before = float(time_s[-1])
         first += batch.num_rows
+    count = wrong_length(first, scn)
+    if count is not None:
+        raise ReplayError(f"{log}: {count}")
+
+
+def _missing_value(name: str, column: pa.Array, first: int) -> WrongRow | None:
+    """The first row of a chunk (from row ``first`` on) of the column ``name`` without a
+    finite number: empty (null), NaN or an infinity."""
+    empty = column.is_null().to_numpy(zero_copy_only=False)
+    values = column.to_numpy(zero_copy_only=False)
+    bad = np.flatnonzero(empty | ~np.isfinite(values))
+    if not bad.size:
+        return None
+    i = int(bad[0])
+    what = "no value" if empty[i] else "NaN" if np.isnan(values[i]) else "an infinity"
+    return WrongRow(first + i, f"column {name} has {what} at row {first + i}")
 
 
 def logged_scenario(
     log: Path, meta: dict[bytes, bytes], table: pa.Table | None = None
 ) -> tuple[Scenario, np.ndarray]:
     """The scenario a log was flown with and the sensors' reading of the trim, once the log
-    holds every column the replay reads (:func:`probing.experiment.flight.onboard.log_columns`)
-    with a number in every row (``table``: the log in memory, else read from the file).
+    is that flight's (``table``: the log in memory, else read from the file): it holds every
+    column the replay needs (:func:`probing.experiment.flight.flight_log.replay_columns`), of
+    the type the flight writes, a number in every row, its time on the flight's grid, its
+    probe the scenario's, and whole probe periods (:mod:`probing.experiment.flight.flight_log`).
 
     Raises
     ------
     ReplayError
-        A key, a column or a value missing (naming the file, the column and the row).
+        A key, a column or a value missing, a column of another type, a row off the
+        flight's time grid or with another probe, a log of no whole period or more than the
+        scenario's (one line naming the file, the column or the first wrong row).
     """
     lacking = [k.decode() for k in LOG_KEYS if k not in meta]
     if lacking:
@@ -581,11 +610,14 @@ def logged_scenario(
         raise ReplayError(f"{log}: its scenario: {exc}") from None
     if scn.digest() != digest.decode():
         raise ReplayError(f"{log}: its scenario does not match its digest")
-    names = set(read_schema(log).names if table is None else table.schema.names)
-    needed = log_columns(scn)
-    missing = [c for c in needed if c not in names]
+    schema = read_schema(log) if table is None else table.schema
+    needed = replay_columns(scn)
+    missing = [c for c in needed if c not in schema.names]
     if missing:
         raise ReplayError(f"{log}: no column {', '.join(missing)}")
-    _check_values(log, table, needed)
+    wrong = wrong_type(schema, scn)
+    if wrong is not None:
+        raise ReplayError(f"{log}: {wrong}")
+    _check_rows(log, table, scn, needed)
     measured = json.loads(trim)
     return scn, np.array([measured[c] for c in scn.channels], dtype=float)

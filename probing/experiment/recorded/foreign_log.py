@@ -24,18 +24,17 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
+from probing.core.time_grid import off_grid
+from probing.experiment.flight.flight_log import probe_column, replay_columns, wrong_probe
 from probing.experiment.flight.monitor import ReplayError
-from probing.experiment.flight.onboard import log_columns
 from probing.experiment.output.layouts import AUTOPILOT_COLUMNS
 from probing.experiment.output.storage import provenance
+from probing.experiment.recorded.record import not_numbers
 from probing.experiment.scenario import Scenario, ScenarioError
 from probing.experiment.scenario.references import REFERENCES, realisable_drifts
 from probing.sim.channels import CHANNEL_NAMES
 
 __all__ = ["Column", "LogMap", "foreign_log", "read_map"]
-
-#: The relative tolerance of the log's time step against the scenario's ``dt_s``.
-DT_RTOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -128,15 +127,17 @@ def _read_table(log: Path) -> pa.Table:
 
 def _values(log: Path, table: pa.Table, name: str, column: Column) -> np.ndarray:
     """The project column ``name`` in the project's unit (ReplayError if the column is
-    missing, not numbers, or holds a NaN or infinity)."""
+    missing, does not hold numbers (:func:`~probing.experiment.recorded.record.not_numbers`),
+    or holds a NaN or infinity)."""
     if column.name not in table.column_names:
         if column.name == name:  # not in the map: the file's column of the same name
             raise ReplayError(f"{log}: no column {name!r}, and the map names none for it")
         raise ReplayError(f"{log}: no column {column.name!r} (the map's for {name})")
-    try:
-        raw = table.column(column.name).to_numpy(zero_copy_only=False).astype(np.float64)
-    except (ValueError, TypeError):
-        raise ReplayError(f"{log}: column {column.name!r} (for {name}): not numbers") from None
+    raw = table.column(column.name).to_numpy(zero_copy_only=False)
+    held = not_numbers(raw)
+    if held is not None:
+        raise ReplayError(f"{log}: column {column.name!r} (for {name}): {held}, not numbers")
+    raw = raw.astype(np.float64)
     bad = ~np.isfinite(raw)
     if bad.any():
         row = int(np.argmax(bad))
@@ -145,17 +146,15 @@ def _values(log: Path, table: pa.Table, name: str, column: Column) -> np.ndarray
 
 
 def _check_time(log: Path, time_s: np.ndarray, dt_s: float) -> None:
-    """Increasing time, in steps of the scenario's ``dt_s``."""
-    steps = np.diff(time_s)
-    if steps.size and not (steps > 0).all():
-        row = int(np.argmax(steps <= 0)) + 1
-        raise ReplayError(f"{log}: time does not increase at row {row} ({float(time_s[row])!r} s)")
-    off = np.abs(steps - dt_s) > DT_RTOL * dt_s
-    if off.any():
-        row = int(np.argmax(off)) + 1
+    """Time on the scenario's grid, ``k dt_s`` after the trim, from the first row
+    (:func:`probing.core.time_grid.off_grid`): the first row after time 0 is the probe's
+    first step, at ``dt_s`` (a log that starts later starts there)."""
+    start = dt_s * min(1, round(float(time_s[0]) / dt_s))
+    wrong = off_grid(time_s, dt_s, start)
+    if wrong is not None:
         raise ReplayError(
-            f"{log}: time steps by {float(steps[row - 1])!r} s at row {row}, the scenario by "
-            f"dt_s = {dt_s!r} s (a log is replayed at the scenario's step, not resampled)"
+            f"{log}: {wrong.reason} (a log is replayed on the scenario's steps of dt_s = "
+            f"{dt_s!r} s after the trim, not resampled)"
         )
 
 
@@ -176,20 +175,6 @@ def _trim(log: Path, how: LogMap, scn: Scenario, cols: dict[str, np.ndarray]) ->
             "(time <= 0) to take the trim reading from"
         )
     return {c: float(np.mean(cols[c][before])) for c in scn.channels}
-
-
-def _check_probe(log: Path, name: str, logged: np.ndarray, scn: Scenario) -> None:
-    """The log's probe column is the scenario's probe, from its first bit."""
-    flown = scn.probe.samples(scn.dt_s, scn.periods)
-    tol = 1e-6 * scn.amplitude_deg
-    off = np.abs(logged - flown) > tol
-    if off.any():
-        row = int(np.argmax(off))
-        raise ReplayError(
-            f"{log}: its probe ({name}) is not the scenario's from step {row} on (logged "
-            f"{float(logged[row])!r}, the scenario's {float(flown[row])!r}): another order, "
-            "bit duration, amplitude or phase"
-        )
 
 
 def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
@@ -216,8 +201,10 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
     Raises
     ------
     ReplayError
-        A missing column, a NaN, time that does not increase in steps of ``dt_s``, a probe
-        that is not the scenario's, a log shorter than the monitor's baseline needs.
+        No rows, a missing column, one of text, a NaN, time off the grid of ``dt_s`` (the
+        first wrong row named), a probe that is not the scenario's
+        (:func:`probing.experiment.flight.flight_log.wrong_probe`), a log shorter than the
+        monitor's baseline needs.
     """
     log = Path(log)
     if not REFERENCES[scn.drift].realisable:
@@ -226,9 +213,10 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
             f"monitored with {', '.join(realisable_drifts())}"
         )
     table = _read_table(log)
-    probe = f"probe_{scn.surface_unit}"
-    names = list(dict.fromkeys(["time_s", probe, *log_columns(scn)]))
-    cols = {n: _values(log, table, n, how.columns.get(n, Column(n))) for n in names}
+    if table.num_rows == 0:
+        raise ReplayError(f"{log}: it holds no rows")
+    probe = probe_column(scn)
+    cols = {n: _values(log, table, n, how.columns.get(n, Column(n))) for n in replay_columns(scn)}
     _check_time(log, cols["time_s"], scn.dt_s)
     trim = _trim(log, how, scn, cols)
     period_steps = scn.probe.length * scn.probe.steps_per_bit(scn.dt_s)
@@ -241,7 +229,10 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
         raise ReplayError(f"{log}: {periods} whole probe periods after time 0: {exc}") from None
     kept = slice(first, first + periods * period_steps)
     cols = {n: v[kept] for n, v in cols.items()}
-    _check_probe(log, how.columns.get(probe, Column(probe)).name, cols[probe], scn)
+    name = how.columns.get(probe, Column(probe)).name
+    wrong = wrong_probe(name, cols[probe], scn, rows_before=first)
+    if wrong is not None:
+        raise ReplayError(f"{log}: {wrong.reason}")
     meta = provenance(
         scenario_toml=scn.text,
         scenario=scn.to_dict(),

@@ -12,11 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.core.time_grid import GRID_TOLERANCE, off_grid
+
 __all__ = [
     "FORMATS",
     "RecordError",
     "column_unit",
     "file_sha256",
+    "not_numbers",
     "read_columns",
     "sample_step_s",
 ]
@@ -24,8 +27,8 @@ __all__ = [
 #: File suffix -> format name.
 FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
 
-#: Relative tolerance of a uniform time step.
-STEP_TOLERANCE = 1e-6
+#: Relative tolerance of a uniform time step (:data:`probing.core.time_grid.GRID_TOLERANCE`).
+STEP_TOLERANCE = GRID_TOLERANCE
 
 #: A time column whose name ends so is in another unit than seconds: (unit, per second).
 TIME_SUFFIXES = {
@@ -81,6 +84,33 @@ class RecordError(ValueError):
     """A record that cannot be analysed; the message names the file or column and why."""
 
 
+def not_numbers(values: np.ndarray) -> str | None:
+    """What a column holds if not numbers (integers, floats or booleans), in a few words:
+    ``"text"``, ``"date-times"``, ``"complex numbers"`` or its type; None if it holds numbers.
+
+    Examples
+    --------
+    >>> not_numbers(np.array([0.1, 0.2])), not_numbers(np.array(["0.1", "0.2"], dtype=object))
+    (None, 'text')
+    """
+    dtype = np.asarray(values).dtype
+    if dtype.kind in "biuf":
+        return None
+    return _HELD.get(dtype.kind, str(dtype))
+
+
+#: What a column of a numpy kind holds that is not numbers (:func:`not_numbers`).
+_HELD = {
+    "O": "text",
+    "U": "text",
+    "S": "text",
+    "M": "date-times",
+    "m": "durations",
+    "c": "complex numbers",
+    "V": "structs",
+}
+
+
 def file_sha256(path: Path) -> str:
     """SHA-256 of the file's bytes, hex."""
     digest = hashlib.sha256()
@@ -127,8 +157,9 @@ def read_columns(path: Path, names: list[str], time: str | None = None) -> dict[
     Raises
     ------
     RecordError
-        Unknown file type, unreadable file, a missing or non-numeric column, a ``.mat``
-        variable that is not a vector, columns of different lengths, a NaN or infinity.
+        Unknown file type, unreadable file, no rows, a missing column or one that holds no
+        numbers (:func:`not_numbers`: text, even text of numbers), a ``.mat`` variable that
+        is not a vector, columns of different lengths, a NaN or infinity.
     """
     kind = FORMATS.get(path.suffix.lower())
     if kind is None:
@@ -144,8 +175,10 @@ def read_columns(path: Path, names: list[str], time: str | None = None) -> dict[
 
             table = pq.read_table(path, columns=names)
             found = {n: table.column(n).to_numpy() for n in names}
+        if names and all(np.size(found[n]) == 0 for n in names):
+            raise RecordError(f"{path}: it holds no rows")
         out = {
-            n: _seconds(path, n, found[n]) if n == time else np.asarray(found[n], dtype=float)
+            n: _seconds(path, n, found[n]) if n == time else _numbers(path, n, found[n])
             for n in names
         }
     except RecordError:
@@ -154,6 +187,15 @@ def read_columns(path: Path, names: list[str], time: str | None = None) -> dict[
         reason = " ".join(str(exc).split()) or exc.__class__.__name__
         raise RecordError(f"{path}: cannot read it as {kind} ({reason})") from None
     return _checked(path, out)
+
+
+def _numbers(path: Path, name: str, values: object) -> np.ndarray:
+    """A column as floats; RecordError naming it when it does not hold numbers."""
+    raw = np.asarray(values)
+    held = not_numbers(raw)
+    if held is not None:
+        raise RecordError(f"{path}: column {name} holds {held}, not numbers")
+    return raw.astype(float)
 
 
 def _seconds(path: Path, name: str, values: object) -> np.ndarray:
@@ -214,24 +256,19 @@ def _checked(path: Path, columns: dict[str, np.ndarray]) -> dict[str, np.ndarray
 def sample_step_s(time_s: np.ndarray, where: str) -> float:
     """The time step of a strictly increasing, uniform time column (s).
 
+    The column is the grid of its own step (the median step) from its first row
+    (:func:`probing.core.time_grid.off_grid`, to :data:`STEP_TOLERANCE` of the step).
+
     Raises
     ------
     RecordError
-        Fewer than 2 samples, a step that is not positive (not monotonic), or a step that
-        differs from the median step by more than :data:`STEP_TOLERANCE` of it (a gap).
+        Fewer than 2 samples, or the first row off that grid: a step that is not positive
+        (not monotonic), a step other than the median (a gap), a time that has drifted off.
     """
     if time_s.size < 2:
         raise RecordError(f"{where}: fewer than 2 samples")
-    steps = np.diff(time_s)
-    if np.any(steps <= 0):
-        row = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise RecordError(f"{where}: time is not strictly increasing at row {row}")
-    typical = float(np.median(steps))
-    off = np.abs(steps - typical) > STEP_TOLERANCE * typical
-    if np.any(off):
-        row = int(np.flatnonzero(off)[0]) + 1
-        raise RecordError(
-            f"{where}: time step not uniform at row {row} ({steps[row - 1]:g} s, "
-            f"elsewhere {typical:g} s)"
-        )
+    typical = float(np.median(np.diff(time_s)))
+    wrong = off_grid(time_s, typical, float(time_s[0]), rtol=STEP_TOLERANCE)
+    if wrong is not None:
+        raise RecordError(f"{where}: {wrong.reason}")
     return float((time_s[-1] - time_s[0]) / (time_s.size - 1))
