@@ -9,11 +9,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
+from probing.core.errors import ProbingError
+
 #: The subparsers of ``probing``, to which each command module adds its commands.
 Subcommands = argparse._SubParsersAction
 
 
-class UsageError(Exception):
+class UsageError(ProbingError):
     """Bad input found by a command: printed as one line, exit code 2."""
 
 

@@ -59,6 +59,8 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.errors import ProbingError
+
 __all__ = [
     "FPS_PER_KT",
     "FPS_PER_MPS",
@@ -79,7 +81,7 @@ FPS_PER_MPS = 1.0 / 0.3048
 FRAME_RTOL = 1e-9
 
 
-class SensorSpecError(ValueError):
+class SensorSpecError(ProbingError, ValueError):
     """A sensor specification, override or sample rate that cannot be used.
 
     Attributes

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from probing.core.errors import ProbingError
 from probing.core.forked import INTERRUPTS, STOPS
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.storage import write_json_atomic
@@ -44,11 +45,11 @@ EXECUTORS = ("local", "dask")
 LOCK_FILE = ".lock"
 
 
-class SweepBusyError(RuntimeError):
+class SweepBusyError(ProbingError, RuntimeError):
     """Another sweep process holds the lock of the output folder."""
 
 
-class SchedulerError(ValueError):
+class SchedulerError(ProbingError, ValueError):
     """The Dask scheduler named by ``--scheduler`` cannot be reached (or the address is bad)."""
 
 

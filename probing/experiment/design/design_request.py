@@ -9,6 +9,7 @@ import math
 from dataclasses import MISSING, dataclass, field
 from typing import Any
 
+from probing.core.errors import ProbingError
 from probing.core.noise import ESTIMATORS
 from probing.core.sensors import SENSOR_SUITES
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
@@ -30,11 +31,11 @@ def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, 
     return field(default=default, metadata={"option": {"help": help, "exclusive": exclusive, **kw}})
 
 
-class DesignError(ValueError):
+class DesignError(ProbingError, ValueError):
     """The request cannot be met; the message says why."""
 
 
-class DesignInputError(ValueError):
+class DesignInputError(ProbingError, ValueError):
     """An invalid request: ``option`` names the command-line option, ``message`` the rule."""
 
     def __init__(self, option: str, message: str) -> None:

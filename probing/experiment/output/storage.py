@@ -30,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from probing.core import tempfiles
+from probing.core.errors import ProbingError
 from probing.core.forked import INTERRUPTS
 from probing.experiment.output.layouts import (
     CHANNEL_UNIT,
@@ -476,7 +477,7 @@ def output_folder(
 
 
 # ------------------------------------------------------------------ reading
-class StoredFileError(ValueError):
+class StoredFileError(ProbingError, ValueError):
     """A stored file that cannot be read (not Parquet, damaged, unreadable); the message
     names it."""
 

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.core.errors import ProbingError
+
 __all__ = [
     "FORMATS",
     "RecordError",
@@ -77,7 +79,7 @@ def column_unit(name: str) -> str | None:
     return None
 
 
-class RecordError(ValueError):
+class RecordError(ProbingError, ValueError):
     """A record that cannot be analysed; the message names the file or column and why."""
 
 

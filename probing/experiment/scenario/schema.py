@@ -8,6 +8,7 @@ import dataclasses
 import math
 from typing import Any
 
+from probing.core.errors import ProbingError
 from probing.core.faults import FAULTS
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES
@@ -68,7 +69,7 @@ _REQUIRED = {
 }
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ProbingError, ValueError):
     """An invalid scenario: ``field`` names the offending entry."""
 
     def __init__(self, field: str, message: str, source: str | None = None) -> None:
