@@ -28,17 +28,21 @@ def _cmd_design(args: argparse.Namespace) -> int:
         if args.export_probe or args.save_scenario is not None:
             raise UsageError("design --simultaneous: checks a scenario; there is no probe to write")
         return _check_simultaneous(args.simultaneous)
-    request = _request(args)
-    _check_exports(args)
     from probing.api import design
     from probing.experiment.design.design import DesignError, DesignInputError
     from probing.experiment.output.storage import strict_json
+
+    try:
+        request = _request(args)
+    except DesignInputError as exc:
+        raise UsageError(_said(exc)) from None
+    _check_exports(args)
 
     def job() -> int:
         try:
             rec = design(request)
         except DesignInputError as exc:
-            raise UsageError(str(exc)) from None
+            raise UsageError(_said(exc)) from None
         except DesignError as exc:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
@@ -199,9 +203,19 @@ def _flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+def _said(exc: Any) -> str:
+    """A DesignInputError's line with each field it names written as its option (another
+    name, a scenario field, as it is)."""
+    from probing.experiment.design.design_request import DesignRequest
+
+    fields = {f.name for f in dataclasses.fields(DesignRequest)}
+    return str(exc.line(lambda name: _flag(name) if name in fields else name))
+
+
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
     """``--simultaneous``, an option per DesignRequest field (its default and help from the
     field, :func:`~probing.experiment.design.design_request._option`), and ``--json``."""
+    from probing.core.errors import refer
     from probing.experiment.design.design_request import DesignRequest
 
     parser.add_argument(
@@ -216,6 +230,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     groups: dict[str, Any] = {}
     for f in dataclasses.fields(DesignRequest):
         keywords = dict(f.metadata["option"])
+        keywords["help"] = refer(keywords["help"], _flag)
         exclusive = keywords.pop("exclusive")
         if exclusive is None:
             where = parser

@@ -5,12 +5,16 @@ works.  None of these flies: each is refused before anything is simulated or wri
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
+import pydoc
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import probing
+from probing.experiment.design.design_request import DesignRequest
 
 ROOT = Path(__file__).resolve().parents[2]
 CSV = ROOT / "examples" / "your-data" / "probe_response.csv"
@@ -24,6 +28,101 @@ def _one_line(exc: BaseException) -> str:
     line = str(exc)
     assert "\n" not in line and "--" not in line, line  # a keyword, not a flag
     return line
+
+
+# ------------------------------------------------------------------ design
+@pytest.mark.parametrize(
+    ("options", "error", "line"),
+    [
+        ({"aircraft": "gtm_t2", "altitude_ft": 800}, "DesignInputError", "speed_kcas: required"),
+        ({"aircraft": "gtm_t2"}, "DesignInputError", "altitude_ft: required, as is speed_kcas"),
+        ({**CONDITION, "json": True}, "DesignInputError", "json: no such option of design"),
+        ({**CONDITION, "altitude": 8}, "DesignInputError", "altitude: no such option"),
+        (
+            {**CONDITION, "deadband_deg": 0.01},
+            "DesignInputError",
+            "deadband_deg: must be a pair of numbers (lower, upper), got 0.01",
+        ),
+        (
+            {**CONDITION, "deadband_deg": (0.01, 0.02, 0.03)},
+            "DesignInputError",
+            "deadband_deg: must be a pair",
+        ),
+        (
+            {**CONDITION, "altitude_ft": "800"},
+            "DesignInputError",
+            "altitude_ft: must be a number, got '800'",
+        ),
+        (
+            {**CONDITION, "settle_periods": 2.0},
+            "DesignInputError",
+            "settle_periods: must be an integer, got 2.0",
+        ),
+        ({**CONDITION, "drift": "foo"}, "DesignInputError", "drift: must be one of gust"),
+        (
+            {**CONDITION, "closed_loop": 1},
+            "DesignInputError",
+            "closed_loop: must be True or False, got 1",
+        ),
+        ({**CONDITION, "speed_kcas": -5}, "DesignInputError", "speed_kcas: must be > 0"),
+        (
+            {**CONDITION, "turbulence": "light"},
+            "DesignInputError",
+            "drift: gust estimates the gust from the sensors: give sensors SUITE and "
+            "closed_loop, or drift oracle",
+        ),
+        (
+            {**CONDITION, "within_periods": 3, "noise_sigma": 1e-5},
+            "DesignInputError",
+            "within_periods: needs window_periods",
+        ),
+        (
+            {**CONDITION, "calibration_seeds": 1},
+            "DesignInputError",
+            "calibration_seeds: must be an integer from 2 to 100, got 1",
+        ),
+    ],
+    ids=lambda v: str(v)[:40] if isinstance(v, str) else None,
+)
+def test_design_refuses_with_the_keyword(options, error, line) -> None:
+    with pytest.raises(probing.ProbingError) as caught:
+        probing.design(**options)
+    assert type(caught.value).__name__ == error
+    assert isinstance(caught.value, probing.ArgumentError)
+    assert _one_line(caught.value).startswith(line), str(caught.value)
+
+
+def test_design_takes_numpy_numbers_and_a_list_as_a_pair() -> None:
+    req = DesignRequest.of({**CONDITION, "altitude_ft": np.int64(800), "deadband_deg": [-1, 1]})
+    assert req.altitude_ft == 800.0 and type(req.altitude_ft) is float
+    assert req.deadband_deg == (-1.0, 1.0)
+    assert DesignRequest.of({**CONDITION, "settle_periods": np.int32(3)}).settle_periods == 3
+
+
+def test_design_takes_a_request_or_keywords_not_both() -> None:
+    req = DesignRequest(**CONDITION)
+    with pytest.raises(probing.ArgumentError, match="not both"):
+        probing.design(req, dt_s=0.02)
+    with pytest.raises(probing.ArgumentError, match="must be a DesignRequest"):
+        probing.design(CONDITION)
+
+
+def test_help_of_design_lists_every_option_as_a_keyword() -> None:
+    """From the one table of options, DesignRequest's fields: the signature, with the
+    defaults, and the docstring, with their help (the command line's options too)."""
+    fields = dataclasses.fields(DesignRequest)
+    params = inspect.signature(probing.design).parameters
+    assert list(params) == ["request", *(f.name for f in fields)]
+    for f in fields:
+        p = params[f.name]
+        assert p.kind is inspect.Parameter.KEYWORD_ONLY
+        required = f.default is dataclasses.MISSING
+        assert p.default is (inspect.Parameter.empty if required else f.default), f.name
+    text = pydoc.render_doc(probing.design, renderer=pydoc.plaintext)
+    for f in fields:
+        assert f"    {f.name} : " in text, f.name
+    assert "needs sensors and closed_loop" in text and "--sensors" not in text
+    assert "altitude_ft : float\n        trim altitude (ft) (required)" in text
 
 
 # ------------------------------------------------------------------ Scenario.replace

@@ -170,7 +170,9 @@ def test_the_arguments_a_message_names_are_written_by_who_says_it() -> None:
 
 def test_an_argument_error_survives_a_pickle() -> None:
     """A forked run hands its error back pickled."""
-    for exc in (ArgumentError("jobs", "must be >= 1"),):
+    from probing.experiment.design.design_request import DesignInputError
+
+    for exc in (ArgumentError("jobs", "must be >= 1"), DesignInputError("drift", "`x`")):
         again = pickle.loads(pickle.dumps(exc))
         assert type(again) is type(exc) and str(again) == str(exc)
         assert again.argument == exc.argument
