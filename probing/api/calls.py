@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from probing.api.flight import Flight, held_files
+from probing.api.flight import Flight, checked_max_lag, held_files
 from probing.experiment.output.layouts import RUN_FILES
 from probing.experiment.output.staging import work_folder
 from probing.experiment.output.storage import StoredFileError, read_footer
@@ -295,7 +295,7 @@ def analyze(
     file: str | Path,
     *,
     input: str,
-    outputs: Sequence[str],
+    outputs: str | Sequence[str],
     order: int,
     bit_duration_s: float,
     time: str | None = None,
@@ -315,8 +315,8 @@ def analyze(
         The record: CSV, Parquet or MATLAB ``.mat``.
     input : str
         The probe's column, as injected.
-    outputs : sequence of str
-        The measured outputs' columns.
+    outputs : str or sequence of str
+        The measured outputs' columns (a string: one column).
     order : int
         The m-sequence's order n (M = 2**n - 1).
     bit_duration_s : float
@@ -347,18 +347,24 @@ def analyze(
     ------
     probing.experiment.recorded.record.RecordError
         The file cannot be read, or a column or the probe is not what it should be.
+    probing.ArgumentError
+        An argument of the wrong type or out of its range, named (``order=7.0``,
+        ``bit_duration_s="0.04"``, ``drift="foo"``), checked before the file is read.
     """
     from probing.experiment.recorded.analyze import AnalysisRequest, write_analysis
     from probing.experiment.recorded.analyze import analyze as analyze_record
     from probing.experiment.recorded.record import RecordError
 
+    max_lag_s = checked_max_lag(max_lag_s)
     path = Path(file)
+    if path.is_dir():
+        raise RecordError(f"{path}: is a folder, not a record (a .csv, .parquet or .mat file)")
     if not path.is_file():
-        raise RecordError(f"FILE {path}: no such file")
+        raise RecordError(f"{path}: no such file")
     req = AnalysisRequest(
         path=path,
         input=input,
-        outputs=tuple(outputs),
+        outputs=outputs,
         order=order,
         bit_duration_s=bit_duration_s,
         time=time,

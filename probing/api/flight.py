@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from probing.core.errors import number
 from probing.experiment.output.staging import staged_output, work_folder
 from probing.experiment.output.storage import (
     OUTPUT_FILES,
@@ -25,7 +26,7 @@ if TYPE_CHECKING:  # pandas and matplotlib are imported when a table or figure i
 
     from probing.experiment.scenario import Scenario
 
-__all__ = ["FIGURE_NAME", "Flight", "attrs_of", "held_files", "truth_files"]
+__all__ = ["FIGURE_NAME", "Flight", "attrs_of", "checked_max_lag", "held_files", "truth_files"]
 
 #: The figure ``probing analyze`` draws beside a record's files (``<name>.png``).
 FIGURE_NAME = "pulse_response"
@@ -59,6 +60,11 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
             continue
         attrs[key.decode().removeprefix("probing.")] = _decoded(meta[key])
     return attrs
+
+
+def checked_max_lag(max_lag_s: Any) -> float | None:
+    """A figure's last lag, s: None (automatic) or a number > 0 (ArgumentError)."""
+    return None if max_lag_s is None else number(max_lag_s, "max_lag_s", lo=0, lo_open=True)
 
 
 def _decoded(raw: bytes) -> Any:
@@ -122,7 +128,7 @@ class Flight:
         self.name = name
         self.scenario = scenario
         self.result = result
-        self.figure_max_lag_s = figure_max_lag_s
+        self.figure_max_lag_s = checked_max_lag(figure_max_lag_s)
 
     def __repr__(self) -> str:
         what = self.name or "record"

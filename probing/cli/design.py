@@ -15,6 +15,7 @@ from probing.cli.common import (
     Subcommands,
     UsageError,
     command,
+    option_of,
     out_file,
     path_arg,
     print_error,
@@ -190,17 +191,12 @@ def _request(args: argparse.Namespace) -> Any:
     required = [f.name for f in fields if f.default is dataclasses.MISSING]
     missing = [name for name in required if getattr(args, name) is None]
     if missing:
-        options = ", ".join(_flag(name) for name in missing)
+        options = ", ".join(option_of(name) for name in missing)
         raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
     values = {f.name: getattr(args, f.name) for f in fields}
     return DesignRequest(
         **{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}  # nargs=2
     )
-
-
-def _flag(name: str) -> str:
-    """The option of a DesignRequest field: ``dt_s`` is ``--dt-s``."""
-    return "--" + name.replace("_", "-")
 
 
 def _said(exc: Any) -> str:
@@ -209,7 +205,7 @@ def _said(exc: Any) -> str:
     from probing.experiment.design.design_request import DesignRequest
 
     fields = {f.name for f in dataclasses.fields(DesignRequest)}
-    return str(exc.line(lambda name: _flag(name) if name in fields else name))
+    return str(exc.line(lambda name: option_of(name) if name in fields else name))
 
 
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
@@ -230,7 +226,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     groups: dict[str, Any] = {}
     for f in dataclasses.fields(DesignRequest):
         keywords = dict(f.metadata["option"])
-        keywords["help"] = refer(keywords["help"], _flag)
+        keywords["help"] = refer(keywords["help"], option_of)
         exclusive = keywords.pop("exclusive")
         if exclusive is None:
             where = parser
@@ -240,12 +236,12 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
             where = groups[exclusive]
         default = None if f.default is dataclasses.MISSING else f.default
         if hints[f.name] is bool:  # a switch
-            where.add_argument(_flag(f.name), action="store_true", default=default, **keywords)
+            where.add_argument(option_of(f.name), action="store_true", default=default, **keywords)
             continue
         kind, nargs = _argument_type(hints[f.name])
         if nargs is not None:
             keywords["nargs"] = nargs
-        where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
+        where.add_argument(option_of(f.name), type=kind, default=default, **keywords)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--export-probe",

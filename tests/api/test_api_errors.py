@@ -125,6 +125,58 @@ def test_help_of_design_lists_every_option_as_a_keyword() -> None:
     assert "altitude_ft : float\n        trim altitude (ft) (required)" in text
 
 
+# ------------------------------------------------------------------ analyze
+@pytest.mark.parametrize(
+    ("change", "line"),
+    [
+        ({"time": None}, "time: give time (the time column) or dt_s (the sample step)"),
+        ({"dt_s": 0.01}, "dt_s: give time or dt_s, not both"),
+        ({"bit_duration_s": "0.04"}, "bit_duration_s: must be a number, got '0.04'"),
+        ({"order": "7"}, "order: must be an integer from 2 to 20, got '7'"),
+        ({"order": 7.0}, "order: must be an integer from 2 to 20, got 7.0"),
+        ({"order": True}, "order: must be an integer from 2 to 20, got True"),
+        ({"amplitude": -1}, "amplitude: must be > 0, got -1"),
+        ({"amplitude": 0}, "amplitude: must be > 0, got 0"),
+        ({"drift": "foo"}, "drift: must be one of detrend, none; got 'foo'"),
+        ({"settled_after_s": "1"}, "settled_after_s: must be a number, got '1'"),
+        ({"max_lag_s": -1}, "max_lag_s: must be > 0, got -1"),
+        ({"outputs": []}, "outputs: must name one at least"),
+        ({"outputs": [1]}, "outputs: must be names (strings), got [1]"),
+        ({"input": 3}, "input: must be a column name (a string), got 3"),
+    ],
+    ids=lambda v: str(v)[:30],
+)
+def test_analyze_refuses_an_argument_naming_it(change, line) -> None:
+    with pytest.raises(probing.ArgumentError) as caught:
+        probing.analyze(CSV, **{**ANALYZE, **change})
+    assert _one_line(caught.value) == line
+
+
+@pytest.fixture(scope="module")
+def record() -> probing.Flight:
+    """The example record, its order given as numpy's (as JSON read with numpy gives it)
+    and its one output as a string: one column, not its letters."""
+    return probing.analyze(CSV, **{**ANALYZE, "order": np.int64(7), "outputs": "theta_rad"})
+
+
+def test_analyze_takes_numpy_integers_and_one_column_as_a_string(record) -> None:
+    assert list(record.bounds["channel"].unique()) == ["theta_rad"]
+    assert record.bounds.attrs["analysis"]["order"] == 7
+    assert record.bounds.attrs["analysis"]["outputs"] == ["theta_rad"]
+
+
+def test_analyze_of_a_folder_or_a_damaged_mat_file_says_so(tmp_path) -> None:
+    with pytest.raises(probing.RecordError, match=r": is a folder, not a record"):
+        probing.analyze(tmp_path, **ANALYZE)
+    with pytest.raises(probing.RecordError, match=r"none\.csv: no such file$"):
+        probing.analyze(tmp_path / "none.csv", **ANALYZE)
+    for name, data in (("short.mat", b"MATLAB 5.0"), ("noise.mat", bytes(range(256)) * 2)):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(probing.RecordError, match="cannot read it as mat") as caught:
+            probing.analyze(tmp_path / name, **{**ANALYZE, "time": None, "dt_s": 0.01})
+        _one_line(caught.value)
+
+
 # ------------------------------------------------------------------ Scenario.replace
 def test_replace_takes_numpy_integers_and_refuses_a_key_that_is_no_name() -> None:
     scn = probing.example("fig4/a_deadband")
