@@ -11,7 +11,7 @@ import textwrap
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from probing.core.errors import refer
 from probing.experiment.design.design_request import DesignRequest
@@ -156,7 +156,7 @@ def fly_sweep(
     executor: str = "local",
     scheduler: str | None = None,
     retry_failed: bool = False,
-    progress: bool | None = None,
+    progress: bool | Literal["lines"] | None = None,
     connect_timeout_s: float = 10.0,
 ) -> SweepResult:
     """Fly a sweep's missing points into ``out/<name>/`` (``probing sweep``; docs/sweeps.md).
@@ -168,16 +168,18 @@ def fly_sweep(
     out : path
         The results folder; the sweep resumes from what it holds.
     jobs : int, optional
-        Worker processes (default: one per core).
+        Worker processes, >= 1 (default: one per core).
     executor : {"local", "dask"}
         A local pool, or Dask (``scheduler``: an existing scheduler's address, else a
         LocalCluster).
     retry_failed : bool
         Fly again the points recorded as failed.
-    progress : bool, optional
-        A progress bar (default: on a terminal or in a notebook).
+    progress : bool or "lines", optional
+        A progress bar on stderr, or one line per finished run (``"lines"``, what the
+        command line writes into a log); default: a bar in a Jupyter notebook, nothing in a
+        script.
     connect_timeout_s : float
-        How long to wait for ``scheduler``, s.
+        How long to wait for ``scheduler``, s (> 0).
 
     Returns
     -------
@@ -188,12 +190,22 @@ def fly_sweep(
     ------
     ScenarioError
         The sweep file is invalid.
+    probing.ArgumentError
+        ``jobs``, ``executor``, ``scheduler``, ``connect_timeout_s`` or ``progress`` refused.
+    OutputPathError
+        ``out`` cannot be written.
     probing.sweep.SchedulerError, probing.sweep.SweepBusyError
         The scheduler does not answer; another process holds the sweep's folder.
+
+    All are raised before anything is written.
     """
     from probing.api.calls import in_notebook
+    from probing.core.errors import ArgumentError
     from probing.sweep import load_sweep, run_sweep
 
+    shown = in_notebook() if progress is None else progress
+    if not (isinstance(shown, bool) or shown == "lines"):
+        raise ArgumentError("progress", f"must be True, False or 'lines', got {progress!r}")
     spec = load_sweep(sweep) if isinstance(sweep, str | Path) else sweep
     return run_sweep(
         spec,
@@ -202,6 +214,7 @@ def fly_sweep(
         executor=executor,
         scheduler=scheduler,
         retry_failed=retry_failed,
-        progress=True if progress is None and in_notebook() else progress,
+        progress=shown is True,
+        lines=shown == "lines",
         connect_timeout_s=connect_timeout_s,
     )

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import io
 import pydoc
 from pathlib import Path
 
@@ -14,7 +15,9 @@ import numpy as np
 import pytest
 
 import probing
+from probing.api import studies
 from probing.experiment.design.design_request import DesignRequest
+from probing.sweep import execute
 
 ROOT = Path(__file__).resolve().parents[2]
 CSV = ROOT / "examples" / "your-data" / "probe_response.csv"
@@ -201,3 +204,75 @@ def test_a_section_given_as_a_dict_replaces_the_whole_section() -> None:
     with pytest.raises(probing.ScenarioError, match=r"probe\.bit_duration_s: missing"):
         scn.replace({"probe": {"order": 7}})  # not merged into the section
     assert "replaces the section as a whole" in " ".join(scn.replace.__doc__.split())
+
+
+# ------------------------------------------------------------------ fly_sweep
+@pytest.mark.parametrize(
+    ("kw", "line"),
+    [
+        ({"jobs": 0}, "jobs: must be an integer >= 1, got 0"),
+        ({"jobs": "2"}, "jobs: must be an integer >= 1, got '2'"),
+        ({"jobs": 2.0}, "jobs: must be an integer >= 1, got 2.0"),
+        ({"executor": "foo"}, "executor: must be one of local, dask; got 'foo'"),
+        ({"scheduler": "tcp://x:1"}, "scheduler: only with executor dask"),
+        ({"connect_timeout_s": 0}, "connect_timeout_s: must be > 0, got 0"),
+        ({"progress": "bar"}, "progress: must be True, False or 'lines', got 'bar'"),
+    ],
+    ids=lambda v: str(v)[:30],
+)
+def test_fly_sweep_refuses_an_argument_before_writing(kw, line, tmp_path) -> None:
+    with pytest.raises(probing.ArgumentError) as caught:
+        probing.fly_sweep(SWEEP, tmp_path / "out", **kw)
+    assert _one_line(caught.value) == line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_fly_sweep_refuses_an_unwritable_folder(tmp_path) -> None:
+    (tmp_path / "a_file").write_text("")
+    for out in (tmp_path / "a_file", tmp_path / "a_file" / "below", ""):
+        with pytest.raises(probing.OutputPathError) as caught:
+            probing.fly_sweep(SWEEP, out)
+        assert str(caught.value).startswith("out")
+    assert [p.name for p in tmp_path.iterdir()] == ["a_file"]
+
+
+def test_fly_sweep_draws_no_progress_in_a_script(monkeypatch, tmp_path) -> None:
+    asked = []
+    monkeypatch.setattr(
+        "probing.sweep.run_sweep", lambda *a, **kw: asked.append((kw["progress"], kw["lines"]))
+    )
+    probing.fly_sweep(SWEEP, tmp_path)
+    probing.fly_sweep(SWEEP, tmp_path, progress="lines")
+    probing.fly_sweep(SWEEP, tmp_path, progress=True)
+    monkeypatch.setattr("probing.api.calls.in_notebook", lambda: True)
+    probing.fly_sweep(SWEEP, tmp_path)
+    assert asked == [(False, False), (False, True), (True, False), (True, False)]
+
+
+def test_a_sweep_without_lines_writes_nothing() -> None:
+    for lines, said in ((True, "name: 0 runs to do\n"), (False, "")):
+        stream = io.StringIO()
+        result = execute.SweepResult(folder=Path("x"), points=0)
+        execute._execute(None, [], "name", result, False, stream, lines)
+        assert stream.getvalue() == said
+
+
+def test_the_command_line_writes_lines_off_a_terminal(monkeypatch, tmp_path, capsys) -> None:
+    from probing.cli import main
+
+    asked = []
+
+    def spy(sweep, out, **kw):
+        asked.append(kw["progress"])
+        raise probing.SweepBusyError("stop here")
+
+    monkeypatch.setattr(studies, "fly_sweep", spy)
+    monkeypatch.setattr("probing.api.fly_sweep", spy)
+    assert main(["sweep", str(SWEEP), "--out", str(tmp_path)]) == 1
+    assert asked == ["lines"]
+    assert main(["sweep", str(SWEEP), "--out", str(tmp_path), "-j", "0"]) == 1  # the spy's
+    monkeypatch.undo()
+    assert main(["sweep", str(SWEEP), "--out", str(tmp_path), "-j", "0"]) == 2
+    assert capsys.readouterr().err.endswith(
+        "probing: error: -j/--jobs: must be an integer >= 1, got 0\n"
+    )
