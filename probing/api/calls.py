@@ -260,12 +260,14 @@ def read(path: str | Path) -> Flight:
     Raises
     ------
     StoredFileError
-        When ``path`` is not a folder holding any of the project's files, or one of them
-        is not Parquet.
+        When ``path`` does not exist, is not a folder, holds none of the project's files,
+        or one of them is not Parquet.
     """
     folder = Path(path)
+    if not folder.exists():
+        raise StoredFileError(f"{folder}: no such folder")
     if not folder.is_dir():
-        raise StoredFileError(f"{folder}: not a folder of results")
+        raise StoredFileError(f"{folder}: is a file, not the folder of a run")
     files = held_files(folder)
     if not files:
         raise StoredFileError(f"{folder}: holds none of {', '.join(RUN_FILES)}")

@@ -12,6 +12,8 @@ import pydoc
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 import probing
@@ -276,3 +278,55 @@ def test_the_command_line_writes_lines_off_a_terminal(monkeypatch, tmp_path, cap
     assert capsys.readouterr().err.endswith(
         "probing: error: -j/--jobs: must be an integer >= 1, got 0\n"
     )
+
+
+# ------------------------------------------------------------------ Flight
+def test_a_flight_refuses_a_lag_and_a_file_it_cannot_have(record) -> None:
+    for bad, said in (
+        (-1, "must be > 0, got -1"),
+        (0, "must be > 0, got 0"),
+        ("x", "must be a number, got 'x'"),
+    ):
+        with pytest.raises(probing.ArgumentError, match=f"^max_lag_s: {said}"):
+            record.plot(max_lag_s=bad)
+    with pytest.raises(probing.ArgumentError, match=r"^name: 'nope\.parquet' is none of"):
+        record.table("nope.parquet")
+    assert record.table("truth.parquet") is None  # one of the project's, not held
+    with pytest.raises(probing.RecordError, match="a record has no scenario"):
+        record.truth()
+    with pytest.raises(probing.StoredFileError, match="was not monitored"):
+        record.plot_monitor()
+
+
+def test_save_refuses_an_empty_path_as_the_command_line_does(record, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(probing.OutputPathError, match=r"^out: empty path$"):
+        record.save("")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_read_says_what_is_wrong_with_the_path(tmp_path) -> None:
+    with pytest.raises(probing.StoredFileError, match=r"missing: no such folder$"):
+        probing.read(tmp_path / "missing")
+    (tmp_path / "probing.parquet").write_text("")
+    with pytest.raises(probing.StoredFileError, match=r"is a file, not the folder of a run"):
+        probing.read(tmp_path / "probing.parquet")
+
+
+def _monitor_file(verdict: str) -> bytes:
+    table = pa.table({"time_s": [1.0]}).replace_schema_metadata({b"probing.verdict": verdict})
+    sink = io.BytesIO()
+    pq.write_table(table, sink)
+    return sink.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("stored", "verdict"),
+    [("none", None), ("actuator", "actuator"), ("airframe", "airframe"), ("sensor", "sensor")],
+)
+def test_no_verdict_is_none(stored, verdict) -> None:
+    """docs/api.md: None where there is none; the file and the command line say "none"."""
+    flight = probing.Flight({"monitor.parquet": _monitor_file(stored)}, name="x")
+    assert flight.verdict == verdict
+    assert probing.Flight({}, name="x").verdict is None
+    assert "sensor" in probing.Flight.verdict.__doc__
