@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from probing.core.errors import ArgumentError, number
+from probing.experiment.output.pandas_keys import ATTRS_FILE, stored_text
 from probing.experiment.output.staging import staged_output, work_folder
 from probing.experiment.output.storage import (
     OUTPUT_FILES,
@@ -55,7 +56,7 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
     >>> attrs_of({b"probing.units": b'{"lag_s": "s"}', b"probing.drift": b"gust"}, "x.parquet")
     {'file': 'x.parquet', 'drift': 'gust', 'units': {'lag_s': 's'}}
     """
-    attrs: dict[str, Any] = {"file": file}
+    attrs: dict[str, Any] = {ATTRS_FILE: file}
     for key in sorted(meta):
         if not key.startswith(b"probing."):
             continue
@@ -70,12 +71,16 @@ def checked_max_lag(max_lag_s: Any) -> float | None:
 
 def _decoded(raw: bytes) -> Any:
     """A metadata value: a string is written as itself, anything else as JSON
-    (:func:`probing.experiment.output.storage.metadata`)."""
+    (:func:`~probing.experiment.output.pandas_keys.stored_text`).  A number, true, false or
+    null is one only if it is stored so (a digest ``"12e4..."`` is a string), so a table's
+    ``attrs`` written again by pandas give back the bytes
+    (:func:`~probing.experiment.output.pandas_keys.from_pandas_attrs`)."""
     text = raw.decode()
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except ValueError:
         return text
+    return value if isinstance(value, dict | list) or stored_text(value) == text else text
 
 
 def held_files(folder: Path) -> dict[str, bytes]:

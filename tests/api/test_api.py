@@ -302,6 +302,28 @@ def test_replay_of_a_flights_log_is_its_monitor(monitored, tmp_path) -> None:
         probing.replay(tmp_path / flight.name / "probing.parquet")
 
 
+@pytest.mark.slow
+def test_an_edited_sensors_table_replays(monitored, tmp_path) -> None:
+    """docs/monitoring.md: an edited log replays.  A Flight's table carries its keys decoded
+    and without their prefix; written by pandas, they are read back as the file's: the
+    columns the replay does not read dropped, it is the flight's monitor; one it reads
+    dropped, a ReplayError names it."""
+    from probing.experiment.flight.onboard import log_columns
+
+    _, flight = monitored
+    sensors = flight.sensors
+    needed = log_columns(flight.scenario)
+    unread = [c for c in sensors.columns if c not in needed]
+    assert unread and "scenario" in sensors.attrs  # decoded, no "probing." prefix
+    sensors.drop(columns=unread).to_parquet(tmp_path / "edited.parquet")
+    again = probing.replay(tmp_path / "edited.parquet")
+    pd.testing.assert_frame_equal(again.monitor, flight.monitor)
+    assert (again.verdict, again.first_alarm_s) == (flight.verdict, flight.first_alarm_s)
+    sensors.drop(columns=["q_rad_s"]).to_parquet(tmp_path / "cut.parquet")
+    with pytest.raises(probing.ReplayError, match=r"cut\.parquet: no column q_rad_s$"):
+        probing.replay(tmp_path / "cut.parquet")
+
+
 def test_fly_refuses_to_monitor_what_its_runner_does_not(tmp_path) -> None:
     simultaneous = sorted((ROOT / "scenarios" / "simultaneous").glob("*.toml"))[0]
     with pytest.raises(probing.ScenarioError, match="probing monitor"):

@@ -55,7 +55,11 @@ from probing.experiment.output.output_paths import (
     check_output_file,
     check_output_folder,
 )
-from probing.experiment.output.pandas_keys import from_pandas_attrs, to_pandas_attrs
+from probing.experiment.output.pandas_keys import (
+    from_pandas_attrs,
+    stored_text,
+    to_pandas_attrs,
+)
 from probing.experiment.output.staging import DIGEST_KEY, earlier_files, report_removed
 
 __all__ = [
@@ -165,12 +169,7 @@ def git_revision() -> str:
 
 def metadata(**items: Any) -> dict[bytes, bytes]:
     """Parquet key-value metadata: ``probing.<key>`` -> text (JSON for non-strings)."""
-    return {
-        f"probing.{k}".encode(): (
-            v if isinstance(v, str) else json.dumps(v, sort_keys=True)
-        ).encode()
-        for k, v in items.items()
-    }
+    return {f"probing.{k}".encode(): stored_text(v).encode() for k, v in items.items()}
 
 
 def provenance(**items: Any) -> dict[bytes, bytes]:
