@@ -31,11 +31,13 @@ except PackageNotFoundError:  # run from a source tree that was never installed
 #: The Python API's names (:data:`probing.api.__all__`), imported on first use.
 API = (
     "AircraftNotFoundError",
+    "ArgumentError",
     "DesignError",
     "DesignInputError",
     "DivergenceError",
     "Flight",
     "OutputPathError",
+    "ProbingError",
     "Recommendation",
     "RecordError",
     "ReplayError",

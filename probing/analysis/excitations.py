@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import fig4
+from probing.core.errors import ProbingError
 from probing.core.excitation import band_limited, crest_factor
 from probing.core.fixedorder import norm
 from probing.core.metrics import gain_and_shape, harmonic_ratio, through_nonlinearity
@@ -48,7 +49,7 @@ __all__ = ["CHANNELS", "Study", "collect", "summary_markdown"]
 CHANNELS = ("theta_rad", "q_rad_s")
 
 
-class NotAnExcitationsFolderError(FileNotFoundError):
+class NotAnExcitationsFolderError(ProbingError, FileNotFoundError):
     """The folder holds no ``manifest.json`` of ``probing excitations``."""
 
 

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from probing.core.correlator import StreamingCorrelator
+from probing.core.errors import ProbingError
 from probing.core.fixedorder import norm
 from probing.core.metrics import gain_and_shape, predicted_apparent
 from probing.core.nonlinearities import NoApparentFormError, RateLimit, compensate
@@ -52,7 +53,7 @@ __all__ = [
 ]
 
 
-class NotAFig4FolderError(FileNotFoundError):
+class NotAFig4FolderError(ProbingError, FileNotFoundError):
     """The folder holds no ``manifest.json`` of ``probing fig4`` (or it cannot be read)."""
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis.seeds import has_seeds
+from probing.core.errors import ProbingError
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
 from probing.sim.flight import SPEED_KINDS
 
@@ -37,7 +38,7 @@ FAILED_STATUSES = ("failed", "error")
 SPEED_FIELDS = tuple(f"condition.{k}" for k in SPEED_KINDS)
 
 
-class NotASweepError(FileNotFoundError):
+class NotASweepError(ProbingError, FileNotFoundError):
     """The folder has no ``summary.parquet`` or ``sweep.json`` (or they cannot be read)."""
 
 

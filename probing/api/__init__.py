@@ -5,6 +5,7 @@ it: ``probing run`` is ``fly(...).save(...)``."""
 from probing.api.calls import analyze, example, example_path, fly, load, read, replay
 from probing.api.flight import Flight
 from probing.api.studies import Recommendation, check_simultaneous, design, fly_sweep
+from probing.core.errors import ArgumentError, ProbingError
 from probing.experiment.design.design import DesignError, DesignInputError
 from probing.experiment.flight.monitor import ReplayError
 from probing.experiment.output.storage import OutputPathError, StoredFileError
@@ -19,11 +20,13 @@ from probing.sweep import SchedulerError, SweepBusyError
 #: (tests/api/test_api.py checks that the two agree).
 __all__ = [
     "AircraftNotFoundError",
+    "ArgumentError",
     "DesignError",
     "DesignInputError",
     "DivergenceError",
     "Flight",
     "OutputPathError",
+    "ProbingError",
     "Recommendation",
     "RecordError",
     "ReplayError",

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from probing.api.flight import Flight, held_files
+from probing.api.flight import Flight, checked_max_lag, held_files
 from probing.experiment.output.layouts import RUN_FILES
 from probing.experiment.output.staging import work_folder
 from probing.experiment.output.storage import StoredFileError, read_footer
@@ -260,12 +260,14 @@ def read(path: str | Path) -> Flight:
     Raises
     ------
     StoredFileError
-        When ``path`` is not a folder holding any of the project's files, or one of them
-        is not Parquet.
+        When ``path`` does not exist, is not a folder, holds none of the project's files,
+        or one of them is not Parquet.
     """
     folder = Path(path)
+    if not folder.exists():
+        raise StoredFileError(f"{folder}: no such folder")
     if not folder.is_dir():
-        raise StoredFileError(f"{folder}: not a folder of results")
+        raise StoredFileError(f"{folder}: is a file, not the folder of a run")
     files = held_files(folder)
     if not files:
         raise StoredFileError(f"{folder}: holds none of {', '.join(RUN_FILES)}")
@@ -295,7 +297,7 @@ def analyze(
     file: str | Path,
     *,
     input: str,
-    outputs: Sequence[str],
+    outputs: str | Sequence[str],
     order: int,
     bit_duration_s: float,
     time: str | None = None,
@@ -315,8 +317,8 @@ def analyze(
         The record: CSV, Parquet or MATLAB ``.mat``.
     input : str
         The probe's column, as injected.
-    outputs : sequence of str
-        The measured outputs' columns.
+    outputs : str or sequence of str
+        The measured outputs' columns (a string: one column).
     order : int
         The m-sequence's order n (M = 2**n - 1).
     bit_duration_s : float
@@ -348,18 +350,24 @@ def analyze(
     probing.experiment.recorded.record.RecordError
         The file cannot be read or holds no rows, a column or the probe is not what it
         should be (a column of text, a time column off its grid: the first wrong row named).
+    probing.ArgumentError
+        An argument of the wrong type or out of its range, named (``order=7.0``,
+        ``bit_duration_s="0.04"``, ``drift="foo"``), checked before the file is read.
     """
     from probing.experiment.recorded.analyze import AnalysisRequest, write_analysis
     from probing.experiment.recorded.analyze import analyze as analyze_record
     from probing.experiment.recorded.record import RecordError
 
+    max_lag_s = checked_max_lag(max_lag_s)
     path = Path(file)
+    if path.is_dir():
+        raise RecordError(f"{path}: is a folder, not a record (a .csv, .parquet or .mat file)")
     if not path.is_file():
-        raise RecordError(f"FILE {path}: no such file")
+        raise RecordError(f"{path}: no such file")
     req = AnalysisRequest(
         path=path,
         input=input,
-        outputs=tuple(outputs),
+        outputs=outputs,
         order=order,
         bit_duration_s=bit_duration_s,
         time=time,

@@ -10,10 +10,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from probing.core.errors import ArgumentError, number
+from probing.experiment.output.pandas_keys import ATTRS_FILE, stored_text
 from probing.experiment.output.staging import staged_output, work_folder
 from probing.experiment.output.storage import (
     OUTPUT_FILES,
     RUN_FILES,
+    StoredFileError,
     check_output_folder,
     read_footer,
     read_table,
@@ -25,7 +28,7 @@ if TYPE_CHECKING:  # pandas and matplotlib are imported when a table or figure i
 
     from probing.experiment.scenario import Scenario
 
-__all__ = ["FIGURE_NAME", "Flight", "attrs_of", "held_files", "truth_files"]
+__all__ = ["FIGURE_NAME", "Flight", "attrs_of", "checked_max_lag", "held_files", "truth_files"]
 
 #: The figure ``probing analyze`` draws beside a record's files (``<name>.png``).
 FIGURE_NAME = "pulse_response"
@@ -53,7 +56,7 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
     >>> attrs_of({b"probing.units": b'{"lag_s": "s"}', b"probing.drift": b"gust"}, "x.parquet")
     {'file': 'x.parquet', 'drift': 'gust', 'units': {'lag_s': 's'}}
     """
-    attrs: dict[str, Any] = {"file": file}
+    attrs: dict[str, Any] = {ATTRS_FILE: file}
     for key in sorted(meta):
         if not key.startswith(b"probing."):
             continue
@@ -61,14 +64,23 @@ def attrs_of(meta: Mapping[bytes, bytes], file: str) -> dict[str, Any]:
     return attrs
 
 
+def checked_max_lag(max_lag_s: Any) -> float | None:
+    """A figure's last lag, s: None (automatic) or a number > 0 (ArgumentError)."""
+    return None if max_lag_s is None else number(max_lag_s, "max_lag_s", lo=0, lo_open=True)
+
+
 def _decoded(raw: bytes) -> Any:
     """A metadata value: a string is written as itself, anything else as JSON
-    (:func:`probing.experiment.output.storage.metadata`)."""
+    (:func:`~probing.experiment.output.pandas_keys.stored_text`).  A number, true, false or
+    null is one only if it is stored so (a digest ``"12e4..."`` is a string), so a table's
+    ``attrs`` written again by pandas give back the bytes
+    (:func:`~probing.experiment.output.pandas_keys.from_pandas_attrs`)."""
     text = raw.decode()
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except ValueError:
         return text
+    return value if isinstance(value, dict | list) or stored_text(value) == text else text
 
 
 def held_files(folder: Path) -> dict[str, bytes]:
@@ -122,7 +134,7 @@ class Flight:
         self.name = name
         self.scenario = scenario
         self.result = result
-        self.figure_max_lag_s = figure_max_lag_s
+        self.figure_max_lag_s = checked_max_lag(figure_max_lag_s)
 
     def __repr__(self) -> str:
         what = self.name or "record"
@@ -145,8 +157,18 @@ class Flight:
         return read_footer(Path(name), data=self._files[name])
 
     def table(self, name: str) -> pd.DataFrame | None:
-        """The file ``name`` as a DataFrame with :func:`attrs_of` its metadata (None: the
-        flight has no such file).  Read once, then kept: change a copy, not this one."""
+        """The file ``name`` as a DataFrame with :func:`attrs_of` its metadata (None: a file of
+        the project's this flight does not hold).  Read once, then kept: change a copy.
+
+        Raises
+        ------
+        probing.ArgumentError
+            ``name`` is none of the project's files (:data:`~.layouts.RUN_FILES`).
+        """
+        if name not in RUN_FILES:
+            raise ArgumentError(
+                "name", f"{name!r} is none of the project's files ({', '.join(RUN_FILES)})"
+            )
         if name not in self._files:
             return None
         if name not in self._frames:
@@ -192,12 +214,14 @@ class Flight:
 
         Raises
         ------
-        ValueError
+        probing.RecordError
             For a record, which has no scenario to simulate.
         """
         if "truth.parquet" not in self._files:
             if self.scenario is None:
-                raise ValueError("a record has no scenario: its truth cannot be simulated")
+                from probing.experiment.recorded.record import RecordError
+
+                raise RecordError("a record has no scenario: its truth cannot be simulated")
             self._files.update(truth_files(self.scenario))
         frame = self.table("truth.parquet")
         assert frame is not None
@@ -218,8 +242,11 @@ class Flight:
 
     @property
     def verdict(self) -> str | None:
-        """The monitor's verdict, ``none``, ``actuator`` or ``airframe`` (None: not monitored)."""
-        return self._footer("verdict")
+        """The monitor's verdict, ``actuator``, ``airframe`` or ``sensor`` (None: no verdict,
+        which ``monitor.parquet``'s footer and ``probing monitor`` write ``none``, or not
+        monitored)."""
+        verdict = self._footer("verdict")
+        return None if verdict == "none" else verdict
 
     @property
     def alarm_detector(self) -> str | None:
@@ -234,18 +261,26 @@ class Flight:
         Parameters
         ----------
         max_lag_s : float, optional
-            The last lag drawn, s (None: the whole period, or zoomed to the response when it
-            is short against the period; the figure says which).
+            The last lag drawn, s, > 0 (None: the whole period, or zoomed to the response
+            when it is short against the period; the figure says which).
 
         Returns
         -------
         matplotlib.figure.Figure
+
+        Raises
+        ------
+        probing.ArgumentError
+            ``max_lag_s`` not a number > 0.
+        probing.StoredFileError
+            The flight holds no ``bounds.parquet``.
         """
         from probing.analysis.analyze_plots import bounds_figure
 
+        max_lag_s = checked_max_lag(max_lag_s)
         bounds = self.bounds
         if bounds is None:
-            raise ValueError(
+            raise StoredFileError(
                 f"{self.name}: has no bounds.parquet to draw ({', '.join(self.files)})"
             )
         settle = self.scenario.settle_periods if self.scenario is not None else None
@@ -267,17 +302,19 @@ class Flight:
 
         Raises
         ------
-        ValueError
-            For a flight that was not monitored.
+        probing.StoredFileError
+            For a flight that was not monitored (no ``monitor.parquet``).
         """
         from probing.analysis.flight_plots import monitor_figure
 
         monitor = self.monitor
         if monitor is None:
-            raise ValueError(f"{self.name}: was not monitored (no monitor.parquet)")
+            raise StoredFileError(
+                f"{self.name or 'record'}: was not monitored (no monitor.parquet)"
+            )
         fault = self.scenario.fault_section if self.scenario is not None else None
         onset = fault.onset_s if fault is not None else None
-        return monitor_figure(monitor, self.first_alarm_s, self.verdict, onset)
+        return monitor_figure(monitor, self.first_alarm_s, self._footer("verdict"), onset)
 
     def save(self, out: str | Path, *, hold_interrupts: bool = False) -> Path:
         """Write the files into ``OUT/<name>/`` (a record's into ``OUT``), with the bytes
@@ -304,7 +341,7 @@ class Flight:
         probing.experiment.output.storage.OutputFolderError
             When the folder cannot be written (checked before anything is written).
         """
-        out = check_output_folder(Path(out), "out")
+        out = check_output_folder(out, "out")  # "" refused, not taken as "."
         folder = check_output_folder(out / self.name, "out") if self.name else out
         with staged_output(folder, hold=hold_interrupts) as staging:
             for name in self.files:

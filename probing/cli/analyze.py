@@ -4,36 +4,25 @@ from __future__ import annotations
 
 import argparse
 
-from probing.cli.common import Subcommands, UsageError, command, out_folder, path_arg
+from probing.cli.common import (
+    Subcommands,
+    UsageError,
+    argument_usage,
+    command,
+    number_arg,
+    out_folder,
+    path_arg,
+)
 
-
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
-def _order(text: str) -> int:
-    """An m-sequence order the project supports (:data:`probing.core.prbs.MIN_ORDER` to
-    :data:`~probing.core.prbs.MAX_ORDER`)."""
-    from probing.core.prbs import MAX_ORDER, MIN_ORDER
-
-    try:
-        value = int(text)
-    except ValueError:
-        value = None
-    if value is None or not MIN_ORDER <= value <= MAX_ORDER:
-        raise argparse.ArgumentTypeError(
-            f"must be an integer from {MIN_ORDER} to {MAX_ORDER}, got {text}"
-        )
-    return value
+#: The Python keywords of :func:`probing.api.analyze` whose option is another.
+_RENAMED = {"outputs": "--output", "file": "FILE"}
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
     """``probing analyze``: ``analyze(...).save(out)`` (:func:`probing.api.analyze`)."""
     from probing.api import analyze
     from probing.api.flight import FIGURE_NAME
+    from probing.core.errors import ArgumentError
     from probing.experiment.recorded.analyze import convention_lines
     from probing.experiment.recorded.record import RecordError
 
@@ -56,6 +45,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         )
     except RecordError as exc:
         raise UsageError(str(exc)) from None
+    except ArgumentError as exc:
+        raise argument_usage(exc, _RENAMED) from None
     record.save(args.out, hold_interrupts=True)  # an interrupt at any moment leaves nothing
     result = record.result
     f = result.found
@@ -74,6 +65,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
 
 def register(sub: Subcommands) -> None:
     """Add ``analyze`` to ``sub``."""
+    from probing.experiment.recorded.record import DRIFTS
+
     p = command(
         sub,
         "analyze",
@@ -87,19 +80,21 @@ def register(sub: Subcommands) -> None:
     )
     base = p.add_mutually_exclusive_group(required=True)
     base.add_argument("--time", metavar="COL", help="time column (s), uniform step")
-    base.add_argument("--dt-s", type=_positive, help="sample step (s)")
-    p.add_argument("--order", type=_order, required=True, help="m-sequence order n (M = 2^n - 1)")
-    p.add_argument("--bit-duration-s", type=_positive, required=True, help="bit duration t0 (s)")
+    base.add_argument("--dt-s", type=number_arg, help="sample step (s)")
+    p.add_argument(
+        "--order", type=number_arg, required=True, help="m-sequence order n (M = 2^n - 1)"
+    )
+    p.add_argument("--bit-duration-s", type=number_arg, required=True, help="bit duration t0 (s)")
     p.add_argument(
         "--amplitude",
-        type=_positive,
+        type=number_arg,
         help="probe amplitude a in the probe's unit (default: half the difference of the "
         "probe column's two levels)",
     )
     drift = p.add_mutually_exclusive_group()
     drift.add_argument(
         "--drift",
-        choices=("detrend", "none"),
+        choices=DRIFTS,
         default="detrend",
         help="detrend: a periodic part and a linear trend fitted together, the trend and the "
         "mean removed; none: the mean removed",
@@ -109,14 +104,14 @@ def register(sub: Subcommands) -> None:
     )
     p.add_argument(
         "--settled-after-s",
-        type=_positive,
+        type=number_arg,
         metavar="S",
         help="without --reference: the lag (s) from which the response has settled; the taps "
         "from there pin the estimate's constant (default: the last quarter of the period)",
     )
     p.add_argument(
         "--max-lag-s",
-        type=_positive,
+        type=number_arg,
         metavar="S",
         help="the figure's last lag (s) (default: the whole period, or zoomed to the response "
         "when it is short against the period)",

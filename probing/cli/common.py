@@ -5,16 +5,41 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, NoReturn
+
+from probing.core.errors import ArgumentError, ProbingError
 
 #: The subparsers of ``probing``, to which each command module adds its commands.
 Subcommands = argparse._SubParsersAction
 
 
-class UsageError(Exception):
+class UsageError(ProbingError):
     """Bad input found by a command: printed as one line, exit code 2."""
+
+
+def option_of(name: str, renamed: Mapping[str, str] | None = None) -> str:
+    """The command-line option of a Python keyword: ``dt_s`` is ``--dt-s`` (``renamed``: the
+    keywords whose option is another, ``{"outputs": "--output"}``)."""
+    return (renamed or {}).get(name) or "--" + name.replace("_", "-")
+
+
+def argument_usage(exc: ArgumentError, renamed: Mapping[str, str] | None = None) -> UsageError:
+    """An API's :class:`~probing.core.errors.ArgumentError` as the command line says it: each
+    keyword it names written as its option (:func:`option_of`)."""
+    return UsageError(exc.line(lambda name: option_of(name, renamed)))
+
+
+def number_arg(text: str) -> int | float | str:
+    """A number as typed (an int, else a float), else the text itself: the Python API it is
+    handed to says what it must be (:mod:`probing.core.errors`), once for both."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def print_error(message: str, code: int) -> int:

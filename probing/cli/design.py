@@ -15,6 +15,7 @@ from probing.cli.common import (
     Subcommands,
     UsageError,
     command,
+    option_of,
     out_file,
     path_arg,
     print_error,
@@ -28,17 +29,21 @@ def _cmd_design(args: argparse.Namespace) -> int:
         if args.export_probe or args.save_scenario is not None:
             raise UsageError("design --simultaneous: checks a scenario; there is no probe to write")
         return _check_simultaneous(args.simultaneous)
-    request = _request(args)
-    _check_exports(args)
     from probing.api import design
     from probing.experiment.design.design import DesignError, DesignInputError
     from probing.experiment.output.storage import strict_json
+
+    try:
+        request = _request(args)
+    except DesignInputError as exc:
+        raise UsageError(_said(exc)) from None
+    _check_exports(args)
 
     def job() -> int:
         try:
             rec = design(request)
         except DesignInputError as exc:
-            raise UsageError(str(exc)) from None
+            raise UsageError(_said(exc)) from None
         except DesignError as exc:
             if args.json:
                 print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
@@ -186,7 +191,7 @@ def _request(args: argparse.Namespace) -> Any:
     required = [f.name for f in fields if f.default is dataclasses.MISSING]
     missing = [name for name in required if getattr(args, name) is None]
     if missing:
-        options = ", ".join(_flag(name) for name in missing)
+        options = ", ".join(option_of(name) for name in missing)
         raise UsageError(f"design: {options} required (or --simultaneous SCENARIO)")
     values = {f.name: getattr(args, f.name) for f in fields}
     return DesignRequest(
@@ -194,14 +199,19 @@ def _request(args: argparse.Namespace) -> Any:
     )
 
 
-def _flag(name: str) -> str:
-    """The option of a DesignRequest field: ``dt_s`` is ``--dt-s``."""
-    return "--" + name.replace("_", "-")
+def _said(exc: Any) -> str:
+    """A DesignInputError's line with each field it names written as its option (another
+    name, a scenario field, as it is)."""
+    from probing.experiment.design.design_request import DesignRequest
+
+    fields = {f.name for f in dataclasses.fields(DesignRequest)}
+    return str(exc.line(lambda name: option_of(name) if name in fields else name))
 
 
 def _design_arguments(parser: argparse.ArgumentParser) -> None:
     """``--simultaneous``, an option per DesignRequest field (its default and help from the
     field, :func:`~probing.experiment.design.design_request._option`), and ``--json``."""
+    from probing.core.errors import refer
     from probing.experiment.design.design_request import DesignRequest
 
     parser.add_argument(
@@ -216,6 +226,7 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
     groups: dict[str, Any] = {}
     for f in dataclasses.fields(DesignRequest):
         keywords = dict(f.metadata["option"])
+        keywords["help"] = refer(keywords["help"], option_of)
         exclusive = keywords.pop("exclusive")
         if exclusive is None:
             where = parser
@@ -225,12 +236,12 @@ def _design_arguments(parser: argparse.ArgumentParser) -> None:
             where = groups[exclusive]
         default = None if f.default is dataclasses.MISSING else f.default
         if hints[f.name] is bool:  # a switch
-            where.add_argument(_flag(f.name), action="store_true", default=default, **keywords)
+            where.add_argument(option_of(f.name), action="store_true", default=default, **keywords)
             continue
         kind, nargs = _argument_type(hints[f.name])
         if nargs is not None:
             keywords["nargs"] = nargs
-        where.add_argument(_flag(f.name), type=kind, default=default, **keywords)
+        where.add_argument(option_of(f.name), type=kind, default=default, **keywords)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--export-probe",

@@ -9,6 +9,7 @@ from pathlib import Path
 from probing.cli.common import (
     Subcommands,
     UsageError,
+    argument_usage,
     command,
     out_folder,
     path_arg,
@@ -20,12 +21,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from probing.experiment.scenario import ScenarioError
     from probing.sweep import load_sweep
 
-    if args.jobs is not None and args.jobs < 1:
-        raise UsageError(f"-j/--jobs: must be an integer >= 1, got {args.jobs}")
-    if args.scheduler and args.executor != "dask":
-        raise UsageError("--scheduler: only with --executor dask")
-    if not args.connect_timeout_s > 0:
-        raise UsageError(f"--connect-timeout-s: must be > 0, got {args.connect_timeout_s:g}")
     try:
         sweep = load_sweep(args.sweep)
     except ScenarioError as exc:
@@ -36,6 +31,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.plot:
         out_folder(figures, "--figures")
     from probing.api import fly_sweep
+    from probing.core.errors import ArgumentError
     from probing.sweep import SchedulerError, SweepBusyError
 
     try:
@@ -46,8 +42,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             executor=args.executor,
             scheduler=args.scheduler,
             retry_failed=args.retry_failed,
+            progress=True if sys.stderr.isatty() else "lines",
             connect_timeout_s=args.connect_timeout_s,
         )
+    except ArgumentError as exc:
+        raise argument_usage(exc, {"jobs": "-j/--jobs"}) from None
     except SchedulerError as exc:
         raise UsageError(str(exc)) from None
     except SweepBusyError as exc:

@@ -36,6 +36,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from probing.core.errors import ProbingError
+
 __all__ = [
     "CHIRP_MIN_POWER",
     "MIN_HARMONICS",
@@ -82,7 +84,7 @@ CHIRP_MIN_POWER = 0.05
 REFINE_ITERATIONS = 200
 
 
-class BandError(ValueError):
+class BandError(ProbingError, ValueError):
     """A band that the period and the bit duration cannot carry (one line)."""
 
 

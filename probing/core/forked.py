@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
+from probing.core.errors import ProbingError
+
 __all__ = [
     "INTERRUPTS",
     "STOPS",
@@ -35,7 +37,7 @@ __all__ = [
 ]
 
 
-class ChildDiedError(RuntimeError):
+class ChildDiedError(ProbingError, RuntimeError):
     """A forked child ended without handing back a result (killed, or crashed in C)."""
 
 

@@ -88,6 +88,7 @@ import numpy as np
 from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
 from probing.core.baseline import BaselineWindow
+from probing.core.errors import ProbingError
 from probing.core.fixedorder import cov, dot, inv, solve, vdot
 
 __all__ = [
@@ -226,7 +227,7 @@ class _Hotelling:
         return n * k / (n - k + 1) * float(fdtri(k, n - k + 1, 1.0 - alpha))
 
 
-class SettingError(ValueError):
+class SettingError(ProbingError, ValueError):
     """A ``[monitor]`` setting out of its bounds, in one line.
 
     Parameters

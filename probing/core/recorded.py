@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from probing.core.errors import ProbingError
 from probing.core.noise import cyclic_estimates
 from probing.core.prbs import mls
 
@@ -24,7 +25,7 @@ __all__ = ["Alignment", "NotAnMSequence", "align_probe", "period_estimates", "ta
 LEVEL_TOLERANCE = 1e-6
 
 
-class NotAnMSequence(ValueError):
+class NotAnMSequence(ProbingError, ValueError):
     """The probe column is not the m-sequence of the order and bit duration asked for."""
 
 

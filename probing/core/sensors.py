@@ -59,6 +59,8 @@ from typing import Any
 
 import numpy as np
 
+from probing.core.errors import ProbingError, is_number
+
 __all__ = [
     "FPS_PER_KT",
     "FPS_PER_MPS",
@@ -79,7 +81,7 @@ FPS_PER_MPS = 1.0 / 0.3048
 FRAME_RTOL = 1e-9
 
 
-class SensorSpecError(ValueError):
+class SensorSpecError(ProbingError, ValueError):
     """A sensor specification, override or sample rate that cannot be used.
 
     Attributes
@@ -128,7 +130,7 @@ class SensorSpec:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
+            if not is_number(value):
                 raise SensorSpecError(f"sensor {f.name} must be a number, not {value!r}", f.name)
             if not math.isfinite(value):
                 raise SensorSpecError(f"sensor {f.name} must be finite, not {value!r}", f.name)

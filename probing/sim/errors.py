@@ -2,20 +2,22 @@
 
 from __future__ import annotations
 
+from probing.core.errors import ProbingError
+
 __all__ = ["AircraftNotFoundError", "CacheFolderError", "DivergenceError", "TrimError"]
 
 
-class AircraftNotFoundError(ValueError):
+class AircraftNotFoundError(ProbingError, ValueError):
     """The aircraft is neither in the project's ``aircraft/`` nor among JSBSim's."""
 
 
-class CacheFolderError(ValueError):
+class CacheFolderError(ProbingError, ValueError):
     """A cache folder that is not a folder, or cannot be read or removed (bad input)."""
 
 
-class TrimError(RuntimeError):
+class TrimError(ProbingError, RuntimeError):
     """JSBSim could not trim the aircraft at the requested condition."""
 
 
-class DivergenceError(RuntimeError):
+class DivergenceError(ProbingError, RuntimeError):
     """The simulation left the region where its results mean anything."""

@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from probing.core.errors import ArgumentError, ProbingError, choice, integer, number
 from probing.core.forked import INTERRUPTS, STOPS
 from probing.experiment.output.progress import progress_bar
-from probing.experiment.output.storage import write_json_atomic
+from probing.experiment.output.storage import check_output_folder, write_json_atomic
 from probing.experiment.scenario import Scenario
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 from probing.sweep.summary import summarise, write_summary
@@ -44,11 +45,11 @@ EXECUTORS = ("local", "dask")
 LOCK_FILE = ".lock"
 
 
-class SweepBusyError(RuntimeError):
+class SweepBusyError(ProbingError, RuntimeError):
     """Another sweep process holds the lock of the output folder."""
 
 
-class SchedulerError(ValueError):
+class SchedulerError(ProbingError, ValueError):
     """The Dask scheduler named by ``--scheduler`` cannot be reached (or the address is bad)."""
 
 
@@ -242,11 +243,14 @@ def open_executor(
 
     Raises
     ------
+    probing.ArgumentError
+        An executor that is none of :data:`EXECUTORS`, a scheduler without Dask.
     SchedulerError
         When ``scheduler`` does not answer within ``timeout_s``.
     """
-    if executor not in EXECUTORS:
-        raise ValueError(f"executor must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+    choice(executor, "executor", EXECUTORS)
+    if scheduler and executor != "dask":
+        raise ArgumentError("scheduler", "only with `executor` dask")
     return _Dask(jobs, scheduler, timeout_s) if executor == "dask" else _Local(jobs)
 
 
@@ -261,6 +265,7 @@ def run_sweep(
     progress: bool | None = None,
     stream: TextIO | None = None,
     connect_timeout_s: float = 10.0,
+    lines: bool = True,
 ) -> SweepResult:
     """Run the missing runs of a sweep, then write ``<out>/<name>/summary.parquet``.
 
@@ -271,7 +276,7 @@ def run_sweep(
     out : path
         Results root; the sweep goes to ``out/<sweep.name>/``.
     jobs : int, optional
-        Worker processes (default: one per core).  With ``executor="dask"`` and no
+        Worker processes, >= 1 (default: one per core).  With ``executor="dask"`` and no
         ``scheduler``, the LocalCluster's worker count.
     executor : {"local", "dask"}
         A local process pool, or Dask distributed.
@@ -282,12 +287,14 @@ def run_sweep(
         Run again the points recorded as failed (a trim failure is deterministic, so by
         default they are kept as failed).
     progress : bool, optional
-        Progress bar with ETA; default: when ``stream`` is a terminal.  Otherwise one line
-        per finished run is written to ``stream``.
+        Progress bar with ETA; default: when ``stream`` is a terminal.  Otherwise, with
+        ``lines``, one line per finished run is written to ``stream``.
     stream : file, optional
         Where progress goes (default stderr).
     connect_timeout_s : float
-        How long to wait for ``scheduler`` to answer, s.
+        How long to wait for ``scheduler`` to answer, s (> 0).
+    lines : bool
+        Without a bar, one line per finished run (False: nothing).
 
     Returns
     -------
@@ -296,12 +303,20 @@ def run_sweep(
 
     Raises
     ------
+    probing.ArgumentError
+        ``jobs``, ``executor``, ``scheduler`` or ``connect_timeout_s`` refused (checked
+        before anything is written).
+    OutputPathError
+        ``out`` cannot be written (checked before anything is written).
     SweepBusyError
         When another process is running a sweep in the same folder.
     SchedulerError
         When the Dask scheduler cannot be reached; nothing is written then.
     """
-    jobs = jobs or os.cpu_count() or 1
+    jobs = (os.cpu_count() or 1) if jobs is None else integer(jobs, "jobs", lo=1)
+    number(connect_timeout_s, "connect_timeout_s", lo=0, lo_open=True)
+    check_output_folder(out, "out")
+    check_output_folder(Path(out) / sweep.name, "out")
     t0 = time.perf_counter()
     sweep_dir = Path(out) / sweep.name
     points_dir, refs_dir, _ = sweep_folders(sweep_dir)
@@ -315,7 +330,7 @@ def run_sweep(
                     shutil.rmtree(stale, ignore_errors=True)
             write_json_atomic(sweep_dir / "sweep.json", _manifest(sweep))
             todo = _pending(sweep, sweep_dir, retry_failed, result)
-            _execute(pool, todo, sweep.name, result, progress, stream)
+            _execute(pool, todo, sweep.name, result, progress, stream, lines)
             write_summary(summarise(sweep, sweep_dir), sweep_dir / "summary.parquet", sweep)
     finally:
         pool.close()
@@ -354,13 +369,15 @@ def _execute(
     result: SweepResult,
     progress: bool | None,
     stream: TextIO | None,
+    lines: bool = True,
 ) -> None:
-    """Run ``todo`` on the pool, counting into ``result`` and reporting each finished run."""
+    """Run ``todo`` on the pool, counting into ``result`` and reporting each finished run
+    (a bar, or with ``lines`` a line each)."""
     intro = f"{len(todo)} runs to do"
     if result.skipped or result.failed:
         intro += f"; {result.skipped} points already done, {result.failed} recorded as failed"
     if not todo:
-        with progress_bar(0, name, "runs", stream, progress, lines=True, intro=intro):
+        with progress_bar(0, name, "runs", stream, progress, lines=lines, intro=intro):
             return
     from probing.experiment.flight.batch import chunked_groups
 
@@ -368,7 +385,7 @@ def _execute(
     chunks = chunked_groups([t.scenario for t in todo], pool.jobs, shares=shares)
     workers = min(pool.jobs, len(chunks))  # the ETA: runs' wall time over the workers
     with progress_bar(
-        len(todo), name, "runs", stream, progress, lines=True, intro=intro, workers=workers
+        len(todo), name, "runs", stream, progress, lines=lines, intro=intro, workers=workers
     ) as bar:
         failed = 0
         records = (r for c in pool.run([[todo[i] for i in c] for c in chunks]) for r in c)

@@ -279,7 +279,7 @@ def test_a_monitored_flight_is_probing_monitor_byte_for_byte(monitored, tmp_path
     names = _same_files(tmp_path / "cli" / flight.name, flight.save(tmp_path / "api"))
     assert names == ["bounds.parquet", "monitor.parquet", "probing.parquet", "sensors.parquet"]
     meta = pq.read_metadata(tmp_path / "cli" / flight.name / "monitor.parquet").metadata
-    assert flight.verdict == meta[b"probing.verdict"].decode()
+    assert (flight.verdict or "none") == meta[b"probing.verdict"].decode()
     assert flight.first_alarm_s == json.loads(meta[b"probing.first_alarm_s"])
     assert flight.first_alarm_s is not None and flight.first_alarm_s > 40.0
     assert flight.alarm_detector in ("probing", "trajectory")
@@ -300,6 +300,28 @@ def test_replay_of_a_flights_log_is_its_monitor(monitored, tmp_path) -> None:
     assert (again.verdict, again.first_alarm_s) == (flight.verdict, flight.first_alarm_s)
     with pytest.raises(probing.ReplayError, match=r"not the sensors\.parquet"):
         probing.replay(tmp_path / flight.name / "probing.parquet")
+
+
+@pytest.mark.slow
+def test_an_edited_sensors_table_replays(monitored, tmp_path) -> None:
+    """docs/monitoring.md: an edited log replays.  A Flight's table carries its keys decoded
+    and without their prefix; written by pandas, they are read back as the file's: the
+    columns the replay does not read dropped, it is the flight's monitor; one it reads
+    dropped, a ReplayError names it."""
+    from probing.experiment.flight.onboard import log_columns
+
+    _, flight = monitored
+    sensors = flight.sensors
+    needed = log_columns(flight.scenario)
+    unread = [c for c in sensors.columns if c not in needed]
+    assert unread and "scenario" in sensors.attrs  # decoded, no "probing." prefix
+    sensors.drop(columns=unread).to_parquet(tmp_path / "edited.parquet")
+    again = probing.replay(tmp_path / "edited.parquet")
+    pd.testing.assert_frame_equal(again.monitor, flight.monitor)
+    assert (again.verdict, again.first_alarm_s) == (flight.verdict, flight.first_alarm_s)
+    sensors.drop(columns=["q_rad_s"]).to_parquet(tmp_path / "cut.parquet")
+    with pytest.raises(probing.ReplayError, match=r"cut\.parquet: no column q_rad_s$"):
+        probing.replay(tmp_path / "cut.parquet")
 
 
 def test_fly_refuses_to_monitor_what_its_runner_does_not(tmp_path) -> None:
@@ -334,7 +356,7 @@ def test_analyze_and_read_raise_the_projects_errors(tmp_path) -> None:
         probing.analyze(tmp_path / "none.csv", **ANALYZE)
     with pytest.raises(probing.RecordError, match="nothing"):
         probing.analyze(CSV, **{**ANALYZE, "input": "nothing"})
-    with pytest.raises(probing.StoredFileError, match="not a folder of results"):
+    with pytest.raises(probing.StoredFileError, match="no such folder"):
         probing.read(tmp_path / "missing")
     with pytest.raises(probing.StoredFileError, match="holds none of"):
         probing.read(tmp_path)

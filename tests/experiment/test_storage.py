@@ -279,3 +279,33 @@ def test_a_logs_keys_added_early_or_late_survive_a_read_and_write(tmp_path: Path
         assert meta[b"probing.scenario"] == b"{}", path
     assert pq.read_table(log).num_rows == rows
     assert pq.read_table(log).equals(pa.Table.from_pandas(pd.read_parquet(log)).cast(schema))
+
+
+@pytest.mark.parametrize(
+    "digest", ["0a1b2c3d4e5f6a7b", "1234567812345678", "12345e6712345678", "null", "true"]
+)
+def test_a_flights_table_written_by_pandas_gives_back_the_files_keys(tmp_path, digest) -> None:
+    """A Flight's table carries the keys decoded and without their prefix (attrs_of): what
+    pandas writes of them is read back as the bytes the file held, whatever a value looks
+    like (a digest of digits and one e is not a number)."""
+    import pandas as pd
+
+    from probing.api.flight import attrs_of
+    from probing.experiment.output.storage import metadata, read_footer
+
+    meta = metadata(
+        scenario={"name": "x", "probe": {"order": 9, "amplitude_deg": 0.005}},
+        scenario_digest=digest,
+        trim_measured={"theta_rad": 0.1, "q_rad_s": float("nan")},
+        first_alarm_s=None,
+        drift="gust",
+    )
+    frame = pd.DataFrame({"time_s": [0.0, 0.01]})
+    frame.attrs = attrs_of(meta, "sensors.parquet")
+    assert frame.attrs["scenario"]["probe"]["order"] == 9  # decoded, without the prefix
+    if digest == "12345e6712345678":  # not the number 1.2345e71: written back otherwise
+        assert frame.attrs["scenario_digest"] == digest
+    frame.to_parquet(tmp_path / "edited.parquet")
+    back = read_footer(tmp_path / "edited.parquet")
+    assert {k: back[k] for k in meta} == meta
+    assert b"probing.file" not in back  # the table's own key, not the file's

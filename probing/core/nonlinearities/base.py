@@ -13,12 +13,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from probing.core.errors import ProbingError
 
-class NoApparentFormError(TypeError):
+
+class NoApparentFormError(ProbingError, TypeError):
     """The nonlinearity cannot be written as a scaled and offset probe, eq. (10)."""
 
 
-class ParameterError(ValueError):
+class ParameterError(ProbingError, ValueError):
     """An invalid parameter of a nonlinearity.
 
     Parameters

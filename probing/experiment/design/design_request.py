@@ -5,10 +5,15 @@ build its options from it without loading the simulator.
 
 from __future__ import annotations
 
-import math
+import dataclasses
+import functools
+import types
+import typing
+from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, field
 from typing import Any
 
+from probing.core.errors import ArgumentError, ProbingError, choice, integer, number
 from probing.core.noise import ESTIMATORS
 from probing.core.sensors import SENSOR_SUITES
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
@@ -30,32 +35,36 @@ def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, 
     return field(default=default, metadata={"option": {"help": help, "exclusive": exclusive, **kw}})
 
 
-class DesignError(ValueError):
+class DesignError(ProbingError, ValueError):
     """The request cannot be met; the message says why."""
 
 
-class DesignInputError(ValueError):
-    """An invalid request: ``option`` names the command-line option, ``message`` the rule."""
+class DesignInputError(ArgumentError):
+    """An invalid request: ``option`` (``argument``) names the :class:`DesignRequest` field,
+    the keyword of :func:`probing.design` (``probing design`` writes it as its option,
+    ``--altitude-ft``), ``message`` the rule; another field it names is written between
+    backticks (:meth:`~probing.core.errors.ArgumentError.line`)."""
 
-    def __init__(self, option: str, message: str) -> None:
-        self.option, self.message = option, message
-        super().__init__(f"{option}: {message}")
+    @property
+    def option(self) -> str:
+        """The field refused."""
+        return self.argument
 
 
-#: Scenario field -> the ``probing design`` option that sets it.
+#: Scenario field -> the :class:`DesignRequest` field that sets it.
 _OPTIONS = {
-    "name": "--aircraft",
-    "aircraft.model": "--aircraft",
-    "condition.altitude_ft": "--altitude-ft",
-    "condition.speed_kcas": "--speed-kcas",
-    "simulation.dt_s": "--dt-s",
-    "probe.amplitude_deg": "--amplitude-deg",
-    "probe.settle_periods": "--settle-periods",
-    "output.channels": "--channel",
-    "output.estimator": "--estimator",
-    "disturbance.turbulence": "--turbulence",
-    "output.drift": "--drift",
-    "sensors.suite": "--sensors",
+    "name": "aircraft",
+    "aircraft.model": "aircraft",
+    "condition.altitude_ft": "altitude_ft",
+    "condition.speed_kcas": "speed_kcas",
+    "simulation.dt_s": "dt_s",
+    "probe.amplitude_deg": "amplitude_deg",
+    "probe.settle_periods": "settle_periods",
+    "output.channels": "channel",
+    "output.estimator": "estimator",
+    "disturbance.turbulence": "turbulence",
+    "output.drift": "drift",
+    "sensors.suite": "sensors",
 }
 
 
@@ -90,7 +99,7 @@ class DesignRequest:
     drift: str = _option(
         "gust",
         help="the reference the turbulence is calibrated against: gust (a calm twin through "
-        "the gust estimated from the sensors; needs --sensors and --closed-loop), nominal "
+        "the gust estimated from the sensors; needs `sensors` and `closed_loop`), nominal "
         "(a calm twin), detrend (no model), or oracle (a twin flying the same gusts: an "
         "upper bound that knows the gusts, simulation only); in calm air without sensors "
         "every twin is the same aircraft",
@@ -100,7 +109,7 @@ class DesignRequest:
         None,
         help="the sensor suite the aircraft measures (and its autopilot flies) with: its "
         "noise reaches the estimate through the loop and the reference, measured by the "
-        "calibration runs (default: the state itself, plus --noise-sigma)",
+        "calibration runs (default: the state itself, plus `noise_sigma`)",
         choices=list(SENSOR_SUITES),
         metavar="SUITE",
     )
@@ -121,7 +130,7 @@ class DesignRequest:
     )
     detect_gain_change: float | None = _option(
         None,
-        help="a gain change to detect (with --false-alarm and --detection-probability)",
+        help="a gain change to detect (with `false_alarm` and `detection_probability`)",
         metavar="CHANGE",
         exclusive="target",
     )
@@ -136,24 +145,56 @@ class DesignRequest:
     window_periods: int | None = _option(
         None,
         help="with a gain target: the smallest amplitude whose gain standard error over a "
-        "mean of W periods, tested against a baseline of --baseline-periods, meets it "
-        "(instead of the periods at --amplitude-deg, then the trial amplitude)",
+        "mean of W periods, tested against a baseline of `baseline_periods`, meets it "
+        "(instead of the periods at `amplitude_deg`, then the trial amplitude)",
         metavar="W",
     )
-    baseline_periods: int = _option(50, help="with --window-periods: the baseline's periods")
+    baseline_periods: int = _option(50, help="with `window_periods`: the baseline's periods")
     within_periods: int | None = _option(
         None,
-        help="with --window-periods and --detect-gain-change: the change detected within N "
+        help="with `window_periods` and `detect_gain_change`: the change detected within N "
         "periods of its onset by the monitor's own tests, one after every period "
         "(probing.core.detection), instead of by one test",
         metavar="N",
     )
     false_alarms_per_hour: float | None = _option(
         None,
-        help="with --window-periods: the false-alarm rate per flight hour, per period tested, "
-        "instead of --false-alarm",
+        help="with `window_periods`: the false-alarm rate per flight hour, per period tested, "
+        "instead of `false_alarm`",
         metavar="RATE",
     )
+
+    def __post_init__(self) -> None:
+        """Each field of the type its hint says (an int a real integer, a number an int or
+        a float, numpy's included, a pair two numbers), and one of its ``choices``; kept as
+        the Python type (DesignInputError naming the field)."""
+        hints = _hints()
+        for f in dataclasses.fields(self):
+            value = _typed(getattr(self, f.name), f.name, hints[f.name], f.metadata["option"])
+            object.__setattr__(self, f.name, value)
+
+    @classmethod
+    def of(cls, options: Mapping[str, Any]) -> DesignRequest:
+        """The request of ``options`` (field name -> value), as :func:`probing.design`'s
+        keywords give it.
+
+        Raises
+        ------
+        DesignInputError
+            An option that is no field, a required field missing, a value of the wrong type.
+        """
+        fields = [f.name for f in dataclasses.fields(cls)]
+        for name in options:
+            if name not in fields:
+                raise DesignInputError(
+                    str(name), f"no such option of design (its options: {', '.join(fields)})"
+                )
+        missing = [f.name for f in dataclasses.fields(cls) if f.default is MISSING]
+        missing = [name for name in missing if name not in options]
+        if missing:
+            more = ", ".join(f"`{name}`" for name in missing[1:])
+            raise DesignInputError(missing[0], "required" + (f", as is {more}" if more else ""))
+        return cls(**options)
 
     def base(self) -> dict[str, Any]:
         """The request as a scenario (file layout): probe placeholders, no nonlinearity."""
@@ -188,7 +229,7 @@ class DesignRequest:
     @property
     def every_twin_alike(self) -> bool:
         """True in calm air without sensors: every reference twin is the same aircraft, so
-        ``--drift`` changes nothing and the scenario says ``drift = "reference"``."""
+        ``drift`` changes nothing and the scenario says ``drift = "reference"``."""
         return self.turbulence == "none" and self.sensors is None
 
     @property
@@ -213,14 +254,14 @@ class DesignRequest:
         if self.deadband_deg is not None:
             lo, up = self.deadband_deg
             change = {"type": "deadband", "lower_deg": lo, "upper_deg": up}
-            out.append(("--deadband-deg", change))
+            out.append(("deadband_deg", change))
         if self.saturation_deg is not None:
             lo, up = self.saturation_deg
             change = {"type": "saturation", "lower_deg": lo, "upper_deg": up}
-            out.append(("--saturation-deg", change))
+            out.append(("saturation_deg", change))
         if self.rate_limit_deg_s is not None:
             change = {"type": "rate_limit", "rate_deg_s": self.rate_limit_deg_s}
-            out.append(("--rate-limit-deg-s", change))
+            out.append(("rate_limit_deg_s", change))
         return out
 
     def validate(self) -> Scenario:
@@ -238,7 +279,7 @@ class DesignRequest:
         except ScenarioError as exc:
             option = _OPTIONS.get(exc.field, exc.field)
             if exc.field.startswith("disturbance.sensor_noise"):
-                option = "--noise-sigma"
+                option = "noise_sigma"
             raise DesignInputError(option, exc.message) from None
         for option, change in self.nonlinearities():
             try:
@@ -246,32 +287,31 @@ class DesignRequest:
             except ScenarioError as exc:
                 raise DesignInputError(option, f"{exc.field}: {exc.message}") from None
         positive = (
-            ("--target-gain-se", self.target_gain_se),
-            ("--detect-gain-change", self.detect_gain_change),
-            ("--target-h-se", self.target_h_se),
-            ("--deadband-margin", self.deadband_margin),
+            ("target_gain_se", self.target_gain_se),
+            ("detect_gain_change", self.detect_gain_change),
+            ("target_h_se", self.target_h_se),
+            ("deadband_margin", self.deadband_margin),
         )
         for option, value in positive:
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise DesignInputError(option, f"must be a number > 0, got {value:g}")
+            if value is not None:
+                number(value, option, lo=0, lo_open=True, error=DesignInputError)
         for option, value in (
-            ("--false-alarm", self.false_alarm),
-            ("--detection-probability", self.detection_probability),
+            ("false_alarm", self.false_alarm),
+            ("detection_probability", self.detection_probability),
         ):
             if not 0 < value < 1:
                 raise DesignInputError(option, f"must be a probability in (0, 1), got {value:g}")
         targets = [t for t in (self.target_gain_se, self.detect_gain_change, self.target_h_se) if t]
         if len(targets) > 1:
             raise DesignInputError(
-                "--target-gain-se", "give one target: a gain standard error, a gain change "
+                "target_gain_se", "give one target: a gain standard error, a gain change "
                 "to detect, or a standard error of h"
             )  # fmt: skip
         if targets and self.noiseless:
             raise DesignInputError(
-                "--noise-sigma", "a precision target needs noise to meet it against (> 0)"
+                "noise_sigma", "a precision target needs noise to meet it against (> 0)"
             )
-        if not 2 <= self.calibration_seeds <= 100:
-            raise DesignInputError("--calibration-seeds", "must be from 2 to 100")
+        integer(self.calibration_seeds, "calibration_seeds", lo=2, hi=100, error=DesignInputError)
         self._check_window(bool(targets))
         return scn
 
@@ -280,45 +320,41 @@ class DesignRequest:
         a suite carries its own noise."""
         if self.sensors is not None and self.noise_sigma:
             raise DesignInputError(
-                "--noise-sigma", "the suite's sensors carry the noise (--sensors): give one"
+                "noise_sigma", "the suite's sensors carry the noise (`sensors`): give one"
             )
         if self.drift != "gust" or self.every_twin_alike:
             return
         if self.sensors is None:
             raise DesignInputError(
-                "--drift",
-                "gust estimates the gust from the sensors: give --sensors SUITE and "
-                "--closed-loop, or --drift oracle (an upper bound that knows the gusts)",
+                "drift",
+                "gust estimates the gust from the sensors: give `sensors` SUITE and "
+                "`closed_loop`, or `drift` oracle (an upper bound that knows the gusts)",
             )
         if not self.closed_loop:
             raise DesignInputError(
-                "--drift", "gust's twin flies its own autopilot: give --closed-loop"
+                "drift", "gust's twin flies its own autopilot: give `closed_loop`"
             )
 
     def _check_window(self, targeted: bool) -> None:
-        """``--window-periods`` needs a gain target; its settings are the monitor's."""
+        """``window_periods`` needs a gain target; its settings are the monitor's."""
         from probing.core.monitor import MonitorSettings, SettingError
 
         if self.window_periods is None:
             for option, value in (
-                ("--false-alarms-per-hour", self.false_alarms_per_hour),
-                ("--within-periods", self.within_periods),
+                ("false_alarms_per_hour", self.false_alarms_per_hour),
+                ("within_periods", self.within_periods),
             ):
                 if value is not None:
-                    raise DesignInputError(option, "needs --window-periods")
+                    raise DesignInputError(option, "needs `window_periods`")
             return
         if self.within_periods is not None:
             if self.detect_gain_change is None:
-                raise DesignInputError("--within-periods", "needs --detect-gain-change")
-            if not 1 <= self.within_periods <= 1000:
-                raise DesignInputError(
-                    "--within-periods",
-                    f"must be an integer from 1 to 1000, got {self.within_periods}",
-                )
+                raise DesignInputError("within_periods", "needs `detect_gain_change`")
+            integer(self.within_periods, "within_periods", lo=1, hi=1000, error=DesignInputError)
         if not targeted or self.target_h_se is not None:
             raise DesignInputError(
-                "--window-periods", "needs a gain target (--detect-gain-change or "
-                "--target-gain-se)"
+                "window_periods", "needs a gain target (`detect_gain_change` or "
+                "`target_gain_se`)"
             )  # fmt: skip
         try:
             MonitorSettings(
@@ -327,11 +363,11 @@ class DesignRequest:
                 window_periods=self.window_periods,
             )
         except SettingError as exc:
-            raise DesignInputError("--" + exc.field.replace("_", "-"), exc.message) from None
+            raise DesignInputError(exc.field, exc.message) from None
 
     def false_alarm_of(self, period_s: float) -> float:
-        """The two-sided false-alarm probability of one test: ``--false-alarm``, or with
-        ``--false-alarms-per-hour`` the monitor's per period (one channel) for a period of
+        """The two-sided false-alarm probability of one test: ``false_alarm``, or with
+        ``false_alarms_per_hour`` the monitor's per period (one channel) for a period of
         ``period_s`` (s)."""
         if self.false_alarms_per_hour is None:
             return self.false_alarm
@@ -343,8 +379,8 @@ class DesignRequest:
         return settings.alpha(period_s, 1)
 
     def gain_goal(self, period_s: float) -> float:
-        """The gain's standard error to meet (dimensionless): ``--target-gain-se``, or that
-        at which ``--detect-gain-change`` is detected, at the false alarm of one test
+        """The gain's standard error to meet (dimensionless): ``target_gain_se``, or that
+        at which ``detect_gain_change`` is detected, at the false alarm of one test
         (:meth:`false_alarm_of` a period of ``period_s``, s)."""
         if self.detect_gain_change is None:
             assert self.target_gain_se is not None
@@ -364,6 +400,38 @@ class DesignRequest:
         if self.target_h_se is not None:
             return "h", self.target_h_se
         return None
+
+
+@functools.cache
+def _hints() -> dict[str, Any]:
+    """:class:`DesignRequest`'s fields' types."""
+    return typing.get_type_hints(DesignRequest)
+
+
+def _typed(value: Any, name: str, hint: Any, option: Mapping[str, Any]) -> Any:
+    """``value`` of the field ``name`` as its type ``hint`` (``X | None``: None, or an X)
+    and its ``option``'s ``choices`` say (DesignInputError naming ``name``)."""
+    if isinstance(hint, types.UnionType):
+        if value is None:
+            return None
+        (hint,) = [k for k in typing.get_args(hint) if k is not type(None)]
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise DesignInputError(name, f"must be True or False, got {value!r}")
+        return value
+    if hint is int:
+        return integer(value, name, error=DesignInputError)
+    if hint is float:
+        return number(value, name, error=DesignInputError)
+    if typing.get_origin(hint) is tuple:
+        if not isinstance(value, list | tuple) or len(value) != len(typing.get_args(hint)):
+            raise DesignInputError(name, f"must be a pair of numbers (lower, upper), got {value!r}")
+        return tuple(number(v, name, error=DesignInputError) for v in value)
+    if "choices" in option:
+        return choice(value, name, tuple(option["choices"]), error=DesignInputError)
+    if not isinstance(value, str):
+        raise DesignInputError(name, f"must be a string, got {value!r}")
+    return value
 
 
 def detectable_stderr(change: float, false_alarm: float, detection_probability: float) -> float:

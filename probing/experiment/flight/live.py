@@ -39,6 +39,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from probing.core.errors import ProbingError
 from probing.core.faults import onset_step
 from probing.experiment.flight.flight_computer import FlightComputer, flight_autopilot, folder_of
 from probing.experiment.flight.monitor import Monitor, MonitorResult
@@ -93,7 +94,7 @@ def at_trim_frame(time_s: float, dt_s: float) -> bool:
     return time_s < 1.5 * dt_s
 
 
-class LiveError(ValueError):
+class LiveError(ProbingError, ValueError):
     """A scenario or a simulator a live flight cannot fly with; the message says why."""
 
 

@@ -25,6 +25,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from probing.core.errors import ProbingError
 from probing.core.isolation import DETECTORS, ISOLATION_CHECKS, isolated_verdict
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
 from probing.core.time_grid import WrongRow
@@ -431,7 +432,7 @@ def monitor_flight(
     return [m.result(r, r.out_dir, r.ended) for m, r in zip(monitors, runs, strict=True)]
 
 
-class ReplayError(ValueError):
+class ReplayError(ProbingError, ValueError):
     """A log that cannot be replayed; the message names it and why."""
 
 

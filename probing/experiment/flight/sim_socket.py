@@ -24,6 +24,8 @@ import ipaddress
 import socket
 import time
 
+from probing.core.errors import ProbingError
+
 __all__ = ["PORTS", "SimConnectionError", "SimSocket", "is_loopback", "is_port", "parse_address"]
 
 PROMPT = "JSBSim> "
@@ -49,7 +51,7 @@ def is_port(port: int) -> bool:
     return port in PORTS
 
 
-class SimConnectionError(ConnectionError):
+class SimConnectionError(ProbingError, ConnectionError):
     """The simulator cannot be reached or answered something else; the message says which."""
 
 

@@ -8,6 +8,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from probing.core.errors import ProbingError
+
 __all__ = [
     "OutputFileError",
     "OutputFolderError",
@@ -17,7 +19,7 @@ __all__ = [
 ]
 
 
-class OutputPathError(ValueError):
+class OutputPathError(ProbingError, ValueError):
     """An output path that cannot be written; the message names the option and says why."""
 
 

@@ -30,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from probing.core import tempfiles
+from probing.core.errors import ProbingError
 from probing.core.forked import INTERRUPTS
 from probing.experiment.output.layouts import (
     CHANNEL_UNIT,
@@ -54,7 +55,11 @@ from probing.experiment.output.output_paths import (
     check_output_file,
     check_output_folder,
 )
-from probing.experiment.output.pandas_keys import from_pandas_attrs, to_pandas_attrs
+from probing.experiment.output.pandas_keys import (
+    from_pandas_attrs,
+    stored_text,
+    to_pandas_attrs,
+)
 from probing.experiment.output.staging import DIGEST_KEY, earlier_files, report_removed
 
 __all__ = [
@@ -164,12 +169,7 @@ def git_revision() -> str:
 
 def metadata(**items: Any) -> dict[bytes, bytes]:
     """Parquet key-value metadata: ``probing.<key>`` -> text (JSON for non-strings)."""
-    return {
-        f"probing.{k}".encode(): (
-            v if isinstance(v, str) else json.dumps(v, sort_keys=True)
-        ).encode()
-        for k, v in items.items()
-    }
+    return {f"probing.{k}".encode(): stored_text(v).encode() for k, v in items.items()}
 
 
 def provenance(**items: Any) -> dict[bytes, bytes]:
@@ -476,7 +476,7 @@ def output_folder(
 
 
 # ------------------------------------------------------------------ reading
-class StoredFileError(ValueError):
+class StoredFileError(ProbingError, ValueError):
     """A stored file that cannot be read (not Parquet, damaged, unreadable); the message
     names it."""
 

@@ -17,14 +17,16 @@ the mean over the P periods.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 
+from probing.core.errors import ArgumentError, choice, integer, names, number
 from probing.core.pinning import SETTLED_TAIL, TailPin, pin_settled_tail, tail_taps
-from probing.core.prbs import steps_per_bit
+from probing.core.prbs import MAX_ORDER, MIN_ORDER, steps_per_bit
 from probing.core.recorded import NotAnMSequence, align_probe, period_estimates, tap_bounds
 from probing.core.trend import detrend_periodic
 from probing.experiment.output.bounds import bounds_confidence, write_bounds
@@ -38,6 +40,7 @@ from probing.experiment.output.layouts import (
 )
 from probing.experiment.output.storage import output_folder, provenance
 from probing.experiment.recorded.record import (
+    DRIFTS,
     RecordError,
     column_unit,
     file_sha256,
@@ -84,6 +87,26 @@ class AnalysisRequest:
     drift: str = "detrend"
     reference: str | None = None
     settled_after_s: float | None = None
+
+    def __post_init__(self) -> None:
+        """Each argument of the type and range it must have, kept as the Python type
+        (:mod:`probing.core.errors`: an order a real integer, numpy's included, a duration a
+        number > 0, one column name or several as ``outputs``); ArgumentError naming it."""
+        put = functools.partial(object.__setattr__, self)
+        if self.time is None and self.dt_s is None:
+            raise ArgumentError("time", "give `time` (the time column) or `dt_s` (the sample step)")
+        if self.time is not None and self.dt_s is not None:
+            raise ArgumentError("dt_s", "give `time` or `dt_s`, not both")
+        for name in ("input", "time", "reference"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str):
+                raise ArgumentError(name, f"must be a column name (a string), got {value!r}")
+        put("outputs", names(self.outputs, "outputs"))
+        put("order", integer(self.order, "order", lo=MIN_ORDER, hi=MAX_ORDER))
+        for name in ("bit_duration_s", "dt_s", "amplitude", "settled_after_s"):
+            if getattr(self, name) is not None:
+                put(name, number(getattr(self, name), name, lo=0, lo_open=True))
+        choice(self.drift, "drift", DRIFTS)
 
 
 @dataclass(frozen=True)

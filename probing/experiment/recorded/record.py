@@ -12,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from probing.core.errors import ProbingError
 from probing.core.time_grid import GRID_TOLERANCE, off_grid
 
 __all__ = [
+    "DRIFTS",
     "FORMATS",
     "RecordError",
     "column_unit",
@@ -26,6 +28,11 @@ __all__ = [
 
 #: File suffix -> format name.
 FORMATS = {".csv": "csv", ".parquet": "parquet", ".mat": "mat"}
+
+#: What ``probing analyze`` removes from a record's outputs without a reference column: a
+#: periodic part and a linear trend fitted together, or the mean
+#: (:mod:`probing.experiment.recorded.analyze`).
+DRIFTS = ("detrend", "none")
 
 #: Relative tolerance of a uniform time step (:data:`probing.core.time_grid.GRID_TOLERANCE`).
 STEP_TOLERANCE = GRID_TOLERANCE
@@ -80,7 +87,7 @@ def column_unit(name: str) -> str | None:
     return None
 
 
-class RecordError(ValueError):
+class RecordError(ProbingError, ValueError):
     """A record that cannot be analysed; the message names the file or column and why."""
 
 
@@ -131,7 +138,16 @@ def _available(path: Path, kind: str) -> dict[str, np.ndarray] | list[str]:
         return pq.read_schema(path).names
     from scipy.io import loadmat
 
-    return {k: v for k, v in loadmat(path).items() if not k.startswith("__")}
+    try:
+        variables = loadmat(path)
+    except OSError:
+        raise
+    except Exception as exc:  # a damaged file fails anywhere in scipy's reader, any way
+        reason = " ".join(str(exc).split()) or exc.__class__.__name__
+        raise ValueError(
+            f"not a MAT file of MATLAB v5 to v7.2, or a damaged one: {reason}"
+        ) from None
+    return {k: v for k, v in variables.items() if not k.startswith("__")}
 
 
 def read_columns(path: Path, names: list[str], time: str | None = None) -> dict[str, np.ndarray]:

@@ -10,6 +10,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from probing.core.errors import is_number
 from probing.core.faults import FAULTS
 from probing.core.monitor import MonitorSettings, SettingError
 from probing.core.multiplex import DESIGNS
@@ -306,7 +307,7 @@ class SensorsSection:
                     raise ScenarioError(
                         where, f"not a sensor field (fields: {', '.join(SENSOR_FIELDS)})"
                     )
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                if not is_number(value):
                     raise ScenarioError(where, f"must be a number, got {value!r}")
                 values[key] = float(value)
             try:  # the sensor's own checks, and its sample rate against the step

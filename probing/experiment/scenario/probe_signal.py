@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from probing.core.errors import is_number
 from probing.core.excitation import PRBS, SIGNALS, SPECTRAL, SWEEPS, Excitation
 from probing.core.prbs import Probe
 from probing.experiment.scenario.schema import ScenarioError, choice
@@ -22,11 +23,7 @@ def parse_excitation(probe: dict[str, Any], order: int, bit_s: float) -> Excitat
     if "band_hz" not in probe:
         raise ScenarioError("probe.band_hz", f"missing: a {signal} needs [low, high] in Hz")
     band = probe["band_hz"]
-    if (
-        not isinstance(band, list)
-        or len(band) != 2
-        or any(isinstance(f, bool) or not isinstance(f, (int, float)) for f in band)
-    ):
+    if not isinstance(band, list) or len(band) != 2 or not all(is_number(f) for f in band):
         raise ScenarioError("probe.band_hz", f"must be [low, high] in Hz, got {band!r}")
     if "sweep" in probe and signal != "chirp":
         raise ScenarioError("probe.sweep", "is for a chirp")

@@ -39,6 +39,7 @@ from probing.experiment.scenario.rules import check_across, check_baseline
 from probing.experiment.scenario.schema import (
     ScenarioError,
     check_keys,
+    field_label,
 )
 from probing.experiment.scenario.sections import (
     AircraftSection,
@@ -417,8 +418,24 @@ class Scenario:
 
         The changes are given as a mapping, as keyword arguments, or both.  A change of
         ``nonlinearity.type`` is applied first, so its parameters may be listed in any order.
+        A key names one field (``"probe.order"``) or a whole section (``"fault"``, ``"probe"``):
+        a section's value, a dict, replaces the section as a whole (the fields it leaves out
+        are gone, not kept), as a new ``[section]`` table of the file would; to change some
+        fields of a section, name each (``"probe.order"``, ``"probe.periods"``).  Numbers may
+        be numpy's (``np.int64(7)`` is an integer, ``np.float64`` a number).
+
+        Raises
+        ------
+        ScenarioError
+            A key that is not a dotted name (a string), or a copy the schema refuses.
         """
         merged = {**(changes or {}), **kwargs}
+        for key in merged:
+            if not isinstance(key, str) or not key or "" in key.split("."):
+                raise ScenarioError(
+                    field_label(key) if isinstance(key, str) else repr(key),
+                    "a change's key must be a field's dotted name (a string: 'probe.order')",
+                )
         data = copy.deepcopy(self.to_dict())
         for key in sorted(merged, key=lambda k: k != "nonlinearity.type"):
             _set_dotted(data, key, merged[key])

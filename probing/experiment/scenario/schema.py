@@ -5,9 +5,11 @@ checks every section's parser uses (:mod:`probing.experiment.scenario.sections`)
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
+from probing.core.errors import ProbingError
+from probing.core.errors import integer as checked_integer
+from probing.core.errors import number as checked_number
 from probing.core.faults import FAULTS
 from probing.core.monitor import MonitorSettings
 from probing.core.nonlinearities import NONLINEARITIES
@@ -68,7 +70,7 @@ _REQUIRED = {
 }
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ProbingError, ValueError):
     """An invalid scenario: ``field`` names the offending entry."""
 
     def __init__(self, field: str, message: str, source: str | None = None) -> None:
@@ -93,16 +95,10 @@ def field_label(key: str) -> str:
 def number(
     data: dict, section: str, key: str, *, lo: float, hi: float, lo_open: bool = False
 ) -> float:
+    """``data[key]`` as a float in the range (:func:`probing.core.errors.number`: a Python or
+    numpy int or float); ScenarioError naming ``section.key``."""
     name = f"{section}.{key}" if section else key
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(name, f"must be a number, got {value!r}")
-    value = float(value)
-    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-    if not ok:
-        bound = f"> {lo:g}" if lo_open else f">= {lo:g}"
-        raise ScenarioError(name, f"must be {bound} and <= {hi:g}, got {value:g}")
-    return value
+    return checked_number(data[key], name, lo=lo, hi=hi, lo_open=lo_open, error=ScenarioError)
 
 
 def instant_in_run(data: dict, section: str, key: str, duration_s: float) -> float:
@@ -115,13 +111,9 @@ def instant_in_run(data: dict, section: str, key: str, duration_s: float) -> flo
 
 
 def integer(data: dict, section: str, key: str, *, lo: int, hi: int) -> int:
-    name = f"{section}.{key}"
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value!r}")
-    if not lo <= value <= hi:
-        raise ScenarioError(name, f"must be an integer from {lo} to {hi}, got {value}")
-    return value
+    """``data[key]`` as an int from ``lo`` to ``hi`` (:func:`probing.core.errors.integer`:
+    a Python or numpy integer, not a bool or a float); ScenarioError naming ``section.key``."""
+    return checked_integer(data[key], f"{section}.{key}", lo=lo, hi=hi, error=ScenarioError)
 
 
 def choice(data: dict, section: str, key: str, allowed: tuple[str, ...]) -> str:

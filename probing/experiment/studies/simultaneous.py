@@ -24,6 +24,7 @@ from typing import TextIO
 import numpy as np
 
 from probing.core.convolution import causal_convolve
+from probing.core.errors import ProbingError
 from probing.core.multiplex import Layout, memory_bits
 from probing.core.prbs import mls
 from probing.experiment.flight.run import scenario_provenance
@@ -46,7 +47,7 @@ __all__ = [
 ]
 
 
-class SeparationError(ValueError):
+class SeparationError(ProbingError, ValueError):
     """A simultaneous design that cannot keep its surfaces apart; the message says why."""
 
 
