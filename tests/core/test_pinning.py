@@ -168,3 +168,21 @@ def test_the_slope_bound_both_sides(sign: float) -> None:
     over = pin_settled_tail(base + sign * c_at * (1 + 1e-6) * k, n)
     assert at.statistic[0] <= at.threshold and over.statistic[0] <= over.threshold
     assert at.settled[0] and not over.settled[0]
+
+
+def test_the_constant_removed_is_the_mean_over_periods_of_each_periods_tail_mean() -> None:
+    """Each period shifted by its own constant (a flat tail in each, no noise): every period
+    loses its own tail mean, and the constant recorded is the mean over the periods of those
+    tail means, per channel, computed here from the input (not the first period's)."""
+    h, n, periods = response(), tail_taps(M), 4
+    shifts = np.array([[0.5, -2.0], [-0.1, 0.4], [0.2, 1.0], [0.0, -0.6]])  # (P, C)
+    est = zero_mean(h) + shifts[:, :, None]
+    pin = pin_settled_tail(est, n)
+    assert pin.settled.tolist() == [True, True]
+    by_hand = [np.mean([est[p, c, M - n :].mean() for p in range(periods)]) for c in range(2)]
+    assert abs(by_hand[0] - est[0, 0, M - n :].mean()) > 0.1  # the first period's is not it
+    np.testing.assert_allclose(pin.constant, by_hand, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(pin.constant, -h.sum() / M + shifts.mean(axis=0), atol=1e-8)
+    np.testing.assert_allclose(pin.h, np.broadcast_to(h, est.shape), rtol=0, atol=1e-8)
+    recorded = pin.record(["theta_rad", "q_rad_s"])["constant_removed"]
+    assert recorded == dict(zip(["theta_rad", "q_rad_s"], pin.constant.tolist(), strict=True))
