@@ -82,19 +82,19 @@ def execute_flight(
         final.parent.mkdir(parents=True, exist_ok=True)
         tmps.append(final.parent / f".tmp-{final.name}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
     t0 = time.perf_counter()
+    flown = None
     try:
         flown = _fly(todo, tmps, aircraft)
     except (TrimError, DivergenceError) as exc:
         status, message = "failed", str(exc)
     except Exception as exc:  # recorded, reported, and the sweep goes on
         status, message = "error", f"{exc.__class__.__name__}: {exc}"
-    else:
-        wall = (time.perf_counter() - t0) / len(todo)
+    wall = (time.perf_counter() - t0) / len(todo)  # each task's share of the flight's
+    if flown is not None:
         for t, tmp, (result, monitored) in zip(todo, tmps, flown, strict=True):
             _store_done(t, tmp, result, monitored, wall)
             records[t.run_id].update(status="done", wall_s=wall)
         return list(records.values())
-    wall = (time.perf_counter() - t0) / len(todo)
     for t, tmp in zip(todo, tmps, strict=True):
         shutil.rmtree(tmp, ignore_errors=True)
         failed = {"kind": t.kind, "point_id": t.run_id, "status": status, "message": message}

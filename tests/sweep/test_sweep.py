@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -750,3 +751,43 @@ def test_writing_the_summary_removes_a_killed_writers_half_summary(tmp_path: Pat
     )
     assert not stale.exists() and live.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, "summary.parquet"])
+
+
+@pytest.mark.parametrize("tasks", [1, 3])
+@pytest.mark.parametrize("outcome", ["done", "failed"])
+def test_each_task_of_a_shared_flight_records_its_share_of_the_flights_wall_time(
+    tasks: int, outcome: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A flight of 6 s on a fake clock, shared by ``tasks`` monitored points (or flown by
+    one): each point's ``point.json`` (or failure record) holds 6 s over the tasks, so the
+    shares add up to the flight's wall time and a lone task's is the whole of it."""
+    import probing.sweep.execute as execute
+    import probing.sweep.tasks as tasks_module
+    from probing.sim.errors import DivergenceError
+
+    now = [100.0]
+    clock = types.SimpleNamespace(perf_counter=lambda: now[0])
+    monkeypatch.setattr(tasks_module, "time", clock)
+
+    def fly(todo, tmps, aircraft):  # the flight: 6 s on the clock, nothing simulated
+        now[0] += 6.0
+        if outcome == "failed":
+            raise DivergenceError("diverged at t = 1 s")
+        facts = types.SimpleNamespace(facts=lambda: {"verdict": None})
+        return [(types.SimpleNamespace(steps_simulated=10), facts) for _ in todo]
+
+    monkeypatch.setattr(tasks_module, "_fly", fly)
+    scn = load_scenario(BASE)
+    points_dir, _, failed_dir = execute.sweep_folders(tmp_path / "s")
+    todo = [
+        execute._task("point", f"{i}", scn, points_dir, failed_dir, monitor=True)
+        for i in range(tasks)
+    ]
+    records = tasks_module.execute_flight(todo)
+    assert [r["status"] for r in records] == [outcome] * tasks
+    assert [r["wall_s"] for r in records] == [6.0 / tasks] * tasks
+    files = [
+        Path(t.target) / "point.json" if outcome == "done" else Path(t.failed_file) for t in todo
+    ]
+    stored = [json.loads(f.read_text())["wall_s"] for f in files]
+    assert stored == [6.0 / tasks] * tasks and sum(stored) == pytest.approx(6.0, rel=1e-15)
