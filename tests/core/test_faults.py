@@ -209,3 +209,22 @@ def test_the_study_generators_sweep_fields_are_the_registrys():
         faults.sweep_fields("stuck", {"scale": 0.5})
     with pytest.raises(KeyError):
         faults.sweep_fields("no_such_fault", {})
+
+
+@pytest.mark.parametrize(
+    ("onset_s", "step"),
+    [
+        (0.07, 7),  # 7.000000000000001 steps of 0.01 s: step 7, not 8
+        (0.29, 29),  # 28.999999999999996 steps: step 29, not 28
+        (0.0, 0),
+        (0.3649, 36),  # within a step: the step that starts nearest, on either side of 0.365
+        (0.3651, 37),
+        (0.3749, 37),
+        (0.3751, 38),
+    ],
+)
+def test_a_fault_acts_from_the_step_that_starts_at_its_onset(onset_s, step):
+    """The step that starts at the onset (steps of 0.01 s from 0 at the trim), whatever
+    rounding the onset's division leaves; an onset inside a step starts at the nearest step
+    start."""
+    assert faults.onset_step(onset_s, 0.01) == step

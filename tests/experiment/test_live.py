@@ -33,6 +33,7 @@ from probing.experiment.output.storage import read_footer
 from probing.experiment.scenario import load_scenario
 from probing.sim.channels import CHANNELS
 from probing.sim.live_sim import write_sim
+from probing.sim.surfaces import SURFACES
 
 pytestmark = pytest.mark.jsbsim
 
@@ -733,3 +734,59 @@ def test_the_fault_comparison_example_prints_its_table(tmp_path):
         json.loads((tmp_path / "compare.json").read_text())[0][2:4]
         == [int(row[2]) if row[2] != "none" else None] * 2
     )
+
+
+class _HeldSimulator:
+    """A stand-in for :class:`SimSocket` without a socket: the probed surface's position it
+    reports in frame k (the position after step k - 1: the row before's, completed) is
+    1000 + k deg, at the trim 999 deg, every other value 0; it keeps what each frame writes."""
+
+    def __init__(self, position: str) -> None:
+        self.position, self.frames, self.written = position, 0, []
+
+    def get(self, names):
+        return [1000.0 - 1 if n == self.position else 0.0 for n in names]  # at the trim
+
+    def held_get(self, names):
+        values = [1000.0 + self.frames if n == self.position else 0.0 for n in names]
+        self.frames += 1
+        return values
+
+    def resume_with(self, values):
+        self.written.append(dict(values))
+
+
+class _LinearDrive:
+    """An actuator map known to the rig: command = position / 20, trimmed at 2 deg."""
+
+    trim_position = 2.0
+
+    @staticmethod
+    def command_clipped(position: float) -> float:
+        return position / 20.0
+
+
+@pytest.mark.parametrize("kind", ["stuck", "effectiveness"])
+@pytest.mark.parametrize(("onset_s", "onset"), [(0.05, 5), (0.07, 7)])  # 0.07 / 0.01 = 7.000...1
+def test_the_live_worlds_actuator_fault_acts_from_the_exact_step_of_its_onset(kind, onset_s, onset):
+    """The rig's actuator fault, frame by frame, without a simulator: up to the step before
+    the onset the probed surface's command is the map's of what the law asks; from the onset
+    step on a stuck one is the map's of its position after the step before the onset (the
+    stand-in reports it in the onset's frame: 1000 + onset deg), one at half its
+    effectiveness the map's of trim + 0.5 (asked - trim)."""
+    fault = {"fault.type": kind, "fault.onset_s": onset_s}
+    if kind == "effectiveness":
+        fault["fault.scale"] = 0.5
+    scn = load_scenario(ROOT / "tests" / "data" / "sweeps" / "base-737-small.toml").replace(fault)
+    sim = _HeldSimulator(SURFACES[scn.surface].position)
+    plant = types.SimpleNamespace(engine_count=lambda: 2, drive=lambda surface=None: _LinearDrive)
+    world = live_module.SocketWorld(scn, sim, plant, realtime=False)
+    asked = [2.0 + 0.1 * k for k in range(12)]
+    world.fly(12, law=lambda k: (asked[k], None, None, None))
+    command = [frame[SURFACES[scn.surface].command] for frame in sim.written]
+    if kind == "stuck":
+        realised = asked[:onset] + [1000.0 + onset] * (12 - onset)
+    else:
+        realised = asked[:onset] + [2.0 + 0.5 * (a - 2.0) for a in asked[onset:]]
+    assert command == pytest.approx([p / 20.0 for p in realised], rel=1e-15)
+    assert command[onset - 1] == pytest.approx(asked[onset - 1] / 20.0, rel=1e-15)
