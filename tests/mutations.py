@@ -3,12 +3,13 @@ now catches it.
 
 Run from the repository root (``make setup`` first)::
 
-    .venv/bin/python tests/mutations.py
+    .venv/bin/python tests/mutations.py [N ...]
 
-For each mutation it edits the line, runs the tests named for it (``pytest -x``), restores
-the file and prints ``killed`` (a test failed, as it must) or ``SURVIVED``; the exit code is
-the number that survived.  The files are restored even when interrupted.  Not collected by
-pytest (no ``test_`` prefix): each mutation runs part of the suite.
+For each mutation (the N-th ones only, counted from 1 as it prints them, where N are given)
+it edits the line, runs the tests named for it (``pytest -x``), restores the file and prints
+``killed`` (a test failed, as it must) or ``SURVIVED``; the exit code is the number that
+survived.  The files are restored even when interrupted.  Not collected by pytest (no
+``test_`` prefix): each mutation runs part of the suite.
 """
 
 from __future__ import annotations
@@ -20,7 +21,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 #: (file, text, mutated text, tests that must fail): the issue's 15 survivors, then those
-#: of a later probe.
+#: of a later probe, then those of a probe of 28 (the settled tail's constant, the
+#: autopilot's record, a shared flight's wall time, an actuator fault's onset step, a
+#: reference's divergence in a chunk).
 MUTATIONS = [
     (
         "probing/core/isolation.py",
@@ -214,6 +217,42 @@ MUTATIONS = [
         "None",
         "tests/experiment/test_work_folder.py::test_a_dead_writers_work_folder_is_removed_and_a_live_ones_kept",
     ),
+    (
+        "probing/core/pinning.py",
+        "constant = np.where(settled, own[:, :, 0].mean(axis=0), 0.0)",
+        "constant = np.where(settled, own[0, :, 0], 0.0)",
+        "tests/core/test_pinning.py::test_the_constant_removed_is_the_mean_over_periods_of_each_periods_tail_mean",
+    ),
+    (
+        "probing/sim/autopilot.py",
+        "kept.append(u_el if by_elevator else asked - trim_pos)",
+        "kept.append(u_el if by_elevator else asked)",
+        "tests/sim/test_autopilot.py::test_the_probed_surfaces_command_is_recorded_as_its_change_from_trim",
+    ),
+    (
+        "probing/sweep/tasks.py",
+        "wall = (time.perf_counter() - t0) / len(todo)",
+        "wall = time.perf_counter() - t0",
+        "tests/sweep/test_sweep.py::test_each_task_of_a_shared_flight_records_its_share_of_the_flights_wall_time",
+    ),
+    (
+        "probing/core/faults.py",
+        "return round(onset_s / dt_s)",
+        "return math.ceil(onset_s / dt_s)",
+        "tests/core/test_faults.py::test_a_fault_acts_from_the_step_that_starts_at_its_onset",
+    ),
+    (
+        "probing/experiment/flight/live.py",
+        "if self.steps >= self.fault_onset >= 0:",
+        "if self.steps > self.fault_onset >= 0:",
+        "tests/experiment/test_live.py::test_the_live_worlds_actuator_fault_acts_from_the_exact_step_of_its_onset",
+    ),
+    (
+        "probing/experiment/flight/flight_computer.py",
+        'raise ReferenceDiverged(f"the reference: {done.ended}")',
+        "pass",
+        "tests/experiment/test_flight_computer.py::test_a_reference_diverging_in_a_chunk_ends_the_flight_at_that_chunk",
+    ),
 ]
 
 
@@ -222,10 +261,13 @@ def _pytest(test: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
 
 
-def main() -> int:
-    """Apply each mutation in turn; print what caught it; return how many survived."""
+def main(numbers: list[int] | None = None) -> int:
+    """Apply each mutation in turn (``numbers``: the N-th ones only, from 1); print what
+    caught it; return how many survived."""
     survived = 0
     for i, (file, text, mutated, test) in enumerate(MUTATIONS, 1):
+        if numbers and i not in numbers:
+            continue
         path = ROOT / file
         original = path.read_text()
         if original.count(text) != 1:
@@ -249,4 +291,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main([int(n) for n in sys.argv[1:]]))
