@@ -37,6 +37,7 @@ __all__ = [
     "lstsq",
     "matrix_power",
     "norm",
+    "orthonormal_complement",
     "pinv",
     "solve",
     "solve_lower",
@@ -115,6 +116,23 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         block = a[lo : lo + rows]
         out[lo : lo + rows] = np.multiply(block[:, None, :], bt[None, :, :], order="C").sum(axis=-1)
     return out
+
+
+def orthonormal_complement(u: np.ndarray) -> np.ndarray:
+    """(K, K - 1): orthonormal columns spanning the directions orthogonal to ``u`` (K,), the
+    last K - 1 columns of the Householder reflection that takes u to the first axis.
+
+    Examples
+    --------
+    >>> q = orthonormal_complement(np.array([1.0, 1.0, 1.0]))
+    >>> bool(np.allclose(q.T @ q, np.eye(2))), bool(np.allclose(q.T @ np.ones(3), 0.0))
+    (True, True)
+    """
+    u = np.asarray(u, dtype=float)
+    v = u / norm(u)
+    v[0] += math.copysign(1.0, v[0])
+    reflection = np.eye(u.size) - np.multiply.outer(v, v) * (2.0 / vdot(v, v))
+    return np.ascontiguousarray(reflection[:, 1:])
 
 
 def cov(x: np.ndarray) -> np.ndarray:
@@ -504,56 +522,74 @@ def _hessenberg_eigvals(a: list[list[float]]) -> np.ndarray:
             x = y = 0.75 * s
             w = -0.4375 * s * s
         its += 1
-        m = nn - 2  # two consecutive small subdiagonal elements
-        while m >= low:
-            z = a[m][m]
-            r, s = x - z, y - z
-            p = (r * s - w) / a[m + 1][m] + a[m][m + 1]
-            q = a[m + 1][m + 1] - z - r - s
-            r = a[m + 2][m + 1]
-            s = abs(p) + abs(q) + abs(r)
-            p, q, r = p / s, q / s, r / s
-            if m == low:
-                break
-            u = abs(a[m][m - 1]) * (abs(q) + abs(r))
-            v = abs(p) * (abs(a[m - 1][m - 1]) + abs(z) + abs(a[m + 1][m + 1]))
-            if u + v == v:
-                break
-            m -= 1
-        for i in range(m + 2, nn + 1):
-            a[i][i - 2] = 0.0
-            if i != m + 2:
-                a[i][i - 3] = 0.0
-        for k in range(m, nn):  # the double QR step on rows low .. nn and columns k .. nn
-            if k != m:
-                p, q = a[k][k - 1], a[k + 1][k - 1]
-                r = a[k + 2][k - 1] if k != nn - 1 else 0.0
-                x = abs(p) + abs(q) + abs(r)
-                if x != 0.0:
-                    p, q, r = p / x, q / x, r / x
-            s = math.copysign(math.sqrt(p * p + q * q + r * r), p)
-            if s == 0.0:
-                continue
-            if k == m:
-                if low != m:
-                    a[k][k - 1] = -a[k][k - 1]
-            else:
-                a[k][k - 1] = -s * x
-            p += s
-            x, y, z = p / s, q / s, r / s
-            q, r = q / p, r / p
-            for j in range(k, nn + 1):
-                p = a[k][j] + q * a[k + 1][j]
-                if k != nn - 1:
-                    p += r * a[k + 2][j]
-                    a[k + 2][j] -= p * z
-                a[k + 1][j] -= p * y
-                a[k][j] -= p * x
-            for i in range(low, min(nn, k + 3) + 1):
-                p = x * a[i][k] + y * a[i][k + 1]
-                if k != nn - 1:
-                    p += z * a[i][k + 2]
-                    a[i][k + 2] -= p * r
-                a[i][k + 1] -= p * q
-                a[i][k] -= p
+        m, p, q, r = _shift_start(a, low, nn, x, y, w)
+        _double_qr_step(a, low, m, nn, (p, q, r))
     return np.array([complex(re, im) for re, im in zip(wr, wi, strict=True)])
+
+
+def _shift_start(
+    a: list[list[float]], low: int, nn: int, x: float, y: float, w: float
+) -> tuple[int, float, float, float]:
+    """Where the double shift (from x, y and w) starts: the row m of two consecutive small
+    subdiagonal elements, and the first column of the shifted product there (p, q, r)."""
+    m = nn - 2
+    while True:
+        z = a[m][m]
+        r, s = x - z, y - z
+        p = (r * s - w) / a[m + 1][m] + a[m][m + 1]
+        q = a[m + 1][m + 1] - z - r - s
+        r = a[m + 2][m + 1]
+        s = abs(p) + abs(q) + abs(r)
+        p, q, r = p / s, q / s, r / s
+        if m == low:
+            return m, p, q, r
+        u = abs(a[m][m - 1]) * (abs(q) + abs(r))
+        v = abs(p) * (abs(a[m - 1][m - 1]) + abs(z) + abs(a[m + 1][m + 1]))
+        if u + v == v:
+            return m, p, q, r
+        m -= 1
+
+
+def _double_qr_step(
+    a: list[list[float]], low: int, m: int, nn: int, first: tuple[float, float, float]
+) -> None:
+    """One Francis double-shift QR step on rows low .. nn from row m, by Householder
+    reflections of three rows, the first from the shifted product's column ``first``."""
+    p, q, r = first
+    x = y = z = 0.0
+    for i in range(m + 2, nn + 1):
+        a[i][i - 2] = 0.0
+        if i != m + 2:
+            a[i][i - 3] = 0.0
+    for k in range(m, nn):
+        if k != m:
+            p, q = a[k][k - 1], a[k + 1][k - 1]
+            r = a[k + 2][k - 1] if k != nn - 1 else 0.0
+            x = abs(p) + abs(q) + abs(r)
+            if x != 0.0:
+                p, q, r = p / x, q / x, r / x
+        s = math.copysign(math.sqrt(p * p + q * q + r * r), p)
+        if s == 0.0:
+            continue
+        if k == m:
+            if low != m:
+                a[k][k - 1] = -a[k][k - 1]
+        else:
+            a[k][k - 1] = -s * x
+        p += s
+        x, y, z = p / s, q / s, r / s
+        q, r = q / p, r / p
+        for j in range(k, nn + 1):
+            p = a[k][j] + q * a[k + 1][j]
+            if k != nn - 1:
+                p += r * a[k + 2][j]
+                a[k + 2][j] -= p * z
+            a[k + 1][j] -= p * y
+            a[k][j] -= p * x
+        for i in range(low, min(nn, k + 3) + 1):
+            p = x * a[i][k] + y * a[i][k + 1]
+            if k != nn - 1:
+                p += z * a[i][k + 2]
+                a[i][k + 2] -= p * r
+            a[i][k + 1] -= p * q
+            a[i][k] -= p

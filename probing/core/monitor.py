@@ -54,20 +54,13 @@ baseline) points at the actuator side; a change of shape points at the airframe.
    airframe changed beyond the noise.  An alarmed period is ``"airframe"`` if it did,
    ``"actuator"`` otherwise.
 
-**Estimates without an offset.**  Some estimates have no offset to change: the drift mode
-``detrend`` removes each period's mean, so every period's taps sum to zero, and with the
-windows partitioning the taps (W'W 1 = 1) every reduced period is orthogonal to the offset's
-direction u = W 1: u'v = 1'h = 0.  The baseline's covariance S is then singular along u
-(what is left there is rounding), and S^-1, floored, multiplied rounding by 1e12: T^2 and
-the gain-and-offset fit took their values from the last bits of the sums, and a gain
-change moved by 0.2 when a BLAS kernel summed in another order.  A baseline whose periods
-all sum to zero (:data:`_ZERO_SUM`) is therefore learned and tested in the K - 1 directions
-orthogonal to u, and the channel's isolation fits a gain alone (its residual keeps K - 2
-dimensions, as before).  Nothing is lost: no estimate of such a channel has a component
-along u.
-
-Every sum above is taken in a fixed order (:mod:`probing.core.fixedorder`), so
-``monitor.parquet`` has the same bytes whatever BLAS kernel the processor gets.
+**Estimates without an offset.**  ``detrend`` removes each period's mean: the taps sum to
+zero and, the windows partitioning the taps (W'W 1 = 1), each reduced period is orthogonal
+to the offset's u = W 1.  S is singular along u, and its floored inverse multiplied rounding
+by 1e12 (a gain change moved by 0.2 between BLAS kernels).  A baseline whose periods all
+sum to zero (:data:`_ZERO_SUM`) is learned and tested in the K - 1 directions orthogonal to
+u, and isolation fits a gain alone (K - 2 residual dimensions, as before).  Every sum is
+taken in a fixed order (:mod:`probing.core.fixedorder`): the same bytes on any processor.
 
 All of it is exact for independent Gaussian periods (the ``cyclic`` and ``ac`` estimators
 with white sensor noise); the streaming estimator's periods overlap and are correlated, so
@@ -89,7 +82,7 @@ from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
 from probing.core.baseline import BaselineWindow
 from probing.core.errors import ProbingError
-from probing.core.fixedorder import cov, dot, inv, solve, vdot
+from probing.core.fixedorder import cov, dot, inv, orthonormal_complement, solve, vdot
 
 __all__ = [
     "ChangeDetector",
@@ -104,10 +97,9 @@ __all__ = [
 #: Smallest p-value reported (its -log10, 300, caps the statistic).
 _P_FLOOR = 1e-300
 
-#: A baseline whose every period's taps sum to zero within this fraction of the sum of their
-#: magnitudes carries no offset (module docstring, "Estimates without an offset"): the
-#: drift mode ``detrend`` removes each period's mean, which leaves sum(h) at rounding,
-#: 1e-16 to 1e-13 of sum |h| (M terms); an estimate with an offset is at 1e-3 and more.
+#: A baseline whose periods' taps all sum to zero within this fraction of sum |h| has no
+#: offset (module docstring): ``detrend`` leaves sum(h) at rounding, 1e-16 to 1e-13 of
+#: sum |h|; an estimate with an offset is at 1e-3 and more.
 _ZERO_SUM = 1e-9
 
 
@@ -148,23 +140,6 @@ def window_matrix(m: int, windows: int) -> np.ndarray:
         lo, hi = edges[k], edges[k + 1]
         w[k, lo:hi] = 1.0 / math.sqrt(hi - lo)
     return w
-
-
-def _offset_complement(u: np.ndarray) -> np.ndarray:
-    """(K, K - 1): orthonormal columns that span the directions orthogonal to ``u`` (K,),
-    the last K - 1 columns of the Householder reflection that takes u to the first axis.
-
-    Examples
-    --------
-    >>> q = _offset_complement(np.array([1.0, 1.0, 1.0]))
-    >>> np.allclose(q.T @ q, np.eye(2)), np.allclose(q.T @ np.ones(3), 0.0)
-    (True, True)
-    """
-    unit = u / math.sqrt(vdot(u, u))
-    v = unit.copy()
-    v[0] += math.copysign(1.0, unit[0])
-    reflection = np.eye(u.size) - np.multiply.outer(v, v) * (2.0 / vdot(v, v))
-    return np.ascontiguousarray(reflection[:, 1:])
 
 
 @dataclass(frozen=True)
@@ -419,7 +394,7 @@ class ChangeDetector:
         self.w = window_matrix(m, settings.windows)
         #: the reduction of estimates without an offset (:data:`_ZERO_SUM`): W's rows
         #: turned into K - 1 orthonormal ones orthogonal to the offset's W 1
-        self._offset_free_w = dot(_offset_complement(dot(self.w, np.ones(m))).T, self.w)
+        self._offset_free_w = dot(orthonormal_complement(dot(self.w, np.ones(m))).T, self.w)
         self._reduce = self.w  # the reduction the baseline was learned with
         self._shape_dims = settings.windows - 2  # the airframe test's dimensions
         self.m, self.k, self.b = m, settings.windows, settings.baseline_periods

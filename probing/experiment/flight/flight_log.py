@@ -25,6 +25,8 @@ raise their own error with it.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
 import pyarrow as pa
 
@@ -40,6 +42,7 @@ __all__ = [
     "replay_columns",
     "wrong_length",
     "wrong_probe",
+    "wrong_rows",
     "wrong_time",
     "wrong_type",
 ]
@@ -131,3 +134,40 @@ def wrong_length(rows: int, scn: Scenario) -> str | None:
             f"{rows} rows, more than its scenario's {scn.periods} periods ({scn.total_steps} steps)"
         )
     return None
+
+
+def wrong_rows(
+    batches: Iterable[pa.RecordBatch], scn: Scenario, names: Sequence[str]
+) -> str | None:
+    """Why a log's rows are not the flight's, or None: the first row (of the batches, in
+    order) of the columns ``names`` without a finite number, off the flight's time grid
+    (:func:`wrong_time`) or with another probe (:func:`wrong_probe`), then a count of rows
+    that is no whole number of the flight's periods (:func:`wrong_length`)."""
+    probe = probe_column(scn)
+    first, before = 0, None
+    for batch in batches:
+        found = [_missing_value(name, batch.column(name), first) for name in names]
+        time_s = batch.column("time_s").to_numpy(zero_copy_only=False)
+        found.append(wrong_time(time_s, scn, first, before))
+        logged = batch.column(probe).to_numpy(zero_copy_only=False)
+        found.append(wrong_probe(probe, logged, scn, first))
+        wrong = min((f for f in found if f is not None), key=lambda f: f.row, default=None)
+        if wrong is not None:
+            return wrong.reason
+        if batch.num_rows:
+            before = float(time_s[-1])
+        first += batch.num_rows
+    return wrong_length(first, scn)
+
+
+def _missing_value(name: str, column: pa.Array, first: int) -> WrongRow | None:
+    """The first row of a chunk (from row ``first`` on) of the column ``name`` without a
+    finite number: empty (null), NaN or an infinity."""
+    empty = column.is_null().to_numpy(zero_copy_only=False)
+    values = column.to_numpy(zero_copy_only=False)
+    bad = np.flatnonzero(empty | ~np.isfinite(values))
+    if not bad.size:
+        return None
+    i = int(bad[0])
+    what = "no value" if empty[i] else "NaN" if np.isnan(values[i]) else "an infinity"
+    return WrongRow(first + i, f"column {name} has {what} at row {first + i}")

@@ -28,17 +28,9 @@ import pyarrow.parquet as pq
 from probing.core.errors import ProbingError
 from probing.core.isolation import DETECTORS, ISOLATION_CHECKS, isolated_verdict
 from probing.core.monitor import ChangeDetector, MonitorSettings, flight_verdict
-from probing.core.time_grid import WrongRow
 from probing.core.trajectory import TrajectoryDetector
 from probing.experiment.flight.flight_computer import FlightComputer, ReferenceDiverged, folder_of
-from probing.experiment.flight.flight_log import (
-    probe_column,
-    replay_columns,
-    wrong_length,
-    wrong_probe,
-    wrong_time,
-    wrong_type,
-)
+from probing.experiment.flight.flight_log import replay_columns, wrong_rows, wrong_type
 from probing.experiment.flight.onboard import (
     isolation_columns,
     open_reference_twin,
@@ -541,45 +533,16 @@ def _batches(log: Path, table: pa.Table | None, rows: int) -> Iterator[pa.Record
 
 
 def _check_rows(log: Path, table: pa.Table | None, scn: Scenario, names: Sequence[str]) -> None:
-    """Every row of the columns ``names`` holds a finite number, its time is on the flight's
-    grid and its probe is the scenario's (:mod:`~probing.experiment.flight.flight_log`), and
-    the rows are whole probe periods of the flight (ReplayError: the first row that is
-    wrong, by column, or the count)."""
+    """The rows of the columns ``names`` are the flight's (ReplayError: the first that is
+    not, :func:`probing.experiment.flight.flight_log.wrong_rows`)."""
     batches = (
         pq.ParquetFile(log).iter_batches(columns=list(names))
         if table is None
         else table.select(list(names)).to_batches()
     )
-    probe = probe_column(scn)
-    first, before = 0, None
-    for batch in batches:
-        found = [_missing_value(name, batch.column(name), first) for name in names]
-        time_s = batch.column("time_s").to_numpy(zero_copy_only=False)
-        found.append(wrong_time(time_s, scn, first, before))
-        logged = batch.column(probe).to_numpy(zero_copy_only=False)
-        found.append(wrong_probe(probe, logged, scn, first))
-        wrong = min((f for f in found if f is not None), key=lambda f: f.row, default=None)
-        if wrong is not None:
-            raise ReplayError(f"{log}: {wrong.reason}")
-        if batch.num_rows:
-            before = float(time_s[-1])
-        first += batch.num_rows
-    count = wrong_length(first, scn)
-    if count is not None:
-        raise ReplayError(f"{log}: {count}")
-
-
-def _missing_value(name: str, column: pa.Array, first: int) -> WrongRow | None:
-    """The first row of a chunk (from row ``first`` on) of the column ``name`` without a
-    finite number: empty (null), NaN or an infinity."""
-    empty = column.is_null().to_numpy(zero_copy_only=False)
-    values = column.to_numpy(zero_copy_only=False)
-    bad = np.flatnonzero(empty | ~np.isfinite(values))
-    if not bad.size:
-        return None
-    i = int(bad[0])
-    what = "no value" if empty[i] else "NaN" if np.isnan(values[i]) else "an infinity"
-    return WrongRow(first + i, f"column {name} has {what} at row {first + i}")
+    wrong = wrong_rows(batches, scn, names)
+    if wrong is not None:
+        raise ReplayError(f"{log}: {wrong}")
 
 
 def logged_scenario(
