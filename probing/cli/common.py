@@ -60,12 +60,16 @@ def scenario_arg(path: Path) -> Any:
 def simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
     """Run ``job``; a trim failure or divergence is one line and exit code 1.
 
-    An aircraft JSBSim cannot load, and a trim failure of an aircraft folder of the user's
-    (``model`` a path: the model is the input), are one line and exit code 2.
+    The cache is checked first (:func:`probing.sim.cache.check_cache`): one that cannot be
+    used is bad input, refused before any work.  An aircraft JSBSim cannot load, and a trim
+    failure of an aircraft folder of the user's (``model`` a path: the model is the input),
+    are one line and exit code 2.
     """
     from probing.sim.aircraft import is_path
+    from probing.sim.cache import check_cache
     from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
 
+    check_cache()
     try:
         return job()
     except AircraftNotFoundError as exc:

@@ -39,9 +39,9 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
             f"--monitor: {args.monitor}: no monitor sweep in it (monitor-*/summary.parquet); "
             "fly scenarios/excitations/*.toml with probing sweep first"
         )
-    print(f"probing excitations: {args.scenarios} -> {args.out}")
 
     def job() -> int:
+        print(f"probing excitations: {args.scenarios} -> {args.out}")
         run_study(args.scenarios, args.out, jobs=args.jobs)
         return _finish(args, t_start)
 

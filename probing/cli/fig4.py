@@ -38,9 +38,9 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
     check_fig4_outputs(results, args)
     out_file(results / "manifest.json", "--out")
     _check_fig4_runs(scen_dir, results, args.force)
-    print(f"probing fig4: {scen_dir} -> {results}")
 
     def job() -> int:
+        print(f"probing fig4: {scen_dir} -> {results}")
         run_set(scen_dir, results, force=args.force)
         return finish_fig4(results, args, t_start)
 

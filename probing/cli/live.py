@@ -54,9 +54,11 @@ def _cmd_live(args: argparse.Namespace) -> int:
 
 def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
     """``--write-sim DIR``: the simulator's files, and the command that starts it."""
+    from probing.sim.cache import check_cache
     from probing.sim.live_sim import LISTENS_EVERYWHERE, write_sim
 
     folder = out_folder(args.write_sim, "--write-sim")
+    check_cache()  # the simulator's aircraft is the cache's sanitised copy
     end_s = scn.total_steps * scn.dt_s + END_MARGIN_S
     port = DEFAULT_PORT if args.port is None else args.port
     line = write_sim(scn.flight, folder, port, end_s)
