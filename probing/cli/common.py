@@ -58,7 +58,8 @@ def scenario_arg(path: Path) -> Any:
 
 
 def simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
-    """Run ``job``; a trim failure or divergence is one line and exit code 1.
+    """Run ``job``; a trim failure, a divergence or a simulator lost mid-flight is one line
+    and exit code 1.
 
     The cache is checked first (:func:`probing.sim.cache.check_cache`): one that cannot be
     used is bad input, refused before any work.  An aircraft JSBSim cannot load, and a trim
@@ -67,7 +68,12 @@ def simulating(job: Callable[[], int], where: str, model: str | None = None) -> 
     """
     from probing.sim.aircraft import is_path
     from probing.sim.cache import check_cache
-    from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
+    from probing.sim.errors import (
+        AircraftNotFoundError,
+        DivergenceError,
+        SimulatorLostError,
+        TrimError,
+    )
 
     check_cache()
     try:
@@ -76,7 +82,7 @@ def simulating(job: Callable[[], int], where: str, model: str | None = None) -> 
         return print_error(f"{where}: {exc}", 2)
     except TrimError as exc:
         return print_error(f"{where}: {exc}", 2 if model is not None and is_path(model) else 1)
-    except DivergenceError as exc:
+    except (DivergenceError, SimulatorLostError) as exc:
         return print_error(f"{where}: {exc}", 1)
 
 

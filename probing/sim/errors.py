@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-__all__ = ["AircraftNotFoundError", "CacheFolderError", "DivergenceError", "TrimError"]
+__all__ = [
+    "AircraftNotFoundError",
+    "CacheFolderError",
+    "DivergenceError",
+    "SimulatorLostError",
+    "TrimError",
+]
 
 
 class AircraftNotFoundError(ValueError):
@@ -19,3 +25,8 @@ class TrimError(RuntimeError):
 
 class DivergenceError(RuntimeError):
     """The simulation left the region where its results mean anything."""
+
+
+class SimulatorLostError(RuntimeError):
+    """The simulator process of a live flight ended mid-flight (killed, crashed): a run that
+    failed; the message says when."""

@@ -451,6 +451,40 @@ def test_a_simulator_that_has_flown_is_refused_at_connect(tmp_path, capsys):
         assert _stopped_within(proc, STOP_S) is not None
 
 
+def test_a_simulator_killed_mid_flight_is_a_failed_run_named_by_its_time(tmp_path, monkeypatch):
+    """The jsbsim process killed (SIGKILL) after the third period (it said ``probing: error:
+    ... closed the connection``, exit code 2, as if the input were bad) is a run that failed:
+    one line saying the simulator closed the connection and when (the first frame of the
+    fourth period, 3 x 62 steps of 0.01 s), exit code 1, nothing written."""
+    scenario, sim_dir, port = _write_sim(tmp_path, SCENARIO)
+    scn = load_scenario(scenario)
+    fly_probe = live_module.SocketWorld.fly_probe
+    with _simulator(tmp_path, sim_dir) as proc:
+        flown = []
+
+        def fly_then_kill(world, *args, **kwargs):
+            if len(flown) == 3:
+                proc.kill()
+                proc.wait()
+            flown.append(world.steps)
+            return fly_probe(world, *args, **kwargs)
+
+        monkeypatch.setattr(live_module.SocketWorld, "fly_probe", fly_then_kill)
+        out = tmp_path / "out"
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            code = main(
+                ["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(out)]
+            )
+    lines = [x for x in err.getvalue().splitlines() if not x.startswith(f"{scn.name} live")]
+    assert code == 1, lines
+    assert len(lines) == 1 and lines[0].startswith(
+        f"probing: error: {scenario}: the simulator at 127.0.0.1:{port} closed the connection "
+        "at t = 1.86 s"
+    ), lines
+    assert flown[-1] == 3 * scn.bits_per_period * round(scn.probe.bit_duration_s / scn.dt_s)
+    assert not (out / scn.name).exists()
+
+
 #: Channels of both kinds: the integrator's state (already the frame's when the message is
 #: answered) and what JSBSim computes after the command (air data, load factors, the
 #: surface: the frame's only in the next frame's message).  Not ``h_ft``, ``u_fps`` or
