@@ -24,6 +24,17 @@ def _tty() -> bool:
     return sys.stderr.isatty()
 
 
+def _announce(scn: Any) -> None:
+    """Off a terminal (no progress bar), a long flight says before it starts how many steps
+    it flies and about how long that takes
+    (:func:`probing.experiment.output.progress.long_run_notice`)."""
+    from probing.experiment.output.progress import long_run_notice
+
+    notice = None if _tty() else long_run_notice(scn.name, scn.total_steps)
+    if notice is not None:
+        print(f"probing: note: {notice}", file=sys.stderr, flush=True)
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     """``probing run``: ``fly(scn).save(out)`` (:func:`probing.api.fly`), then one line."""
     from probing.experiment.flight.runners import runner_of
@@ -36,6 +47,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         from probing.api import fly
         from probing.experiment.studies.simultaneous import SeparationError
 
+        _announce(scn)
         try:
             flight = fly(
                 scn, progress=_tty(), truth=args.truth, monitor=False, scratch=args.out / scn.name
@@ -140,6 +152,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     def job() -> int:
         from probing.api import fly
 
+        _announce(scn)
         flight = fly(
             scn,
             progress=_tty(),
