@@ -63,13 +63,15 @@ sweep: setup
 	@test -n "$(SWEEP)" || { echo "usage: make sweep SWEEP=scenarios/sweeps/<file>.toml [JOBS=n]" >&2; exit 2; }
 	$(PY) -m probing sweep $(SWEEP) $(SWEEP_ARGS) --plot --figures figures
 
-# The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png).
+# The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png), named here: the
+# bare command writes into results/modes (committed files change only when asked).
 modes: setup
-	$(PY) -m probing modes
+	$(PY) -m probing modes --docs docs/gtm.md --figure figures/gtm_modes
 
-# NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md).
+# NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md); its figures
+# into the committed figures/ (the bare command: results/gtm_damage/figures).
 gtm-damage: setup
-	$(PY) -m probing gtm-damage
+	$(PY) -m probing gtm-damage --figures figures
 
 # The health-monitoring study on what the aircraft measures (docs/monitoring.md): every sweep
 # in scenarios/monitor-realisable (written by its generate.py; GTM, NASA's T2 sensors, the
@@ -159,11 +161,12 @@ clean:
 # The PRBS against a multisine and a chirp on one budget (docs/excitations.md): the monitor
 # sweeps in scenarios/excitations (written by its generate.py; GTM, light turbulence, NASA's
 # T2 sensors, the gust reference), then the Fig. 4 sets of the GTM and the 737 flown with
-# each signal, the tables (docs/excitations_summary.md) and figures (figures/excitations_*.png).
+# each signal, the tables (docs/excitations_summary.md) and figures (figures/excitations_*.png),
+# named here (the bare command writes them into its --out).
 EXCITATIONS_OUT ?= results/excitations
 excitations: setup
 	@for f in $(sort $(wildcard scenarios/excitations/*.toml)); do \
 	  $(PY) -m probing sweep $$f --out $(EXCITATIONS_OUT)/monitor $(if $(JOBS),-j $(JOBS)) \
 	    > /dev/null || exit $$?; done
 	$(PY) -m probing excitations --out $(EXCITATIONS_OUT) --monitor $(EXCITATIONS_OUT)/monitor \
-	  $(if $(JOBS),-j $(JOBS))
+	  --figures figures --summary docs/excitations_summary.md $(if $(JOBS),-j $(JOBS))

@@ -47,6 +47,10 @@ DESCRIPTION = (
     "Pulse-compression probing of aircraft dynamics through hard input nonlinearities, on JSBSim."
 )
 EPILOG = """\
+examples:
+  probing run scenarios/baseline-737.toml --out results
+  probing run --help   # each command's options, with examples
+
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
 failed (trim failure, divergence, a simulator that died) or a sweep folder in use; 130
 interrupted; 143 terminated (SIGTERM); 141 output into a closed pipe.

@@ -98,7 +98,15 @@ def finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
 
 def register(sub: Subcommands) -> None:
     """Add ``fig4`` to ``sub``."""
-    fig4 = command(sub, "fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
+    fig4 = command(
+        sub,
+        "fig4",
+        "reproduce the paper's Fig. 4: runs, figures and summary",
+        [
+            "probing fig4   # what make fig4 runs: results/fig4 and figures/",
+            "probing fig4 --scenarios scenarios/fig4-737 --bounds",
+        ],
+    )
     fig4.add_argument(
         "--scenarios", type=path_arg, default=Path("scenarios/fig4"), help="scenario set folder"
     )

@@ -13,6 +13,7 @@ from probing.cli.common import (
     UsageError,
     check_run_folder,
     command,
+    files_of,
     out_folder,
     path_arg,
     scenario_arg,
@@ -101,7 +102,12 @@ def register(sub: Subcommands) -> None:
         sub,
         "live",
         "fly a scenario on a JSBSim process started apart (its input socket, lock step) with "
-        "the monitor: sensors.parquet, probing.parquet, monitor.parquet (docs/live.md)",
+        f"the monitor: {files_of('live')} into OUT/<scenario name>/ (docs/live.md)",
+        [
+            "probing live examples/live/scenario.toml --write-sim /tmp/live-sim --port 5139   "
+            "# prints the simulator's command",
+            "probing live examples/live/scenario.toml --connect 127.0.0.1:5139 --out results",
+        ],
     )
     live.add_argument("scenario", type=path_arg, help="scenario TOML file (docs/scenarios.md)")
     live.add_argument("--connect", metavar="HOST:PORT", help="the simulator's input socket")

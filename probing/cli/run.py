@@ -13,6 +13,7 @@ from probing.cli.common import (
     UsageError,
     check_run_folder,
     command,
+    files_of,
     path_arg,
     scenario_arg,
     simulating,
@@ -208,12 +209,16 @@ def _replay(args: argparse.Namespace) -> int:
 def register(sub: Subcommands) -> None:
     """Add ``run``, ``truth`` and ``monitor`` to ``sub``."""
     run = command(
-        sub, "run", "simulate a scenario and write probing.parquet and timeseries.parquet"
+        sub,
+        "run",
+        f"simulate a scenario and write {files_of('run')} into OUT/<scenario name>/",
+        [
+            "probing run scenarios/baseline-737.toml --out results",
+            "probing run scenarios/fig4/a_deadband.toml --out results --truth",
+        ],
     )
     _scenario_arguments(run)
-    run.add_argument(
-        "--truth", action="store_true", help="also write truth.parquet and prediction.parquet"
-    )
+    run.add_argument("--truth", action="store_true", help=f"also write {files_of('truth')}")
     run.set_defaults(func=_cmd_run)
 
     truth = command(
@@ -221,6 +226,7 @@ def register(sub: Subcommands) -> None:
         "truth",
         "ground truth of a scenario: single-pulse and linearised pulse responses "
         "(truth.parquet) and the probing output they predict (prediction.parquet)",
+        ["probing truth scenarios/baseline-737.toml --out results   # beside its run's files"],
     )
     _scenario_arguments(truth)
     truth.set_defaults(func=_cmd_truth)
@@ -228,8 +234,14 @@ def register(sub: Subcommands) -> None:
     monitor = command(
         sub,
         "monitor",
-        "fly a scenario probing continuously; after every period a change detector writes "
-        "monitor.parquet (docs/monitoring.md)",
+        "fly a scenario probing continuously; after every period a change detector tests "
+        f"the estimate: {files_of('monitor')} into OUT/<scenario name>/ (docs/monitoring.md)",
+        [
+            "probing monitor scenarios/monitor/base.toml --out results",
+            "probing monitor --replay results/gtm-monitored/sensors.parquet --out results/replayed",
+            "probing monitor examples/foreign-log/scenario.toml --replay results/flight.csv "
+            "--map examples/foreign-log/map.toml --out results   # docs/formats.md",
+        ],
     )
     monitor.add_argument(
         "scenario", type=path_arg, nargs="?", help="scenario TOML file (docs/scenarios.md)"

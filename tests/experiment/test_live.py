@@ -175,9 +175,16 @@ def _table(folder: Path, name: str):
 
 
 def test_the_live_flight_writes_the_monitors_files(live):
+    """The files ``probing live`` writes are the monitor's, and its help names each of them
+    (it left out bounds.parquet): :data:`~probing.experiment.output.layouts.FLIGHT_FILES`."""
+    from probing.cli import build_parser
+    from probing.experiment.output.layouts import FLIGHT_FILES, OUTPUT_FILES
+
     base, scn = live
-    for name in ("sensors.parquet", "probing.parquet", "monitor.parquet", "bounds.parquet"):
-        assert (base / scn.name / name).is_file(), name
+    written = sorted(p.name for p in (base / scn.name).iterdir())
+    assert written == sorted(FLIGHT_FILES["live"]) == sorted(FLIGHT_FILES["monitor"])
+    text = build_parser()._subparsers._group_actions[0].choices["live"].description
+    assert [n for n in OUTPUT_FILES if n in text] == list(FLIGHT_FILES["live"]), text
     log = _table(base / scn.name, "sensors.parquet")
     assert len(log) == scn.total_steps and np.isfinite(log.to_numpy(dtype=float)).all()
 
