@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
+.PHONY: setup lock notebook test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
 
 setup: $(STAMP)
 
@@ -31,7 +31,29 @@ lock:
 	{ echo "# Exact versions of every dependency (runtime, test, build), installed by make setup."; \
 	  echo "# CPython $$($(LOCK_VENV)/bin/python -c 'import platform; print(platform.python_version())') on x86-64 Linux. Refresh: make lock, then make test."; \
 	  $(LOCK_VENV)/bin/python -m pip freeze --all --disable-pip-version-check --exclude probing; } > requirements.lock
+	$(LOCK_VENV)/bin/python -m pip install --quiet --disable-pip-version-check '.[notebook]' -c requirements.lock
+	{ echo "# The JupyterLab front end of make notebook (and the notebook extra), exact versions, installed"; \
+	  echo "# into .venv beside requirements.lock, which constrains it (nothing pinned there moves)."; \
+	  echo "# CPython $$($(LOCK_VENV)/bin/python -c 'import platform; print(platform.python_version())') on x86-64 Linux. Refresh: make lock."; \
+	  $(LOCK_VENV)/bin/python -m pip freeze --all --disable-pip-version-check --exclude probing \
+	    | grep -v -x -F -f requirements.lock; } > requirements-notebook.lock
 	rm -rf $(LOCK_VENV) build probing.egg-info
+
+# The quickstart notebook (examples/notebooks, docs/api.md) in JupyterLab: the front end,
+# pinned in requirements-notebook.lock, goes into .venv once, constrained by requirements.lock
+# (nothing make setup installed moves, so make test runs as before); the kernel is .venv's.
+# The notebook saves into a temporary folder: running it leaves the repository as it was.
+NOTEBOOK_STAMP := $(VENV)/.notebook
+# JupyterLab refuses to run as root unless told (a container's user often is).
+notebook: $(NOTEBOOK_STAMP)
+	$(VENV)/bin/jupyter lab examples/notebooks/quickstart.ipynb \
+	  $(if $(filter 0,$(shell id -u)),--allow-root) $(NOTEBOOK_ARGS)
+
+$(NOTEBOOK_STAMP): $(STAMP) requirements-notebook.lock
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements-notebook.lock \
+	  -c requirements.lock
+	$(PY) -m pip check --disable-pip-version-check
+	touch $@
 
 lint: setup
 	$(PY) -m ruff check .
