@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup lock test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
+.PHONY: setup lock notebook test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
 
 setup: $(STAMP)
 
@@ -31,7 +31,29 @@ lock:
 	{ echo "# Exact versions of every dependency (runtime, test, build), installed by make setup."; \
 	  echo "# CPython $$($(LOCK_VENV)/bin/python -c 'import platform; print(platform.python_version())') on x86-64 Linux. Refresh: make lock, then make test."; \
 	  $(LOCK_VENV)/bin/python -m pip freeze --all --disable-pip-version-check --exclude probing; } > requirements.lock
+	$(LOCK_VENV)/bin/python -m pip install --quiet --disable-pip-version-check '.[notebook]' -c requirements.lock
+	{ echo "# The JupyterLab front end of make notebook (and the notebook extra), exact versions, installed"; \
+	  echo "# into .venv beside requirements.lock, which constrains it (nothing pinned there moves)."; \
+	  echo "# CPython $$($(LOCK_VENV)/bin/python -c 'import platform; print(platform.python_version())') on x86-64 Linux. Refresh: make lock."; \
+	  $(LOCK_VENV)/bin/python -m pip freeze --all --disable-pip-version-check --exclude probing \
+	    | grep -v -x -F -f requirements.lock; } > requirements-notebook.lock
 	rm -rf $(LOCK_VENV) build probing.egg-info
+
+# The quickstart notebook (examples/notebooks, docs/api.md) in JupyterLab: the front end,
+# pinned in requirements-notebook.lock, goes into .venv once, constrained by requirements.lock
+# (nothing make setup installed moves, so make test runs as before); the kernel is .venv's.
+# The notebook saves into a temporary folder: running it leaves the repository as it was.
+NOTEBOOK_STAMP := $(VENV)/.notebook
+# JupyterLab refuses to run as root unless told (a container's user often is).
+notebook: $(NOTEBOOK_STAMP)
+	$(VENV)/bin/jupyter lab examples/notebooks/quickstart.ipynb \
+	  $(if $(filter 0,$(shell id -u)),--allow-root) $(NOTEBOOK_ARGS)
+
+$(NOTEBOOK_STAMP): $(STAMP) requirements-notebook.lock
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements-notebook.lock \
+	  -c requirements.lock
+	$(PY) -m pip check --disable-pip-version-check
+	touch $@
 
 lint: setup
 	$(PY) -m ruff check .
@@ -63,13 +85,15 @@ sweep: setup
 	@test -n "$(SWEEP)" || { echo "usage: make sweep SWEEP=scenarios/sweeps/<file>.toml [JOBS=n]" >&2; exit 2; }
 	$(PY) -m probing sweep $(SWEEP) $(SWEEP_ARGS) --plot --figures figures
 
-# The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png).
+# The GTM's mode table (docs/gtm.md) and figure (figures/gtm_modes.png), named here: the
+# bare command writes into results/modes (committed files change only when asked).
 modes: setup
-	$(PY) -m probing modes
+	$(PY) -m probing modes --docs docs/gtm.md --figure figures/gtm_modes
 
-# NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md).
+# NASA's Example 6: the six GTM damage cases in a climbing turn (docs/gtm.md); its figures
+# into the committed figures/ (the bare command: results/gtm_damage/figures).
 gtm-damage: setup
-	$(PY) -m probing gtm-damage
+	$(PY) -m probing gtm-damage --figures figures
 
 # The health-monitoring study on what the aircraft measures (docs/monitoring.md): every sweep
 # in scenarios/monitor-realisable (written by its generate.py; GTM, NASA's T2 sensors, the
@@ -159,11 +183,12 @@ clean:
 # The PRBS against a multisine and a chirp on one budget (docs/excitations.md): the monitor
 # sweeps in scenarios/excitations (written by its generate.py; GTM, light turbulence, NASA's
 # T2 sensors, the gust reference), then the Fig. 4 sets of the GTM and the 737 flown with
-# each signal, the tables (docs/excitations_summary.md) and figures (figures/excitations_*.png).
+# each signal, the tables (docs/excitations_summary.md) and figures (figures/excitations_*.png),
+# named here (the bare command writes them into its --out).
 EXCITATIONS_OUT ?= results/excitations
 excitations: setup
 	@for f in $(sort $(wildcard scenarios/excitations/*.toml)); do \
 	  $(PY) -m probing sweep $$f --out $(EXCITATIONS_OUT)/monitor $(if $(JOBS),-j $(JOBS)) \
 	    > /dev/null || exit $$?; done
 	$(PY) -m probing excitations --out $(EXCITATIONS_OUT) --monitor $(EXCITATIONS_OUT)/monitor \
-	  $(if $(JOBS),-j $(JOBS))
+	  --figures figures --summary docs/excitations_summary.md $(if $(JOBS),-j $(JOBS))

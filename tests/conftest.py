@@ -28,10 +28,11 @@ LOCK = Path(__file__).resolve().parents[1] / "requirements.lock"
 NUMERIC = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "matplotlib", "dask")
 
 
-def locked_versions() -> dict[str, str]:
-    """``{normalised name: version}`` of every ``name==version`` line of requirements.lock."""
+def locked_versions(lock: Path = LOCK) -> dict[str, str]:
+    """``{normalised name: version}`` of every ``name==version`` line of ``lock``
+    (requirements.lock)."""
     pins = {}
-    for line in LOCK.read_text().splitlines():
+    for line in lock.read_text().splitlines():
         if line and not line.startswith("#"):
             name, version = line.split("==")
             pins[re.sub(r"[-_.]+", "-", name).lower()] = version.strip()

@@ -2,8 +2,9 @@
 
 The kernel is ipykernel's native ``python3`` spec, which jupyter_client starts with this
 interpreter (``sys.executable``). Every folder the kernel, IPython, Jupyter or Matplotlib
-would write to (home, profile, runtime, caches) is a temporary one for the run, so that a
-test writes nothing outside its ``workdir``: not into the repository, not into the home.
+would write to (home, profile, runtime, caches, the system's temporary folder) is a
+temporary one for the run, so that a test writes nothing outside its ``workdir``: not into
+the repository, not into the home, nothing left in /tmp.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ SCRATCH_VARIABLES = (
     "XDG_CACHE_HOME",
     "XDG_CONFIG_HOME",
     "XDG_DATA_HOME",
+    "TMPDIR",
 )
 
 

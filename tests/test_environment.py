@@ -34,6 +34,31 @@ def test_the_lock_pins_every_declared_dependency() -> None:
     assert all(re.fullmatch(r"[0-9][0-9A-Za-z.]*", v) for v in locked_versions().values())
 
 
+def test_the_notebook_front_end_is_pinned_apart_and_only_make_notebook_installs_it() -> None:
+    """No Jupyter front end could open the notebook.  The ``notebook`` extra is pinned,
+    exactly, in requirements-notebook.lock, none of whose packages requirements.lock pins
+    (it constrains them instead); make notebook installs it with that constraint and opens
+    the quickstart, and make setup (so make test) does not install it."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    notebook_lock = ROOT / "requirements-notebook.lock"
+    pins = locked_versions(notebook_lock)
+    wanted = project["optional-dependencies"]["notebook"]
+    names = {re.sub(r"[-_.]+", "-", re.split(r"[\[<>=!~ ]", d)[0]).lower() for d in wanted}
+    assert "jupyterlab" in names and names <= set(pins), names - set(pins)
+    assert all(re.fullmatch(r"[0-9][0-9A-Za-z.]*", v) for v in pins.values())
+    assert not set(pins) & set(locked_versions()), set(pins) & set(locked_versions())
+    makefile = (ROOT / "Makefile").read_text()
+    recipe = makefile[makefile.index("\n$(NOTEBOOK_STAMP):") :].split("\n\n")[0]
+    assert f"-r {notebook_lock.name}" in recipe and f"-c {LOCK.name}" in recipe, recipe
+    assert "pip check" in recipe
+    assert "jupyter lab examples/notebooks/quickstart.ipynb" in makefile
+    setup = makefile[makefile.index("\n$(STAMP):") :].split("\n\n")[0]
+    assert notebook_lock.name not in setup and "jupyter" not in setup, setup
+    assert ".ipynb_checkpoints/" in (ROOT / ".gitignore").read_text().splitlines()
+
+
 def test_make_clean_removes_no_committed_file(tmp_path: Path) -> None:
     """make clean deletes generated outputs only: none of its paths is tracked by git."""
     env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MAKELEVEL", "MFLAGS")}

@@ -16,7 +16,14 @@ from matplotlib.figure import Figure
 from probing.analysis.figures import RC, detached_figure, save_figure
 from probing.experiment.output.storage import read_footer, read_table
 
-__all__ = ["auto_max_lag_s", "bounds_figure", "draw_bounds", "per_label", "predicted_mean"]
+__all__ = [
+    "auto_max_lag_s",
+    "bounds_figure",
+    "draw_bounds",
+    "per_label",
+    "predicted_mean",
+    "wide_band_note",
+]
 
 #: What each convention of h_est means, for the panel's title.
 CONVENTION_TEXT = {
@@ -34,6 +41,9 @@ ZOOM_MARGIN = 1.5
 ZOOM_SHARE = 0.02
 #: The automatic zoom applies when it would show at most this share of the period.
 ZOOM_WHEN = 0.5
+#: A band wider than its estimate is *flat* when its largest half-width over the lags drawn
+#: is at most this multiple of its smallest: the periods then differ by a level.
+FLAT_BAND = 1.25
 
 
 def per_label(unit: str) -> str:
@@ -72,6 +82,37 @@ def auto_max_lag_s(lag_s: np.ndarray, h: np.ndarray, half_width: np.ndarray) -> 
     span = float(lag_s[-1] + (lag_s[1] - lag_s[0] if lag_s.size > 1 else 0.0))
     want = max(ZOOM_MARGIN * float(last), 10 * float(lag_s[1] - lag_s[0]))
     return want if want <= ZOOM_WHEN * span else None
+
+
+def wide_band_note(h: np.ndarray, half_width: np.ndarray) -> str | None:
+    """Why a channel's band is wider than its estimate, for its panel; None when it is not.
+
+    The band is wide when its half-width, at the median over the lags drawn, is more than
+    the largest |h| there: a newcomer reads it as a failed estimate.  A flat wide band
+    (largest half-width at most :data:`FLAT_BAND` times the smallest) is the periods'
+    estimates differing by a level, not a shape: a mode slower than the period folds its
+    tail into every tap and moves from period to period (the GTM's phugoid, docs/fig4.md),
+    while the shape holds.
+
+    Parameters
+    ----------
+    h, half_width : numpy.ndarray
+        Shape (M,), over the lags drawn: the estimate and its bound's half-width (unit of h).
+
+    Returns
+    -------
+    str or None
+        The note, or None.
+    """
+    half = np.nan_to_num(half_width)
+    if h.size == 0 or not np.median(half) > np.nanmax(np.abs(h)):
+        return None
+    if half.max() <= FLAT_BAND * half.min():
+        return (
+            "band wide and flat: the periods differ by a level, not a shape\n"
+            "(a mode slower than the period folds in: docs/fig4.md)"
+        )
+    return "band wider than the estimate: the periods disagree by more than the response"
 
 
 def _meta(meta: dict[bytes, bytes], key: str) -> dict:
@@ -145,7 +186,11 @@ def bounds_figure(
     periods = {c: (dof[c] if isinstance(dof, dict) else dof) for c in channels}
     # made before the style's context: a notebook's backend, loaded by the first figure,
     # turns interactive mode on, which the context would turn off again on its way out
-    fig = detached_figure(figsize=(6.0, 2.3 * len(channels) + 0.5), layout="constrained")
+    shown = lag <= right
+    notes = {c: wide_band_note(h[i][shown], half[i][shown]) for i, c in enumerate(channels)}
+    lines = sum(note.count("\n") + 1 for note in notes.values() if note)  # taller titles
+    height = 2.3 * len(channels) + 0.5 + 0.2 * lines
+    fig = detached_figure(figsize=(6.0, height), layout="constrained")
     with plt.rc_context(RC):
         axes = fig.subplots(len(channels), 1, squeeze=False)
         for ax, channel in zip(axes[:, 0], channels, strict=True):
@@ -169,13 +214,14 @@ def bounds_figure(
             ax.set_xlim(0.0, right)
             n = periods.get(channel)
             what = CONVENTION_TEXT.get(conventions.get(channel, ""), "")
+            note = notes[channel]
             ax.set_title(
                 f"{channel}" + (f" ({n + 1} periods)" if isinstance(n, int) else "")
-                + (f": {what}" if what else ""),
+                + (f": {what}" if what else "") + (f"\n{note}" if note else ""),
                 loc="left",
             )  # fmt: skip
         if max_lag_s is not None:
-            lag_note = f"lag 0-{max_lag_s:g} s of the period's {period_s:g} s (--max-lag-s)"
+            lag_note = f"lag (s): 0-{max_lag_s:g} s shown of the period's {period_s:g} s"
         elif zoom is not None:
             lag_note = f"lag (s): zoomed to 0-{zoom:.3g} s of the period's {period_s:g} s"
         else:

@@ -7,9 +7,10 @@ folder of the user's that JSBSim cannot load or trim), with one line on stderr (
 own errors too) and nothing written: every output folder and file is checked before any work
 (:func:`probing.experiment.output.storage.check_output_folder` and
 :func:`~probing.experiment.output.storage.check_output_file`); 1 a run that failed (trim failure,
-divergence), a sweep with failed points or a sweep folder in use by another process; 130
-interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same clean-up; 141 its output went
-into a pipe the reader had closed (``probing examples | head``), nothing on stderr.
+divergence, a live flight's simulator lost), a sweep with failed points or a sweep folder in
+use by another process; 130 interrupted (Ctrl-C), 143 terminated (SIGTERM), after the same
+clean-up; 141 its output went into a pipe the reader had closed (``probing examples |
+head``), nothing on stderr.
 """
 
 from __future__ import annotations
@@ -46,9 +47,13 @@ DESCRIPTION = (
     "Pulse-compression probing of aircraft dynamics through hard input nonlinearities, on JSBSim."
 )
 EPILOG = """\
+examples:
+  probing run scenarios/baseline-737.toml --out results
+  probing run --help   # each command's options, with examples
+
 exit codes: 0 success; 2 bad input (one line on stderr, nothing written); 1 a run that
-failed (trim failure, divergence) or a sweep folder in use; 130 interrupted; 143
-terminated (SIGTERM); 141 output into a closed pipe.
+failed (trim failure, divergence, a simulator that died) or a sweep folder in use; 130
+interrupted; 143 terminated (SIGTERM); 141 output into a closed pipe.
 See README.md and docs/ for the formats and the method."""
 
 

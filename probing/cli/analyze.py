@@ -9,6 +9,7 @@ from probing.cli.common import (
     UsageError,
     argument_usage,
     command,
+    files_of,
     number_arg,
     out_folder,
     path_arg,
@@ -70,8 +71,13 @@ def register(sub: Subcommands) -> None:
     p = command(
         sub,
         "analyze",
-        "pulse compression on recorded data (CSV, Parquet or MATLAB .mat): probing.parquet, "
-        "bounds.parquet and pulse_response.png in --out (docs/analyze.md)",
+        "pulse compression on recorded data (CSV, Parquet or MATLAB .mat): "
+        f"{files_of('analyze')} and pulse_response.png in --out (docs/analyze.md)",
+        [
+            "probing analyze examples/your-data/probe_response.csv --time time_s "
+            "--input elevator_deg --output q_rad_s theta_rad --order 7 --bit-duration-s 0.04 "
+            "--out results/your-data",
+        ],
     )
     p.add_argument("file", type=path_arg, metavar="FILE", help="the record: .csv, .parquet or .mat")
     p.add_argument("--input", required=True, metavar="COL", help="the probe as injected")

@@ -38,6 +38,7 @@ def register(sub: Subcommands) -> None:
         sub,
         "cache",
         "the cache (sanitised aircraft, reference twins): where it is, what it holds, clear it",
+        ["probing cache info", "probing cache clear --yes"],
     )
     cache.add_argument("action", choices=("info", "clear"), help="show or remove the entries")
     cache.add_argument("--yes", action="store_true", help="confirm clear")

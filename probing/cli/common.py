@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -83,21 +83,31 @@ def scenario_arg(path: Path) -> Any:
 
 
 def simulating(job: Callable[[], int], where: str, model: str | None = None) -> int:
-    """Run ``job``; a trim failure or divergence is one line and exit code 1.
+    """Run ``job``; a trim failure, a divergence or a simulator lost mid-flight is one line
+    and exit code 1.
 
-    An aircraft JSBSim cannot load, and a trim failure of an aircraft folder of the user's
-    (``model`` a path: the model is the input), are one line and exit code 2.
+    The cache is checked first (:func:`probing.sim.cache.check_cache`): one that cannot be
+    used is bad input, refused before any work.  An aircraft JSBSim cannot load, and a trim
+    failure of an aircraft folder of the user's (``model`` a path: the model is the input),
+    are one line and exit code 2.
     """
     from probing.sim.aircraft import is_path
-    from probing.sim.errors import AircraftNotFoundError, DivergenceError, TrimError
+    from probing.sim.cache import check_cache
+    from probing.sim.errors import (
+        AircraftNotFoundError,
+        DivergenceError,
+        SimulatorLostError,
+        TrimError,
+    )
 
+    check_cache()
     try:
         return job()
     except AircraftNotFoundError as exc:
         return print_error(f"{where}: {exc}", 2)
     except TrimError as exc:
         return print_error(f"{where}: {exc}", 2 if model is not None and is_path(model) else 1)
-    except DivergenceError as exc:
+    except (DivergenceError, SimulatorLostError) as exc:
         return print_error(f"{where}: {exc}", 1)
 
 
@@ -112,7 +122,13 @@ class Parser(argparse.ArgumentParser):
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """States an option's default after its help, unless the help states it already, the
-    default is None (nothing to say) or False (a flag that is off)."""
+    default is None (nothing to say) or False (a flag that is off); an indented line of the
+    description or the epilog (an example) is kept as written, the rest wrapped."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        fill = super()._fill_text
+        lines = text.splitlines()
+        return "\n".join(indent + x if x.startswith(" ") else fill(x, width, indent) for x in lines)
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         text = action.help or ""
@@ -134,7 +150,34 @@ def path_arg(text: str) -> Path:
     return Path(text)
 
 
-def command(sub: Subcommands, name: str, text: str) -> argparse.ArgumentParser:
+def listing(words: Sequence[str], last: str = "and") -> str:
+    """``a, b and c`` (``last`` ``"or"``: ``a, b or c``)."""
+    words = list(words)
+    return f" {last} ".join([", ".join(words[:-1]), words[-1]]) if len(words) > 1 else words[0]
+
+
+def files_of(kind: str) -> str:
+    """The files a flight of ``kind`` writes, as its help names them
+    (:data:`probing.experiment.output.layouts.FLIGHT_FILES`): ``a, b and c``."""
+    from probing.experiment.output.layouts import FLIGHT_FILES
+
+    return listing(FLIGHT_FILES[kind])
+
+
+#: The heading of a command's examples at the end of its help.
+EXAMPLES = "examples:"
+
+
+def command(
+    sub: Subcommands, name: str, text: str, examples: Sequence[str]
+) -> argparse.ArgumentParser:
     """Add the command ``name`` to ``sub``: ``text`` is its line in the top-level help and
-    its description; its options' help states their defaults (:class:`_HelpFormatter`)."""
-    return sub.add_parser(name, help=text, description=text, formatter_class=_HelpFormatter)
+    its description, ``examples`` (whole command lines, ``probing <name> ...``, each with an
+    optional ``  # comment``) end its help; its options' help states their defaults
+    (:class:`_HelpFormatter`)."""
+    if not examples:
+        raise ValueError(f"probing {name}: a command's help shows at least one example")
+    epilog = "\n".join([EXAMPLES, *(f"  {line}" for line in examples)])
+    return sub.add_parser(
+        name, help=text, description=text, epilog=epilog, formatter_class=_HelpFormatter
+    )

@@ -177,7 +177,17 @@ def _design_table(d: Any) -> str:
 
 def register(sub: Subcommands) -> None:
     """Add ``design`` to ``sub``."""
-    design = command(sub, "design", "recommend order, bit duration and amplitude for an experiment")
+    design = command(
+        sub,
+        "design",
+        "recommend order, bit duration and amplitude for an experiment",
+        [
+            "probing design --aircraft 737 --altitude-ft 15000 --speed-kcas 280 "
+            "--noise-sigma 1e-5 --detect-gain-change 0.1",
+            "probing design --aircraft gtm_t2 --altitude-ft 800 --speed-kcas 75 "
+            "--deadband-deg -0.002 0.002 --noise-sigma 1e-5 --target-gain-se 0.01 --json",
+        ],
+    )
     _design_arguments(design)
     design.set_defaults(func=_cmd_design)
 

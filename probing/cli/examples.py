@@ -66,6 +66,7 @@ def register(sub: Subcommands) -> None:
         "examples",
         "list the example scenarios and the docs' examples shipped with the package, or "
         "copy them into a folder",
+        ["probing examples", "probing examples --copy ~/probing-examples"],
     )
     examples.add_argument(
         "--copy",

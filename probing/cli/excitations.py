@@ -24,6 +24,10 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
     from probing.experiment.studies.excitations import planned, run_study
 
     t_start = time.perf_counter()
+    if args.figures is None:
+        args.figures = args.out / "figures"
+    if args.summary is None:
+        args.summary = args.out / "summary.md"
     try:
         runs = planned(args.scenarios, args.out)  # every scenario valid before anything runs
     except ScenarioError as exc:
@@ -39,9 +43,9 @@ def _cmd_excitations(args: argparse.Namespace) -> int:
             f"--monitor: {args.monitor}: no monitor sweep in it (monitor-*/summary.parquet); "
             "fly scenarios/excitations/*.toml with probing sweep first"
         )
-    print(f"probing excitations: {args.scenarios} -> {args.out}")
 
     def job() -> int:
+        print(f"probing excitations: {args.scenarios} -> {args.out}")
         run_study(args.scenarios, args.out, jobs=args.jobs)
         return _finish(args, t_start)
 
@@ -78,6 +82,12 @@ def register(sub: Subcommands) -> None:
         "excitations",
         "the PRBS, a multisine and a chirp on one budget through the Fig. 4 nonlinearities, "
         "on the GTM and the 737: runs, tables and figures (docs/excitations.md)",
+        [
+            "probing excitations -j 2   # into results/excitations/",
+            "probing excitations --out results/excitations --monitor results/excitations/monitor "
+            "--figures figures --summary docs/excitations_summary.md   # what make excitations "
+            "runs",
+        ],
     )
     exc.add_argument(
         "--scenarios", type=path_arg, default=Path("scenarios"), help="folder of the Fig. 4 sets"
@@ -85,12 +95,18 @@ def register(sub: Subcommands) -> None:
     exc.add_argument(
         "--out", type=path_arg, default=Path("results/excitations"), help="results folder"
     )
-    exc.add_argument("--figures", type=path_arg, default=Path("figures"), help="figure folder")
+    exc.add_argument(
+        "--figures",
+        type=path_arg,
+        default=None,
+        help="figure folder (default: OUT/figures; the committed ones: figures)",
+    )
     exc.add_argument(
         "--summary",
         type=path_arg,
-        default=Path("docs/excitations_summary.md"),
-        help="the tables, as markdown",
+        default=None,
+        help="the tables, as markdown (default: OUT/summary.md; the committed one: "
+        "docs/excitations_summary.md)",
     )
     exc.add_argument(
         "--monitor",

@@ -38,9 +38,9 @@ def _cmd_fig4(args: argparse.Namespace) -> int:
     check_fig4_outputs(results, args)
     out_file(results / "manifest.json", "--out")
     _check_fig4_runs(scen_dir, results, args.force)
-    print(f"probing fig4: {scen_dir} -> {results}")
 
     def job() -> int:
+        print(f"probing fig4: {scen_dir} -> {results}")
         run_set(scen_dir, results, force=args.force)
         return finish_fig4(results, args, t_start)
 
@@ -98,7 +98,15 @@ def finish_fig4(results: Path, args: argparse.Namespace, t_start: float) -> int:
 
 def register(sub: Subcommands) -> None:
     """Add ``fig4`` to ``sub``."""
-    fig4 = command(sub, "fig4", "reproduce the paper's Fig. 4: runs, figures and summary")
+    fig4 = command(
+        sub,
+        "fig4",
+        "reproduce the paper's Fig. 4: runs, figures and summary",
+        [
+            "probing fig4   # what make fig4 runs: results/fig4 and figures/",
+            "probing fig4 --scenarios scenarios/fig4-737 --bounds",
+        ],
+    )
     fig4.add_argument(
         "--scenarios", type=path_arg, default=Path("scenarios/fig4"), help="scenario set folder"
     )

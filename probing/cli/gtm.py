@@ -7,6 +7,10 @@ from pathlib import Path
 
 from probing.cli.common import Subcommands, command, out_file, out_folder, path_arg, simulating
 
+#: Where ``probing modes`` writes by default: the committed page and figure
+#: (``docs/gtm.md``, ``figures/gtm_modes.png``) only when named (``make modes``).
+MODES_OUT = Path("results/modes")
+
 
 def _cmd_modes(args: argparse.Namespace) -> int:
     out_file(args.docs, "--docs")
@@ -33,6 +37,8 @@ def _cmd_modes(args: argparse.Namespace) -> int:
 
 
 def _cmd_gtm_damage(args: argparse.Namespace) -> int:
+    if args.figures is None:
+        args.figures = args.out / "figures"
     out_folder(args.out, "--out")
     out_file(args.out / "summary.csv", "--out")
     out_folder(args.figures, "--figures")
@@ -65,12 +71,22 @@ def register(sub: Subcommands) -> None:
         sub,
         "modes",
         "trim and linearise the GTM at 800 ft, 60..130 KEAS; write the mode table and figure",
+        [
+            "probing modes   # into results/modes/",
+            "probing modes --docs docs/gtm.md --figure figures/gtm_modes   # what make modes runs",
+        ],
     )
     modes.add_argument(
-        "--docs", type=path_arg, default=Path("docs/gtm.md"), help="page written whole"
+        "--docs",
+        type=path_arg,
+        default=MODES_OUT / "gtm.md",
+        help="page written whole (the committed one: docs/gtm.md)",
     )
     modes.add_argument(
-        "--figure", type=path_arg, default=Path("figures/gtm_modes"), help="figure (without .png)"
+        "--figure",
+        type=path_arg,
+        default=MODES_OUT / "gtm_modes",
+        help="figure, without .png (the committed one: figures/gtm_modes)",
     )
     modes.set_defaults(func=_cmd_modes)
 
@@ -78,9 +94,18 @@ def register(sub: Subcommands) -> None:
         sub,
         "gtm-damage",
         "NASA's Example 6: each GTM damage case at 10 s of a 45 deg bank climbing turn",
+        [
+            "probing gtm-damage   # into results/gtm_damage/",
+            "probing gtm-damage --figures figures   # what make gtm-damage runs",
+        ],
     )
     damage.add_argument(
         "--out", type=path_arg, default=Path("results/gtm_damage"), help="time histories, summary"
     )
-    damage.add_argument("--figures", type=path_arg, default=Path("figures"), help="figure folder")
+    damage.add_argument(
+        "--figures",
+        type=path_arg,
+        default=None,
+        help="figure folder (default: OUT/figures; the committed ones: figures)",
+    )
     damage.set_defaults(func=_cmd_gtm_damage)

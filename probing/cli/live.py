@@ -13,6 +13,7 @@ from probing.cli.common import (
     UsageError,
     check_run_folder,
     command,
+    files_of,
     out_folder,
     path_arg,
     scenario_arg,
@@ -54,9 +55,11 @@ def _cmd_live(args: argparse.Namespace) -> int:
 
 def _write_sim(scn: Scenario, args: argparse.Namespace) -> int:
     """``--write-sim DIR``: the simulator's files, and the command that starts it."""
+    from probing.sim.cache import check_cache
     from probing.sim.live_sim import LISTENS_EVERYWHERE, write_sim
 
     folder = out_folder(args.write_sim, "--write-sim")
+    check_cache()  # the simulator's aircraft is the cache's sanitised copy
     end_s = scn.total_steps * scn.dt_s + END_MARGIN_S
     port = DEFAULT_PORT if args.port is None else args.port
     line = write_sim(scn.flight, folder, port, end_s)
@@ -99,7 +102,12 @@ def register(sub: Subcommands) -> None:
         sub,
         "live",
         "fly a scenario on a JSBSim process started apart (its input socket, lock step) with "
-        "the monitor: sensors.parquet, probing.parquet, monitor.parquet (docs/live.md)",
+        f"the monitor: {files_of('live')} into OUT/<scenario name>/ (docs/live.md)",
+        [
+            "probing live examples/live/scenario.toml --write-sim /tmp/live-sim --port 5139   "
+            "# prints the simulator's command",
+            "probing live examples/live/scenario.toml --connect 127.0.0.1:5139 --out results",
+        ],
     )
     live.add_argument("scenario", type=path_arg, help="scenario TOML file (docs/scenarios.md)")
     live.add_argument("--connect", metavar="HOST:PORT", help="the simulator's input socket")

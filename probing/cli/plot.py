@@ -13,6 +13,7 @@ from probing.cli.common import (
     Subcommands,
     UsageError,
     command,
+    listing,
     out_file,
     out_folder,
     path_arg,
@@ -165,11 +166,6 @@ PLOT_TARGETS: dict[str, PlotTarget] = {
 }
 
 
-def _listing(words: list[str]) -> str:
-    """``a, b or c``."""
-    return " or ".join([", ".join(words[:-1]), words[-1]]) if len(words) > 1 else words[0]
-
-
 def _defaults(attribute: str) -> str:
     """Each default of a target's ``attribute`` with the targets it is theirs:
     ``figures for fig4; RESULTS/figures for sweep, monitor, ...``."""
@@ -189,7 +185,13 @@ def register(sub: Subcommands) -> None:
     plot = command(
         sub,
         "plot",
-        f"redraw the figures and tables of {_listing(whats)} from stored Parquet (no simulation)",
+        f"redraw the figures and tables of {listing(whats, 'or')} from stored Parquet "
+        "(no simulation)",
+        [
+            "probing plot fig4 results/fig4",
+            "probing plot sweep results/sweeps/backlash-width   # into its figures/",
+            "probing plot monitor results/monitor --figures results/monitor/figures",
+        ],
     )
     plot.add_argument("target", choices=list(PLOT_TARGETS), help="which figure set")
     plot.add_argument(

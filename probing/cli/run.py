@@ -13,6 +13,7 @@ from probing.cli.common import (
     UsageError,
     check_run_folder,
     command,
+    files_of,
     path_arg,
     scenario_arg,
     simulating,
@@ -22,6 +23,17 @@ from probing.cli.common import (
 def _tty() -> bool:
     """A progress bar on stderr: when it is a terminal (the API's own default is a notebook)."""
     return sys.stderr.isatty()
+
+
+def _announce(scn: Any) -> None:
+    """Off a terminal (no progress bar), a long flight says before it starts how many steps
+    it flies and about how long that takes
+    (:func:`probing.experiment.output.progress.long_run_notice`)."""
+    from probing.experiment.output.progress import long_run_notice
+
+    notice = None if _tty() else long_run_notice(scn.name, scn.total_steps)
+    if notice is not None:
+        print(f"probing: note: {notice}", file=sys.stderr, flush=True)
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -36,6 +48,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         from probing.api import fly
         from probing.experiment.studies.simultaneous import SeparationError
 
+        _announce(scn)
         try:
             flight = fly(
                 scn, progress=_tty(), truth=args.truth, monitor=False, scratch=args.out / scn.name
@@ -140,6 +153,7 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     def job() -> int:
         from probing.api import fly
 
+        _announce(scn)
         flight = fly(
             scn,
             progress=_tty(),
@@ -195,12 +209,16 @@ def _replay(args: argparse.Namespace) -> int:
 def register(sub: Subcommands) -> None:
     """Add ``run``, ``truth`` and ``monitor`` to ``sub``."""
     run = command(
-        sub, "run", "simulate a scenario and write probing.parquet and timeseries.parquet"
+        sub,
+        "run",
+        f"simulate a scenario and write {files_of('run')} into OUT/<scenario name>/",
+        [
+            "probing run scenarios/baseline-737.toml --out results",
+            "probing run scenarios/fig4/a_deadband.toml --out results --truth",
+        ],
     )
     _scenario_arguments(run)
-    run.add_argument(
-        "--truth", action="store_true", help="also write truth.parquet and prediction.parquet"
-    )
+    run.add_argument("--truth", action="store_true", help=f"also write {files_of('truth')}")
     run.set_defaults(func=_cmd_run)
 
     truth = command(
@@ -208,6 +226,7 @@ def register(sub: Subcommands) -> None:
         "truth",
         "ground truth of a scenario: single-pulse and linearised pulse responses "
         "(truth.parquet) and the probing output they predict (prediction.parquet)",
+        ["probing truth scenarios/baseline-737.toml --out results   # beside its run's files"],
     )
     _scenario_arguments(truth)
     truth.set_defaults(func=_cmd_truth)
@@ -215,8 +234,14 @@ def register(sub: Subcommands) -> None:
     monitor = command(
         sub,
         "monitor",
-        "fly a scenario probing continuously; after every period a change detector writes "
-        "monitor.parquet (docs/monitoring.md)",
+        "fly a scenario probing continuously; after every period a change detector tests "
+        f"the estimate: {files_of('monitor')} into OUT/<scenario name>/ (docs/monitoring.md)",
+        [
+            "probing monitor scenarios/monitor/base.toml --out results",
+            "probing monitor --replay results/gtm-monitored/sensors.parquet --out results/replayed",
+            "probing monitor examples/foreign-log/scenario.toml --replay results/flight.csv "
+            "--map examples/foreign-log/map.toml --out results   # docs/formats.md",
+        ],
     )
     monitor.add_argument(
         "scenario", type=path_arg, nargs="?", help="scenario TOML file (docs/scenarios.md)"

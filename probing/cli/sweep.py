@@ -82,7 +82,13 @@ def plot_sweep_folder(folder: Path, figures: Path) -> None:
 def register(sub: Subcommands) -> None:
     """Add ``sweep`` to ``sub``."""
     sweep = command(
-        sub, "sweep", "run a sweep file's points in parallel, resumably (docs/sweeps.md)"
+        sub,
+        "sweep",
+        "run a sweep file's points in parallel, resumably (docs/sweeps.md)",
+        [
+            "probing sweep scenarios/sweeps/backlash-width.toml --out results/sweeps -j 2",
+            "probing sweep scenarios/sweeps/flight-grid.toml --executor dask",
+        ],
     )
     sweep.add_argument("sweep", type=path_arg, help="sweep TOML file (scenarios/sweeps/*.toml)")
     sweep.add_argument(

@@ -9,17 +9,21 @@ live process's temporaries, this process's and another host's (a folder on a sha
 system) are never touched, so two runs at once cannot delete each other's files.
 
 A writer that makes its folder removes what it made when it fails
-(:func:`missing_folders`, :func:`remove_created`).
+(:func:`missing_folders`, :func:`remove_created`).  Whether a folder takes anything new is
+tried, not guessed from its permissions (:func:`write_refusal`): root passes every
+permission check, and a file system such as ``/proc`` refuses whatever they say.
 
 Standard library, and :mod:`probing.core.forked`'s deferral of Ctrl-C.
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import shutil
 import socket
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -27,9 +31,11 @@ from probing.core.forked import INTERRUPTS
 
 __all__ = [
     "missing_folders",
+    "nearest_existing",
     "pid_alive",
     "remove_created",
     "remove_dead_writers_files",
+    "write_refusal",
     "writer_tag",
 ]
 
@@ -142,3 +148,33 @@ def remove_created(
                 p.rmdir()
             except OSError:  # not empty: another writer's
                 break
+
+
+def nearest_existing(path: Path) -> Path:
+    """``path`` or the nearest of its parents that exists (a dangling link counts: it is
+    there, and nothing can be made through it)."""
+    for there in (path, *path.parents):
+        if there.exists() or there.is_symlink():
+            return there
+    return Path(path.anchor or ".")
+
+
+def write_refusal(folder: Path) -> str | None:
+    """Why nothing can be made in the existing folder ``folder``, or None when something can:
+    a probe folder is made there and removed at once.
+
+    Returns
+    -------
+    str or None
+        The system's reason (``"Permission denied"``, ``"Read-only file system"``), or, for a
+        folder that exists and still says "no such file" (``/proc``), that its file system
+        takes nothing new there.
+    """
+    try:
+        probe = tempfile.mkdtemp(prefix=".probing-write-test-", dir=folder)
+    except OSError as exc:
+        if exc.errno == errno.ENOENT and folder.is_dir():
+            return "its file system takes no new files or folders there"
+        return exc.strerror or exc.__class__.__name__
+    os.rmdir(probe)
+    return None

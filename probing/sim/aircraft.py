@@ -20,6 +20,7 @@ import xml.etree.ElementTree as ET
 from importlib import metadata
 from pathlib import Path
 
+from probing.core.tempfiles import nearest_existing, write_refusal
 from probing.data import AIRCRAFT
 from probing.sim.errors import AircraftNotFoundError, CacheFolderError
 
@@ -146,8 +147,9 @@ def cache_dir() -> Path:
 
 
 def usable_folder(path: Path, source: str) -> Path:
-    """``path``, a cache folder that is a folder or can be made one: neither it nor the
-    nearest of its parents that exists is anything but a folder.
+    """``path``, a cache folder that is a folder we can write in, or can be made one: the
+    nearest of it and its parents that exists is a folder that takes something new
+    (:func:`probing.core.tempfiles.write_refusal`: tried, not read off its permissions).
 
     The one check of where a cache lives (:func:`cache_dir`,
     :func:`probing.sim.twins.twin_cache_dir`); ``source`` names where the path came from
@@ -156,14 +158,18 @@ def usable_folder(path: Path, source: str) -> Path:
     Raises
     ------
     CacheFolderError
-        If ``path``, or the part of it that exists, is a file (or anything but a folder).
+        If ``path``, or the part of it that exists, is a file (or anything but a folder), or
+        a folder in which nothing can be made (no write permission, ``/proc``).
     """
-    for there in (path, *path.parents):
-        if there.exists() or there.is_symlink():
-            if there.is_dir():
-                return path
-            what = "" if there == path else f" ({there} is not a folder)"
-            raise CacheFolderError(f"{source} {path} is not a folder{what}")
+    there = nearest_existing(path)
+    if not there.is_dir():
+        what = "" if there == path else f" ({there} is not a folder)"
+        raise CacheFolderError(f"{source} {path} is not a folder{what}")
+    reason = write_refusal(there)
+    if reason is not None:
+        raise CacheFolderError(
+            f"{source} {path} cannot be used: cannot write in {there} ({reason})"
+        )
     return path
 
 

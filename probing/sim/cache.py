@@ -16,7 +16,7 @@ from probing.sim.aircraft import cache_dir
 from probing.sim.errors import CacheFolderError
 from probing.sim.twins import twin_cache_dir
 
-__all__ = ["CacheFolderError", "CacheKind", "cache_kinds", "clear_cache"]
+__all__ = ["CacheFolderError", "CacheKind", "cache_kinds", "check_cache", "clear_cache"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,21 @@ class CacheKind:
 def _folders() -> dict[str, Path]:
     """Each kind's folder: ``aircraft`` (sanitised JSBSim roots) and ``twins``."""
     return {"aircraft": cache_dir() / "jsbsim-root", "twins": twin_cache_dir()}
+
+
+def check_cache() -> None:
+    """Refuse, before any work, a cache that cannot be used: where it lives is resolved
+    (:func:`probing.sim.aircraft.usable_folder`'s check), as every use of it does.
+
+    A command that simulates calls it first, so that a cache it cannot use is one error
+    before anything is written, not one per worker of a sweep.
+
+    Raises
+    ------
+    CacheFolderError
+        If the cache root or the twins' folder is not a folder, or nothing can be made in it.
+    """
+    _folders()
 
 
 def _measure(name: str, folder: Path) -> CacheKind:

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 from probing.core.errors import ProbingError
 
-__all__ = ["AircraftNotFoundError", "CacheFolderError", "DivergenceError", "TrimError"]
+__all__ = [
+    "AircraftNotFoundError",
+    "CacheFolderError",
+    "DivergenceError",
+    "SimulatorLostError",
+    "TrimError",
+]
 
 
 class AircraftNotFoundError(ProbingError, ValueError):
@@ -21,3 +27,8 @@ class TrimError(ProbingError, RuntimeError):
 
 class DivergenceError(ProbingError, RuntimeError):
     """The simulation left the region where its results mean anything."""
+
+
+class SimulatorLostError(ProbingError, RuntimeError):
+    """The simulator process of a live flight ended mid-flight (killed, crashed): a run that
+    failed; the message says when."""

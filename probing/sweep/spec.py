@@ -198,7 +198,18 @@ def _label(table: str, key: str) -> str:
 
 
 def _check_header(data: dict[str, Any], source: str) -> tuple[str, str, str]:
-    """Check the top-level keys, ``name``, ``description`` and ``kind``; return the last three."""
+    """Check the top-level keys, ``name``, ``description`` and ``kind``; return the last three.
+
+    A scenario file given as a sweep (no ``base``, a scenario's sections) is named as one.
+    """
+    sections = [k for k in data if k in SECTIONS and k not in _TOP_KEYS]
+    if sections and "base" not in data:
+        raise ScenarioError(
+            "file",
+            f"a scenario (it has [{sections[0]}]), not a sweep file: fly it with probing run, "
+            "or vary it from a sweep file whose base it is (docs/sweeps.md)",
+            source,
+        )
     for key in data:
         if key not in _TOP_KEYS:
             raise ScenarioError(

@@ -1,6 +1,7 @@
 """The pulse-response figure of a ``bounds.parquet`` (``probing analyze``'s and a flight's):
 units on the y axis, the convention in each title, the legend off the data, the lag axis
-zoomed to a short response or to ``--max-lag-s``."""
+zoomed to a short response or to a given last lag, and a band wider than its estimate
+explained on its panel."""
 
 from __future__ import annotations
 
@@ -67,7 +68,9 @@ def test_units_convention_zoom_and_legend(tmp_path: Path, monkeypatch: pytest.Mo
     assert seen["xlim"][1] < ZOOM_WHEN * 5.1
     assert seen["covered"] == []
     draw_bounds(bounds, tmp_path / "fig2", max_lag_s=2.0)
-    assert seen["xlim"] == (0.0, 2.0) and "(--max-lag-s)" in seen["xlabel"]
+    assert seen["xlim"] == (0.0, 2.0)  # it said "(--max-lag-s)", in Python too
+    assert seen["xlabel"] == "lag (s): 0-2 s shown of the period's 5.1 s"
+    assert not any("band" in t for t in seen["texts"])  # a narrow band says nothing
 
 
 def test_long_response_shows_the_whole_period(
@@ -107,3 +110,47 @@ def test_a_flights_bounds_draw_too(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     draw_bounds(result.out_dir / "bounds.parquet", tmp_path / "fig")
     assert seen["ylabels"][0] == "rad per deg" and "rad/s per deg" in seen["ylabels"]
     assert any("the response (a reference carries the baseline)" in t for t in seen["texts"])
+
+
+def test_a_band_wider_than_its_estimate_says_why_on_both_sides_of_each_rule() -> None:
+    """The quickstart's first figure showed theta within a band of +-0.017 around 0.005:
+    a failed method, to a newcomer.  A band whose median half-width is more than the
+    largest |h| says why on its panel; one flat over the lags (largest half-width at most
+    FLAT_BAND times the smallest) is the periods differing by a level."""
+    from probing.analysis.analyze_plots import FLAT_BAND, wide_band_note
+
+    h = np.array([0.5, -1.0, 0.25, 0.0])
+    assert wide_band_note(h, np.full(4, 1.0)) is None  # median half-width = the peak
+    flat = wide_band_note(h, np.full(4, 1.0 + 1e-9))
+    assert flat is not None and flat.startswith("band wide and flat: the periods differ by a level")
+    edge = np.array([1.01, 1.01, 1.01 * FLAT_BAND, 1.01])
+    assert wide_band_note(h, edge) == flat
+    uneven = wide_band_note(h, edge * np.array([1, 1, 1 + 1e-9, 1]))
+    assert uneven == "band wider than the estimate: the periods disagree by more than the response"
+
+
+def test_the_figure_puts_the_wide_band_note_in_its_panel() -> None:
+    """bounds_figure: a flat band three times the estimate gets the note in its panel's
+    title, over the lags drawn only; a narrow one none."""
+    import pandas as pd
+
+    from probing.analysis.analyze_plots import bounds_figure
+
+    lag = np.arange(100) * 0.05
+    rows = []
+    for channel, half in (("theta_rad", 3.0), ("q_rad_s", 0.1)):
+        h = np.exp(-lag)
+        rows.append(
+            pd.DataFrame(
+                {
+                    "channel": channel,
+                    "lag_s": lag,
+                    "h_est": h,
+                    "h_low": h - half,
+                    "h_high": h + half,
+                }
+            )
+        )
+    fig = bounds_figure(pd.concat(rows), {})
+    titles = [ax.get_title(loc="left") for ax in fig.axes]
+    assert "band wide and flat" in titles[0] and "band" not in titles[1], titles

@@ -118,3 +118,57 @@ def test_cache_variable_naming_a_folder_to_be_made_is_used(
     monkeypatch.delenv("PROBING_TWIN_CACHE", raising=False)
     assert cli_main(["cache", "info"]) == 0
     assert "aircraft  holds 0 entries" in capsys.readouterr().out
+
+
+def _unusable_caches(tmp_path: Path) -> list[Path]:
+    """Cache folders in which nothing can be made: one in ``/proc`` (a folder that takes no
+    new entries, whoever asks), and one below a folder without write permission (root may
+    write there anyway: then it is not one)."""
+    found = [Path("/proc/probing-cache")] if Path("/proc/self").is_dir() else []
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        (locked / "x").mkdir()
+    except PermissionError:
+        found.append(locked / "cache")
+    else:
+        (locked / "x").rmdir()
+    return found
+
+
+def test_a_cache_that_cannot_be_written_is_one_line_exit_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """``$PROBING_CACHE`` in ``/proc`` (or in a folder without write permission): ``run``
+    ended in three chained tracebacks, ``sweep`` recorded an error per point, and ``cache
+    info`` said 0 entries, exit 0.  Every command that uses the cache says it cannot be used,
+    in one line, exit 2, and writes nothing."""
+    caches = _unusable_caches(tmp_path)
+    if not caches:
+        pytest.skip("no folder here refuses new entries")
+    monkeypatch.delenv("PROBING_TWIN_CACHE", raising=False)
+    out = tmp_path / "out"
+    scenario = ROOT / "scenarios" / "fig4" / "a_deadband.toml"
+    sweep = ROOT / "scenarios" / "sweeps" / "backlash-width.toml"
+    for cache in caches:
+        monkeypatch.setenv("PROBING_CACHE", str(cache))
+        for argv in (
+            ["cache", "info"],
+            ["cache", "clear", "--yes"],
+            ["run", str(scenario), "--out", str(out)],
+            ["sweep", str(sweep), "--out", str(out)],
+            ["fig4", "--out", str(out), "--figures", str(out)],
+        ):
+            capsys.readouterr()
+            assert cli_main(argv) == 2, argv
+            captured = capsys.readouterr()
+            err = captured.err.splitlines()
+            assert len(err) == 1, (argv, err)
+            assert err[0].startswith(f"probing: error: $PROBING_CACHE {cache} cannot be used: "), (
+                err
+            )
+            assert f"cannot write in {cache.parent} (" in err[0], err
+            assert captured.out == ""
+            assert not out.exists(), argv
+    (tmp_path / "locked").chmod(0o700)

@@ -10,6 +10,7 @@ import json
 import math
 import os
 import re
+import shlex
 import signal
 import socket
 import subprocess
@@ -578,7 +579,7 @@ def test_top_level_help_lists_every_command_once() -> None:
     listed = [word for word in listed if word in names]
     assert listed == names, text
     for name in names:  # not a second, hand-written list
-        assert len(re.findall(rf"^\s+{re.escape(name)}\b", text, re.MULTILINE)) == 1, name
+        assert len(re.findall(rf"^ +{re.escape(name)}\b", text, re.MULTILINE)) == 1, name
     flat = " ".join(text.split())
     assert "fig4 or a sweep" not in flat
     plot = flat[flat.index(" plot ") : flat.index(" design ")]
@@ -874,3 +875,121 @@ def test_a_sigterm_held_in_an_import_still_ends_the_command_with_143(
     assert cli.main(["plot", "fig4", "results"]) == 143
     out, err = capsys.readouterr()
     assert err == "probing: error: terminated\n" and out == ""
+
+
+# ------------------------------------------------------------------ 18. examples and files in help
+def _examples(name: str) -> list[str]:
+    """The example lines at the end of ``probing <name> --help``, their comments dropped."""
+    text = _subcommands()[name].format_help()
+    assert "\nexamples:\n" in text, name
+    tail = text.split("\nexamples:\n", 1)[1]
+    return [line.split("  # ")[0].strip() for line in tail.splitlines() if line.strip()]
+
+
+def test_every_commands_help_ends_with_examples_that_parse() -> None:
+    """No help text had an example.  Every command's help ends with at least one, each a
+    command line of that command the parser takes as written (and the top-level help shows
+    one too)."""
+    assert "\nexamples:\n  probing run " in build_parser().format_help()
+    for name in _subcommands():
+        examples = _examples(name)
+        assert examples, name
+        for line in examples:
+            words = shlex.split(line)
+            assert words[:2] == ["probing", name], line
+            assert build_parser().parse_args(words[1:]).command == name, line
+
+
+def _named_files(text: str) -> list[str]:
+    """The run-folder files (the registry's names) a help text names, in its order."""
+    from probing.experiment.output.layouts import OUTPUT_FILES
+
+    flat = " ".join(text.split())
+    return sorted((n for n in OUTPUT_FILES if n in flat), key=flat.index)
+
+
+@pytest.fixture(scope="module")
+def flown(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``probing run --truth`` of a small 737 scenario, ``probing monitor`` of the tests'
+    short monitored GTM flight and ``probing analyze`` of the example record, into one
+    folder: ``run/``, ``monitor/``, ``analyze/``."""
+    base = tmp_path_factory.mktemp("flown")
+    scenario = base / "small.toml"
+    scenario.write_text(
+        BASELINE.read_text()
+        .replace("order = 9", "order = 5")
+        .replace("periods = 8", "periods = 3")
+        .replace("settle_periods = 2", "settle_periods = 1")
+    )
+    assert cli_main(["run", str(scenario), "--out", str(base / "run"), "--truth"]) == 0
+    monitored = ROOT / "tests" / "data" / "sweeps" / "base-gtm-monitor.toml"
+    assert cli_main(["monitor", str(monitored), "--out", str(base / "monitor")]) == 0
+    record = ROOT / "examples" / "your-data" / "probe_response.csv"
+    analyze = ["--time", "time_s", "--input", "elevator_deg", "--output", "q_rad_s"]
+    analyze += ["--order", "7", "--bit-duration-s", "0.04", "--out", str(base / "analyze")]
+    assert cli_main(["analyze", str(record), *analyze]) == 0
+    return base
+
+
+def test_the_files_each_help_names_are_the_files_the_command_writes(flown: Path) -> None:
+    """``probing --help`` said ``run`` writes probing.parquet and timeseries.parquet (it
+    writes bounds.parquet too).  The files each command's help names are
+    :data:`~probing.experiment.output.layouts.FLIGHT_FILES`' (``run``'s line; ``--truth``'s
+    help: the truth's), and those are exactly the files it wrote."""
+    from probing.experiment.output.layouts import FLIGHT_FILES
+
+    subs = _subcommands()
+    top = build_parser().format_help()
+    run_line = top[top.index("    run ") : top.index("    truth ")]
+    (truth_option,) = [a for a in subs["run"]._actions if a.dest == "truth"]
+    assert _named_files(run_line) == list(FLIGHT_FILES["run"])
+    assert _named_files(subs["run"].description) == list(FLIGHT_FILES["run"])
+    assert _named_files(truth_option.help) == list(FLIGHT_FILES["truth"])
+    assert _named_files(subs["monitor"].description) == list(FLIGHT_FILES["monitor"])
+    assert _named_files(subs["analyze"].description) == list(FLIGHT_FILES["analyze"])
+
+    def written(folder: Path) -> list[str]:
+        return sorted(p.name for p in folder.iterdir() if p.suffix == ".parquet")
+
+    (run,) = (flown / "run").iterdir()
+    assert written(run) == sorted(FLIGHT_FILES["run"] + FLIGHT_FILES["truth"])
+    (monitored,) = (flown / "monitor").iterdir()
+    assert written(monitored) == sorted(FLIGHT_FILES["monitor"])
+    assert written(flown / "analyze") == sorted(FLIGHT_FILES["analyze"])
+
+
+def _committed(path: Path) -> bool:
+    """Whether ``path`` (relative to the repository) is in the committed docs/ or figures/."""
+    return path.parts[:1] in (("docs",), ("figures",))
+
+
+def test_no_command_but_fig4_writes_committed_docs_or_figures_by_default(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``probing modes`` rewrote docs/gtm.md and figures/gtm_modes.png, ``excitations``
+    docs/excitations_summary.md and figures/, ``gtm-damage`` figures/, when run bare: they
+    write into their results folder unless the committed paths are named (the Makefile
+    names them).  fig4 draws the paper's figure into figures/ as make fig4 does."""
+    import probing.cli.excitations
+    import probing.cli.gtm
+
+    for name, sub in _subcommands().items():
+        for action in sub._actions:
+            if isinstance(action.default, Path) and name != "fig4":
+                assert not _committed(action.default), (name, action.dest, action.default)
+    makefile = (ROOT / "Makefile").read_text()
+    assert "probing modes --docs docs/gtm.md --figure figures/gtm_modes" in makefile
+    assert "--figures figures --summary docs/excitations_summary.md" in makefile
+    assert "probing gtm-damage --figures figures" in makefile
+    for module in (probing.cli.excitations, probing.cli.gtm):
+        monkeypatch.setattr(module, "simulating", lambda job, where: 0)
+    out = tmp_path / "o"
+    for argv, outputs in [
+        (["excitations", "--out", str(out)], ("figures", "summary")),
+        (["gtm-damage", "--out", str(out)], ("figures",)),
+    ]:
+        args = build_parser().parse_args(argv)
+        assert args.func(args) == 0
+        for dest in outputs:
+            assert Path(getattr(args, dest)).is_relative_to(out), (argv, dest)
+    assert not out.exists()

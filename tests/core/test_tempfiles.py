@@ -8,7 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-from probing.core.tempfiles import pid_alive, remove_dead_writers_files, writer_tag
+from probing.core.tempfiles import (
+    nearest_existing,
+    pid_alive,
+    remove_dead_writers_files,
+    write_refusal,
+    writer_tag,
+)
 
 
 def dead_pid() -> int:
@@ -81,3 +87,22 @@ def test_a_dead_writers_staging_folder_goes_with_folders(tmp_path: Path) -> None
     assert remove_dead_writers_files(tmp_path, ".tmp") == []  # folders only when asked
     assert remove_dead_writers_files(tmp_path, ".tmp", folders=True) == [stale]
     assert sorted(p.name for p in tmp_path.iterdir()) == [mine.name]
+
+
+def test_write_refusal_tries_the_folder(tmp_path: Path) -> None:
+    """A folder that takes a new entry has no refusal and keeps nothing of the try; ``/proc``
+    exists and still says "no such file" to any new entry (to root too): its reason says
+    the file system takes nothing new there, not that something is missing."""
+    assert write_refusal(tmp_path) is None
+    assert list(tmp_path.iterdir()) == []
+    if Path("/proc/self").is_dir():
+        assert write_refusal(Path("/proc")) == (
+            "its file system takes no new files or folders there"
+        )
+
+
+def test_nearest_existing_is_the_path_or_a_parent(tmp_path: Path) -> None:
+    assert nearest_existing(tmp_path) == tmp_path
+    assert nearest_existing(tmp_path / "a" / "b") == tmp_path
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    assert nearest_existing(tmp_path / "link" / "c") == tmp_path / "link"

@@ -65,6 +65,25 @@ def test_probe_shape_stays_inside_the_surface_range():
         ({"deadband_deg": (-0.01, 0.01), "saturation_deg": (-0.005, 0.02)}, None, "wider than"),
         ({"saturation_deg": (0.1, 1.0)}, None, "does not contain the trim"),
         ({"deadband_deg": (-0.1, 0.1)}, (0.2, 0.2), "exceeds the elevator's range"),
+        (
+            {"deadband_deg": (-5.0, 5.0)},
+            (20.0, 20.0),
+            r"clearing the deadband \(half width 5 deg\) takes an amplitude of 15 deg \(3 x its "
+            r"half width\), which exceeds the largest amplitude a scenario takes \(10 deg\); a "
+            r"margin of at most 2 \(--deadband-margin\) would fit",
+        ),
+        (
+            {"deadband_deg": (-12.0, 5.0)},
+            (20.0, 20.0),
+            r"the deadband \(half width 12 deg\) is wider than the largest amplitude a scenario "
+            r"takes \(10 deg\)",
+        ),
+        (
+            {"deadband_deg": (-5.0, 5.0), "saturation_deg": (-8.0, 8.0)},
+            (20.0, 20.0),
+            r"exceeds the saturation margin \(8 deg\); a margin of at most 1.6 "
+            r"\(--deadband-margin\) or a wider saturation would fit",
+        ),
     ],
 )
 def test_impossible_shapes_are_refused(kwargs, room, message):
@@ -75,6 +94,32 @@ def test_impossible_shapes_are_refused(kwargs, room, message):
             phugoid_settling_s=1.0,
             surface_room_deg=room,
         )
+
+
+@pytest.mark.parametrize(("upper_deg", "fits"), [(10 / 3, True), (10 / 3 * (1 + 1e-9), False)])
+def test_a_deadband_fits_up_to_the_largest_amplitude_a_scenario_takes(upper_deg, fits):
+    """3 x the half width up to 10 deg fits (the amplitude is then 10 deg), a hair more is
+    refused by the design's own reason, not by the scenario it would have made."""
+    args = dict(short_period_settling_s=1.4, phugoid_settling_s=1.0, surface_room_deg=(20, 20))
+    req = request(deadband_deg=(-1.0, upper_deg))
+    if fits:
+        assert probe_shape(req, **args).amplitude_deg == pytest.approx(10.0)
+    else:
+        with pytest.raises(DesignError, match="exceeds the largest amplitude a scenario takes"):
+            probe_shape(req, **args)
+
+
+@pytest.mark.jsbsim
+def test_design_with_a_deadband_no_amplitude_clears_says_why(capsys):
+    """``design --deadband-deg -5 5`` on the GTM said "the design is no valid scenario:
+    probe.amplitude_deg: must be > 0 and <= 10, got 15": it says which bound the dead band
+    runs into, in one line, exit 2."""
+    argv = ["design", "--aircraft", "gtm_t2", "--altitude-ft", "800", "--speed-kcas", "75"]
+    assert cli_main([*argv, "--deadband-deg", "-5", "5"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1, err
+    assert err.startswith("probing: error: infeasible: clearing the deadband (half width 5 deg)")
+    assert "largest amplitude a scenario takes (10 deg)" in err and "probe." not in err
 
 
 def test_detectable_stderr_from_the_normal_quantiles():

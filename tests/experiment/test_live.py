@@ -176,9 +176,16 @@ def _table(folder: Path, name: str):
 
 
 def test_the_live_flight_writes_the_monitors_files(live):
+    """The files ``probing live`` writes are the monitor's, and its help names each of them
+    (it left out bounds.parquet): :data:`~probing.experiment.output.layouts.FLIGHT_FILES`."""
+    from probing.cli import build_parser
+    from probing.experiment.output.layouts import FLIGHT_FILES, OUTPUT_FILES
+
     base, scn = live
-    for name in ("sensors.parquet", "probing.parquet", "monitor.parquet", "bounds.parquet"):
-        assert (base / scn.name / name).is_file(), name
+    written = sorted(p.name for p in (base / scn.name).iterdir())
+    assert written == sorted(FLIGHT_FILES["live"]) == sorted(FLIGHT_FILES["monitor"])
+    text = build_parser()._subparsers._group_actions[0].choices["live"].description
+    assert [n for n in OUTPUT_FILES if n in text] == list(FLIGHT_FILES["live"]), text
     log = _table(base / scn.name, "sensors.parquet")
     assert len(log) == scn.total_steps and np.isfinite(log.to_numpy(dtype=float)).all()
 
@@ -450,6 +457,40 @@ def test_a_simulator_that_has_flown_is_refused_at_connect(tmp_path, capsys):
         assert code == 2 and err.count("\n") == 1 and "has flown" in err, err
         assert not out.exists()
         assert _stopped_within(proc, STOP_S) is not None
+
+
+def test_a_simulator_killed_mid_flight_is_a_failed_run_named_by_its_time(tmp_path, monkeypatch):
+    """The jsbsim process killed (SIGKILL) after the third period (it said ``probing: error:
+    ... closed the connection``, exit code 2, as if the input were bad) is a run that failed:
+    one line saying the simulator closed the connection and when (the first frame of the
+    fourth period, 3 x 62 steps of 0.01 s), exit code 1, nothing written."""
+    scenario, sim_dir, port = _write_sim(tmp_path, SCENARIO)
+    scn = load_scenario(scenario)
+    fly_probe = live_module.SocketWorld.fly_probe
+    with _simulator(tmp_path, sim_dir) as proc:
+        flown = []
+
+        def fly_then_kill(world, *args, **kwargs):
+            if len(flown) == 3:
+                proc.kill()
+                proc.wait()
+            flown.append(world.steps)
+            return fly_probe(world, *args, **kwargs)
+
+        monkeypatch.setattr(live_module.SocketWorld, "fly_probe", fly_then_kill)
+        out = tmp_path / "out"
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            code = main(
+                ["live", str(scenario), "--connect", f"127.0.0.1:{port}", "--out", str(out)]
+            )
+    lines = [x for x in err.getvalue().splitlines() if not x.startswith(f"{scn.name} live")]
+    assert code == 1, lines
+    assert len(lines) == 1 and lines[0].startswith(
+        f"probing: error: {scenario}: the simulator at 127.0.0.1:{port} closed the connection "
+        "at t = 1.86 s"
+    ), lines
+    assert flown[-1] == 3 * scn.bits_per_period * round(scn.probe.bit_duration_s / scn.dt_s)
+    assert not (out / scn.name).exists()
 
 
 #: Channels of both kinds: the integrator's state (already the frame's when the message is

@@ -49,3 +49,43 @@ def test_eta_closed_form() -> None:
     assert progress.eta_from_walls(10, 4, 12.0, 3, 2) == pytest.approx(12.0 / 3 * 6 / 2)
     assert progress.eta_from_walls(10, 4, 0.0, 0, 2) is None
     assert progress.eta_from_walls(10, 10, 5.0, 10, 2) == 0.0
+
+
+def test_a_long_run_says_its_steps_and_an_estimate_and_a_short_one_nothing() -> None:
+    """A run estimated at more than LONG_RUN_S (60 s at STEPS_PER_S) says so; one of exactly
+    60 s, or less, says nothing (both sides of the boundary, no flight flown)."""
+    at = int(progress.LONG_RUN_S * progress.STEPS_PER_S)
+    assert at == 600_000
+    assert progress.long_run_notice("x", at) is None
+    assert progress.long_run_notice("x", 8176) is None
+    assert progress.long_run_notice("x", at + 1) == (
+        "x: 600,001 steps, about 1 min (an estimate at 10,000 steps a second); "
+        "no progress bar off a terminal"
+    )
+    # the issue's 100,000 periods of 511 steps
+    assert progress.long_run_notice("big", 51_100_000).startswith(
+        "big: 51,100,000 steps, about 1 h 25 min (an estimate at 10,000 steps a second)"
+    )
+    assert progress.long_run_notice("x", 100, steps_per_s=1.0).startswith(
+        "x: 100 steps, about 2 min"
+    )
+
+
+@pytest.mark.jsbsim
+@pytest.mark.parametrize(("rate", "said"), [(4088 / 60, False), (4088 / 60.1, True)])
+def test_probing_run_off_a_terminal_says_it_is_long_before_it_starts(
+    tmp_path, monkeypatch: pytest.MonkeyPatch, capsys, rate: float, said: bool
+) -> None:
+    """``probing run`` off a terminal (stderr captured: no bar) of a run estimated at more
+    than a minute says so on stderr before the flight; at a minute it says nothing.  The
+    baseline's 4088 steps stand in for a long run by a slower rate."""
+    from pathlib import Path
+
+    from probing.cli import main
+
+    monkeypatch.setattr(progress, "STEPS_PER_S", rate)
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "baseline-737.toml"
+    assert main(["run", str(scenario), "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    note = "probing: note: baseline-737: 4,088 steps, about 1 min (an estimate at 68 steps"
+    assert err == ([f"{note} a second); no progress bar off a terminal"] if said else []), err

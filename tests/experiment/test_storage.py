@@ -202,6 +202,20 @@ def test_check_output_file_refuses_what_cannot_be_a_written_file(tmp_path: Path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "a-folder"]
 
 
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc here")
+def test_an_output_folder_in_proc_says_why_it_cannot_be_written() -> None:
+    """``--out /proc/x`` said "cannot write in /proc (No such file or directory)", though
+    /proc exists: the reason is that its file system takes nothing new there."""
+    from probing.experiment.output.storage import OutputFolderError, check_output_folder
+
+    with pytest.raises(OutputFolderError) as exc:
+        check_output_folder("/proc/probing-out", "--out")
+    assert str(exc.value) == (
+        "--out /proc/probing-out: cannot write in /proc "
+        "(its file system takes no new files or folders there)"
+    )
+
+
 def test_a_stored_file_that_is_not_parquet_is_named(tmp_path: Path) -> None:
     from probing.experiment.output.storage import StoredFileError, read_schema, read_settled
 

@@ -91,6 +91,21 @@ def test_bad_sweeps_are_refused_naming_the_field(case: str, tmp_path: Path) -> N
     assert str(path) in str(info.value)
 
 
+def test_a_scenario_given_as_a_sweep_is_named_a_scenario(tmp_path: Path) -> None:
+    """A scenario file is not a sweep: it said "aircraft: unknown field"; it says what the
+    file is and what to do with it.  A sweep file with a scenario's section beside its base
+    is a sweep with an unknown field, as before."""
+    with pytest.raises(ScenarioError) as info:
+        load_sweep(BASE)
+    assert str(info.value) == (
+        f"{BASE}: file: a scenario (it has [aircraft]), not a sweep file: fly it with "
+        "probing run, or vary it from a sweep file whose base it is (docs/sweeps.md)"
+    )
+    path = write_sweep(tmp_path, 'name = "x"\n[aircraft]\nmodel = "737"\n')
+    with pytest.raises(ScenarioError, match="aircraft: unknown field"):
+        load_sweep(path)
+
+
 def test_bad_base_is_refused(tmp_path: Path) -> None:
     (tmp_path / "bad.toml").write_text(BASE.read_text().replace("order = 5", "order = 1"))
     path = tmp_path / "s.toml"

@@ -7,7 +7,9 @@ The rules, each printed with the value it produced:
   (eq. 8) and its transient biases the settled estimates, which is predicted and reported
   (``predicted_h_bias``).
 * **Amplitude**: a clears the deadband (a >= margin x its half width), stays inside the
-  saturation margins (a <= min(-U-, U+)), and trim +- a stays inside the elevator's range.
+  saturation margins (a <= min(-U-, U+)), trim +- a stays inside the elevator's range, and
+  a is no more than a scenario takes (10 deg); when no a does all of it, the refusal says
+  which bound the dead band runs into (:func:`~.design_reasons.no_amplitude`).
 * **Bit duration**: eq. (21), r_l >= 2a/t0, so t0 >= 2a/r_l, rounded up to a multiple of dt.
 * **Estimator**: the one with the smallest predicted scatter of the target (the gain: ``ac``,
   which leaves out the DC direction the probe hardly excites; h: ``cyclic``), unless given.
@@ -40,7 +42,16 @@ from probing.core.fixedorder import dot
 from probing.core.monitor import MonitorSettings, window_matrix
 from probing.core.noise import NoiseModel
 from probing.core.nonlinearities import RateLimit
-from probing.experiment.design.design_reasons import CANDIDATES, notes, said, too_tight
+from probing.experiment.design.design_reasons import (
+    CANDIDATES,
+    LARGEST_AMPLITUDE,
+    SATURATION,
+    SURFACE_RANGE,
+    no_amplitude,
+    notes,
+    said,
+    too_tight,
+)
 from probing.experiment.design.design_request import (
     DesignError,
     DesignInputError,
@@ -62,7 +73,7 @@ from probing.experiment.design.design_window import (
 )
 from probing.experiment.design.noise import ChannelPrediction, predict
 from probing.experiment.output.scatter import scatter_models
-from probing.experiment.scenario import MAX_PERIODS, Scenario, ScenarioError
+from probing.experiment.scenario import AMPLITUDE_MAX, MAX_PERIODS, Scenario, ScenarioError
 from probing.sim.linear import LongitudinalModes, longitudinal_modes
 from probing.sim.plant import make_plant
 
@@ -159,8 +170,10 @@ def fewest_periods(scatter: Callable[[int], float], target: float, max_periods: 
 def _amplitude_room(
     r: DesignRequest, surface_room_deg: tuple[float, float] | None
 ) -> tuple[float, str]:
-    """How far the amplitude may go (deg) and what limits it (for the messages)."""
-    sat_room = math.inf
+    """How far the amplitude may go (deg) and what limits it (for the messages): the
+    saturation margin, the elevator's range about trim, the largest amplitude a scenario
+    takes (``AMPLITUDE_MAX``), the first of the smallest."""
+    limits = {SATURATION: math.inf}
     if r.saturation_deg is not None:
         lo, up = r.saturation_deg
         if not lo < 0.0 < up:
@@ -168,10 +181,12 @@ def _amplitude_room(
                 f"saturation [{lo:g}, {up:g}] deg does not contain the trim (0): "
                 "the probe cannot get through both ways"
             )
-        sat_room = min(-lo, up)
-    room = sat_room if surface_room_deg is None else min(sat_room, *surface_room_deg)
-    limit = "saturation margin" if room == sat_room else "elevator's range about trim"
-    return room, limit
+        limits[SATURATION] = min(-lo, up)
+    if surface_room_deg is not None:
+        limits[SURFACE_RANGE] = min(surface_room_deg)
+    limits[LARGEST_AMPLITUDE] = AMPLITUDE_MAX["deg"]
+    limit = min(limits, key=limits.__getitem__)
+    return limits[limit], limit
 
 
 def _amplitude(
@@ -183,21 +198,12 @@ def _amplitude(
         lo, up = r.deadband_deg
         half = max(-lo, up)
         need = r.deadband_margin * half
-        if half >= room:
-            raise DesignError(
-                f"deadband (half width {half:g} deg) is wider than the {limit} "
-                f"({room:g} deg): no amplitude clears one and stays inside the other"
-            )
-        if need > room:
-            raise DesignError(
-                f"amplitude {need:g} deg (= {r.deadband_margin:g} x deadband {half:g} deg) "
-                f"exceeds the {limit} {room:g} deg; lower --deadband-margin "
-                "or widen the saturation"
-            )
+        if half >= room or need > room:
+            raise DesignError(no_amplitude(r, half, room, limit))
         a = min(max(need, r.amplitude_deg), room)
         reasons["amplitude_deg"] = (
             f"clears the deadband: a >= {r.deadband_margin:g} x {half:g} deg"
-            + (f", inside the {limit} {room:g} deg" if math.isfinite(room) else "")
+            + f", inside the {limit} {room:g} deg"
             + f"; apparent a~ = {a - half:.3g} deg for a symmetric band"
         )
     else:

@@ -16,10 +16,49 @@ if TYPE_CHECKING:
     from probing.experiment.design.design_runs import Gusts
     from probing.experiment.design.design_window import WindowDesign
 
-__all__ = ["CANDIDATES", "estimator_reason", "notes", "periods_reason", "said", "too_tight"]
+__all__ = [
+    "CANDIDATES",
+    "LARGEST_AMPLITUDE",
+    "SATURATION",
+    "SURFACE_RANGE",
+    "estimator_reason",
+    "no_amplitude",
+    "notes",
+    "periods_reason",
+    "said",
+    "too_tight",
+]
 
 #: The estimators a design chooses among, best first under sensor noise, per target kind.
 CANDIDATES = {"gain": ("ac", "cyclic", "streaming"), "h": ("cyclic", "streaming")}
+
+
+#: The bounds of the amplitude, as the reasons and refusals name them.
+SATURATION = "saturation margin"
+SURFACE_RANGE = "elevator's range about trim"
+LARGEST_AMPLITUDE = "largest amplitude a scenario takes"
+
+
+def no_amplitude(request: DesignRequest, half_deg: float, room_deg: float, limit: str) -> str:
+    """Why no design fits a dead band of half width ``half_deg`` (deg) when the amplitude may
+    go to ``room_deg`` (deg), bounded by ``limit`` (:data:`SATURATION`,
+    :data:`SURFACE_RANGE` or :data:`LARGEST_AMPLITUDE`): the band is wider than the bound,
+    or the amplitude that clears it by the margin is more than the bound, with what would
+    fit."""
+    if half_deg >= room_deg:
+        return (
+            f"the deadband (half width {half_deg:g} deg) is wider than the "
+            f"{limit} ({room_deg:g} deg): no amplitude clears one and stays inside the other"
+        )
+    margin = request.deadband_margin
+    remedy = f"a margin of at most {room_deg / half_deg:.3g} (--deadband-margin)" + (
+        " or a wider saturation" if limit == SATURATION else ""
+    )
+    return (
+        f"clearing the deadband (half width {half_deg:g} deg) takes an "
+        f"amplitude of {margin * half_deg:g} deg ({margin:g} x its half width), which exceeds "
+        f"the {limit} ({room_deg:g} deg); {remedy} would fit"
+    )
 
 
 def too_tight(request: DesignRequest, shape: Any, kind: str, goal: float, exc: DesignError) -> str:

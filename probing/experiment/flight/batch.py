@@ -10,7 +10,7 @@ memory stays flat however many runs a group has.
 
 Reference twins (``drift = "reference"``) that are not in the cache yet are simulated
 first, each in a child forked from the same trimmed aircraft, and stored; the runs then read
-them from the cache.  A twin that cannot be stored (it diverged, a read-only cache) is
+them from the cache.  A twin that cannot be stored (it diverged, a full disk) is
 simulated by the run itself, as without grouping, so a failure is reported exactly as
 before.  If the trim fails, every run of the group loads and trims for itself and reports
 the failure as it always did.

@@ -46,7 +46,7 @@ from probing.experiment.flight.monitor import Monitor, MonitorResult
 from probing.experiment.flight.onboard import calm_nominal, open_reference_twin, reference_source
 from probing.experiment.flight.run import scenario_provenance
 from probing.experiment.flight.runners import runner_of
-from probing.experiment.flight.sim_socket import SimSocket
+from probing.experiment.flight.sim_socket import SimConnectionLost, SimSocket
 from probing.experiment.output.progress import Progress, progress_bar
 from probing.experiment.output.storage import output_folder
 from probing.experiment.scenario import Scenario
@@ -54,7 +54,7 @@ from probing.experiment.scenario.references import REFERENCES, realisable_drifts
 from probing.sim.autopilot import LOOP_CHANNELS, Autopilot, Demand
 from probing.sim.channels import CHANNELS
 from probing.sim.control import control_power, trim_of
-from probing.sim.errors import DivergenceError
+from probing.sim.errors import DivergenceError, SimulatorLostError
 from probing.sim.flight import disturbance_properties
 from probing.sim.plant import DAMAGE_PROPERTY, Plant, make_plant
 from probing.sim.sensing import ChannelNoise, SensorBank
@@ -410,6 +410,10 @@ def live_monitor(
         its trim.
     probing.experiment.flight.sim_socket.SimConnectionError
         If the simulator cannot be reached or answers something else (nothing written).
+    probing.sim.errors.SimulatorLostError
+        If the simulator closes the connection once the flight has begun (it was killed, it
+        crashed): a flight that failed, the message says at what simulated time; nothing
+        is written.
 
     The simulator's run is ended when the flight is done, and on any error
     (:meth:`~probing.experiment.flight.sim_socket.SimSocket.close`): it cannot fly a second time.
@@ -430,7 +434,14 @@ def live_monitor(
         world = SocketWorld(scn, sim, plant, realtime)  # held: the trimmed aircraft
         sim.resume()  # it runs the frame's rest at the trim, then waits in the next frame
         target = folder_of(out, scn.name, folder)
-        return _fly(scn, plant, world, target, progress, stream)
+        try:
+            return _fly(scn, plant, world, target, progress, stream)
+        except SimConnectionLost as exc:
+            why = f" ({exc.reason})" if exc.reason else ""
+            raise SimulatorLostError(
+                f"the simulator at {exc.where} closed the connection at "
+                f"t = {world.steps * scn.dt_s:.2f} s{why}"
+            ) from None
     finally:
         sim.close()
 

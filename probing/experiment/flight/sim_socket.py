@@ -26,7 +26,15 @@ import time
 
 from probing.core.errors import ProbingError
 
-__all__ = ["PORTS", "SimConnectionError", "SimSocket", "is_loopback", "is_port", "parse_address"]
+__all__ = [
+    "PORTS",
+    "SimConnectionError",
+    "SimConnectionLost",
+    "SimSocket",
+    "is_loopback",
+    "is_port",
+    "parse_address",
+]
 
 PROMPT = "JSBSim> "
 
@@ -53,6 +61,34 @@ def is_port(port: int) -> bool:
 
 class SimConnectionError(ProbingError, ConnectionError):
     """The simulator cannot be reached or answered something else; the message says which."""
+
+
+class SimConnectionLost(SimConnectionError):
+    """The simulator closed the connection: it ended, or was killed, or its socket was reset.
+
+    Attributes
+    ----------
+    where : str
+        The simulator's ``host:port``.
+    reason : str or None
+        The system's word for it (``"Connection reset by peer"``); None for an orderly close.
+    """
+
+    def __init__(self, where: str, reason: str | None = None) -> None:
+        self.where, self.reason = where, reason
+        super().__init__(f"{where} closed the connection" + (f" ({reason})" if reason else ""))
+
+
+#: What the system says when the other end of a connection has gone.
+_GONE = (ConnectionResetError, ConnectionAbortedError, BrokenPipeError)
+
+
+def _failed(where: str, exc: OSError) -> SimConnectionError:
+    """The error of a send or receive that raised ``exc``: :class:`SimConnectionLost` when
+    the simulator has gone."""
+    if isinstance(exc, _GONE):
+        return SimConnectionLost(where, exc.strerror or exc.__class__.__name__)
+    return SimConnectionError(f"{where}: {exc}")
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -122,9 +158,9 @@ class SimSocket:
                         self.sock.setsockopt(socket.IPPROTO_TCP, QUICKACK, 1)
                     data = self.sock.recv(65536)
                 except OSError as exc:
-                    raise SimConnectionError(f"{self.where}: {exc}") from None
+                    raise _failed(self.where, exc) from None
                 if not data:
-                    raise SimConnectionError(f"{self.where} closed the connection")
+                    raise SimConnectionLost(self.where)
                 self.buffer += data.decode("ascii", "replace")
             line, self.buffer = self.buffer.split("\r\n", 1)
             line = line.replace(PROMPT, "").strip()
@@ -138,7 +174,7 @@ class SimSocket:
         try:
             self.sock.sendall("".join(f"{c}\r\n" for c in commands).encode("ascii"))
         except OSError as exc:
-            raise SimConnectionError(f"{self.where}: {exc}") from None
+            raise _failed(self.where, exc) from None
         return self._lines(len(commands))
 
     def hold(self) -> None:

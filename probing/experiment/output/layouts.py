@@ -22,6 +22,7 @@ __all__ = [
     "BOUNDS_LEVEL",
     "BOUNDS_SCHEMA",
     "CHANNEL_UNIT",
+    "FLIGHT_FILES",
     "MANOEUVRE_SCHEMA",
     "MONITOR_SCHEMA",
     "OUTPUT_FILES",
@@ -305,6 +306,20 @@ OUTPUT_FILES: dict[str, OutputFile] = {
         ),
     )
 }
+
+#: What each way of flying a scenario writes into its folder, in :data:`OUTPUT_FILES`'s
+#: order: ``run`` (a steady scenario), ``truth`` (added by ``probing truth`` or ``run
+#: --truth``), ``monitor`` (``probing monitor`` and ``--replay``; ``--timeseries`` adds
+#: ``timeseries.parquet``), ``live`` and ``analyze`` (a record, beside its figure).  The
+#: command line's help names the files from here; the tests compare it with the folders.
+FLIGHT_FILES: dict[str, tuple[str, ...]] = {
+    "run": ("probing.parquet", "bounds.parquet", "timeseries.parquet"),
+    "truth": ("truth.parquet", "prediction.parquet"),
+    "monitor": ("probing.parquet", "bounds.parquet", "sensors.parquet", "monitor.parquet"),
+    "live": ("probing.parquet", "bounds.parquet", "sensors.parquet", "monitor.parquet"),
+    "analyze": ("probing.parquet", "bounds.parquet"),
+}
+assert all(n in OUTPUT_FILES for names in FLIGHT_FILES.values() for n in names)
 
 #: The files the project writes into a run's folder (:data:`OUTPUT_FILES`).  A run that
 #: completes into a folder removes those of them it did not write (an earlier run's), so the

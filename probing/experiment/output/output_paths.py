@@ -5,10 +5,10 @@ one line, exit code 2)."""
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 from probing.core.errors import ProbingError
+from probing.core.tempfiles import nearest_existing, write_refusal
 
 __all__ = [
     "OutputFileError",
@@ -41,19 +41,14 @@ def _not_empty(path: str | Path, option: str, error: type[OutputPathError]) -> P
 
 def _writable_ancestor(path: Path, start: Path, option: str, error: type[OutputPathError]) -> Path:
     """The nearest existing of ``start`` and its ancestors, which must be a folder we can
-    create something in (a probe folder is created there and removed at once); ``path`` is
-    the output path the message names."""
-    existing = start
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
+    create something in (:func:`probing.core.tempfiles.write_refusal`); ``path`` is the
+    output path the message names."""
+    existing = nearest_existing(start)
     if not existing.is_dir():
         raise error(f"{option} {path}: is below a file ({existing})")
-    try:
-        probe = Path(tempfile.mkdtemp(prefix=".probing-write-test-", dir=existing))
-    except OSError as exc:
-        reason = exc.strerror or exc.__class__.__name__
-        raise error(f"{option} {path}: cannot write in {existing} ({reason})") from None
-    probe.rmdir()
+    reason = write_refusal(existing)
+    if reason is not None:
+        raise error(f"{option} {path}: cannot write in {existing} ({reason})")
     return existing
 
 

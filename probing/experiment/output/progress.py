@@ -2,7 +2,8 @@
 
 A run draws its bar only on a terminal (a log of a run has nothing to gain from it).  A
 sweep also reports on other streams, one line per finished point, so a long sweep in a CI
-log or under ``nohup`` shows where it is.
+log or under ``nohup`` shows where it is.  A long run off a terminal says once, before it
+starts, how many steps it flies and about how long that takes (:func:`long_run_notice`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,27 @@ from typing import TextIO
 
 from tqdm import tqdm
 
-__all__ = ["Progress", "eta_from_walls", "progress_bar"]
+__all__ = [
+    "LONG_RUN_S",
+    "STEPS_PER_S",
+    "Progress",
+    "eta_from_walls",
+    "long_run_notice",
+    "progress_bar",
+]
+
+#: Simulation steps a second that :func:`long_run_notice` estimates with.  Measured on one
+#: core of a two-core x86-64 machine shared with other work (100-period flights through
+#: ``probing.fly``): 28,000 steps/s for the 737 with a reference twin
+#: (``scenarios/baseline-737.toml``), 21,000 for the GTM (``scenarios/fig4/a_deadband.toml``),
+#: 12,000 for the GTM with NASA's sensors and the gust reference
+#: (``scenarios/references/base.toml``); rounded down, so the estimate errs long.
+STEPS_PER_S = 10_000
+
+#: A run estimated to take longer than this (s) says so before it starts when it shows no
+#: progress bar: 600,000 steps, more than an hour of flight at dt = 0.01 s.  The provided
+#: scenarios and a one-hour monitored flight (360,000 steps) stay quiet.
+LONG_RUN_S = 60.0
 
 BAR_FORMAT = (
     "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} {unit}, ETA {remaining}{postfix}"
@@ -52,6 +73,48 @@ def eta_from_walls(
     if timed < 1:
         return None
     return wall_sum_s / timed * (total - done) / max(1, workers)
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as a person reads it: ``"3 min"``, ``"1 h 25 min"``, ``"2 d 3 h"``."""
+    minutes = max(1, round(seconds / 60))
+    if minutes < 60:
+        return f"{minutes} min"
+    hours, minutes = divmod(minutes, 60)
+    if hours < 24:
+        return f"{hours} h {minutes} min" if minutes else f"{hours} h"
+    days, hours = divmod(hours, 24)
+    return f"{days} d {hours} h" if hours else f"{days} d"
+
+
+def long_run_notice(label: str, steps: int, steps_per_s: float | None = None) -> str | None:
+    """What a run of ``steps`` simulation steps says before it starts when it shows no
+    progress bar (off a terminal), or None when it is not long.
+
+    Parameters
+    ----------
+    label : str
+        The run (its scenario's name).
+    steps : int
+        Simulation steps it flies.
+    steps_per_s : float, optional
+        The rate estimated with, steps/s (default :data:`STEPS_PER_S`).
+
+    Returns
+    -------
+    str or None
+        ``"<label>: 51,100,000 steps, about 1 h 25 min (an estimate at 10,000 steps a
+        second); no progress bar off a terminal"`` when ``steps / steps_per_s`` is more than
+        :data:`LONG_RUN_S`; None otherwise.
+    """
+    steps_per_s = STEPS_PER_S if steps_per_s is None else steps_per_s
+    estimate_s = steps / steps_per_s
+    if not estimate_s > LONG_RUN_S:
+        return None
+    return (
+        f"{label}: {steps:,} steps, about {_duration(estimate_s)} (an estimate at "
+        f"{steps_per_s:,.0f} steps a second); no progress bar off a terminal"
+    )
 
 
 class Progress:
