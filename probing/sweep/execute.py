@@ -28,7 +28,6 @@ from probing.core.forked import INTERRUPTS, STOPS
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.storage import check_output_folder, write_json_atomic
 from probing.experiment.scenario import Scenario
-from probing.sim.cache import check_cache
 from probing.sweep.spec import POINT_FILE, Sweep, point_folder, sweep_folders
 from probing.sweep.summary import summarise, write_summary
 from probing.sweep.tasks import Task, execute_chunk, execute_task, import_task_code
@@ -318,6 +317,8 @@ def run_sweep(
         (:func:`probing.sim.cache.check_cache`); nothing is written then.
     """
     if scheduler is None:  # workers on this machine use its cache: one that cannot be used
+        from probing.sim.cache import check_cache  # loads JSBSim: not when a sweep is read
+
         check_cache()  # is one error here, not an error per point
     jobs = (os.cpu_count() or 1) if jobs is None else integer(jobs, "jobs", lo=1)
     number(connect_timeout_s, "connect_timeout_s", lo=0, lo_open=True)
