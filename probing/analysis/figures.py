@@ -3,30 +3,56 @@ the checks that keep them readable.
 
 Figures are saved without a creation date, so the same results give byte-identical files
 (the committed figures stay unchanged when a documented command redraws them).
-:func:`covers_data`, :func:`legends_over_data` and :func:`clipped_texts` say, from the
-laid-out figure, whether a box (a legend, a note) hides plotted data and whether a text
-runs off the figure; :func:`place_clear_of_data` puts a note where it hides none.
+
+The checks read the laid-out figure (every figure's tests run them):
+:func:`covers_data` and :func:`legends_over_data` (a box, a legend, that hides plotted
+data), :func:`clipped_texts` (a text that runs off the figure), :func:`overlapping_texts`
+(texts of two panels over each other), :func:`undefined_texts` ("nan" in a title),
+:func:`low_contrast_texts` (WCAG's contrast ratio of a text against what is under it, a
+heatmap's cell), :func:`unexplained_lines` (a curve no legend names), :func:`hidden_lines`
+(a named curve mostly under others, from the rendered pixels) and
+:func:`labels_without_unit`; :func:`figure_problems` runs the cheap ones at once.  The
+drawing helpers keep them: :func:`place_clear_of_data` puts a note where it hides no data,
+:func:`legends_in_margins` reserves a band at the top of axes for their legends and
+:func:`text_colour_on` picks black or white text for a background.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.backends.backend_agg import RendererAgg
+from matplotlib.colors import to_rgb, to_rgba
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Bbox
 
+from probing.sim.channels import unit_of
+
 __all__ = [
+    "MIN_CONTRAST",
     "RC",
     "clipped_texts",
+    "contrast_ratio",
     "covers_data",
     "detached_figure",
+    "figure_problems",
+    "hidden_lines",
+    "labels_without_unit",
+    "legends_in_margins",
     "legends_over_data",
+    "low_contrast_texts",
+    "overlapping_texts",
     "place_clear_of_data",
+    "response_unit",
     "save_figure",
+    "text_colour_on",
+    "undefined_texts",
+    "unexplained_lines",
 ]
 
 #: Style of the project's figures (matplotlib rc parameters).
@@ -55,6 +81,18 @@ def detached_figure(**kwargs: Any) -> Any:
     plt.close(fig)  # which leaves the figure a bare canvas
     canvas(fig)  # drawn by the backend's again (a renderer, the notebook's formatter)
     return fig
+
+
+def response_unit(channel: str, per: str = "deg") -> str:
+    """The unit of a pulse response of ``channel`` per ``per`` of probe, for an axis label:
+    ``"rad/s per deg"`` for ``q_rad_s``.
+
+    Examples
+    --------
+    >>> response_unit("q_rad_s"), response_unit("nz_g", "norm")
+    ('rad/s per deg', 'g per norm')
+    """
+    return f"{unit_of(channel)} per {per}"
 
 
 def save_figure(
@@ -251,3 +289,422 @@ def place_clear_of_data(
     text.set_horizontalalignment(ha)
     text.set_verticalalignment(va)
     return False
+
+
+def legends_in_margins(
+    legends: Sequence[tuple[Any, Any, Sequence[Any]]], pad_pt: float = 3.0, tries: int = 4
+) -> None:
+    """For each ``(ax, legend, twins)``: raise the top of ``ax``'s y range (and its
+    ``twins``', on its x axis) so that ``legend``, placed at the top of the axes, sits in a
+    band above every curve, and stop the vertical reference lines (``axvline``) under it.
+
+    For axes whose curves fill them, where no corner is free (``loc="best"`` then lays the
+    legend over data).  Linear and logarithmic y axes alike: the band is a share of the
+    axes' height.  A legend that hides nothing is left where it is.  Call it once the
+    figure is drawn, for all its legends at once (each try lays the figure out).
+
+    Parameters
+    ----------
+    legends : sequence of (Axes, Legend, sequence of Axes)
+        An axes, its legend (with an upper ``loc``: ``"upper center"``, ``"upper left"``)
+        and the axes drawn over it on the same x axis (``ax.twinx()``; their ranges grow too).
+    pad_pt : float
+        Clearance between a legend and the highest curve, in points.
+    tries : int
+        Layouts to settle the bands (a new range can change the tick labels and the layout).
+    """
+    tops = {a: a.get_ylim() for ax, _, twins in legends for a in (ax, *twins)}
+    for _ in range(tries):
+        renderer = _renderer(legends[0][0].figure) if legends else None
+        moved = False
+        for ax, legend, twins in legends:
+            box = legend.get_window_extent(renderer)
+            group = (ax, *twins)
+            if not any(covers_data(a, box) for a in group):
+                continue
+            moved = True
+            pad = pad_pt * ax.figure.dpi / 72.0
+            share = min((ax.bbox.y1 - box.y0 + pad) / ax.bbox.height, 0.8)
+            for a in group:
+                scale = a.yaxis.get_transform()
+                low, high = scale.transform(np.array(tops[a], float))
+                top = low + (high - low) / (1.0 - share)
+                a.set_ylim(tops[a][0], float(scale.inverted().transform(np.array([top]))[0]))
+                for line in a.get_lines():
+                    if line.get_transform() == a.get_xaxis_transform():  # an axvline
+                        line.set_ydata([0.0, 1.0 - share])
+        if not moved:
+            return
+
+
+#: WCAG 2's least contrast ratio for text (level AA): text against what is under it.
+MIN_CONTRAST = 4.5
+
+
+def _luminance(colour: Any) -> float:
+    """WCAG 2's relative luminance of a colour (sRGB, linearised)."""
+    rgb = np.array(to_rgb(colour))
+    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return float(linear @ [0.2126, 0.7152, 0.0722])
+
+
+def contrast_ratio(foreground: Any, background: Any) -> float:
+    """WCAG 2's contrast ratio of two colours, (L1 + 0.05) / (L2 + 0.05) with L1 the
+    lighter's relative luminance: 1 (the same) to 21 (black on white).
+
+    Parameters
+    ----------
+    foreground, background : matplotlib colour
+        Any colour matplotlib reads (``"k"``, ``"C0"``, an RGB tuple).
+
+    Returns
+    -------
+    float
+    """
+    light, dark = sorted((_luminance(foreground), _luminance(background)), reverse=True)
+    return (light + 0.05) / (dark + 0.05)
+
+
+def text_colour_on(background: Any) -> str:
+    """``"black"`` or ``"white"``, whichever contrasts more with ``background`` (black on a
+    tie): the colour of a number written on a heatmap's cell."""
+    black, white = contrast_ratio("black", background), contrast_ratio("white", background)
+    return "black" if black >= white else "white"
+
+
+def _over(top: Any, bottom: Any) -> tuple[float, float, float]:
+    """The colour ``top`` (with its alpha) composited over the opaque ``bottom``."""
+    r, g, b, a = to_rgba(top)
+    base = np.array(to_rgb(bottom))
+    return tuple(a * np.array([r, g, b]) + (1.0 - a) * base)  # type: ignore[return-value]
+
+
+def _background(text: Any, renderer: Any) -> tuple[float, float, float]:
+    """The colour under the centre of ``text``: the cell of an image it lies on (a
+    heatmap), else its axes' face, else the figure's."""
+    fig = text.get_figure(root=True)
+    colour = _over(fig.get_facecolor(), "white")
+    ax = text.axes
+    if ax is None:
+        return colour
+    colour = _over(ax.get_facecolor(), colour)
+    if text not in ax.texts:  # a title, a label, a legend's entry: off the data
+        return colour
+    box = text.get_window_extent(renderer)
+    x, y = ax.transData.inverted().transform(((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2))
+    for image in reversed(ax.get_images()):
+        left, right, bottom, top = image.get_extent()
+        values = image.get_array()
+        rows, cols = values.shape[:2]
+        col = int(np.floor((x - left) / (right - left) * cols))
+        row = int(np.floor((top - y) / (top - bottom) * rows))
+        if image.origin == "lower":
+            row = rows - 1 - row
+        if 0 <= row < rows and 0 <= col < cols:
+            return _over(image.to_rgba(values[row, col], alpha=image.get_alpha()), colour)
+    return colour
+
+
+def low_contrast_texts(fig: Any, minimum: float = MIN_CONTRAST) -> list[str]:
+    """The readable texts of ``fig`` (:func:`clipped_texts`' and the notes in its axes)
+    whose colour has less than ``minimum`` contrast ratio (WCAG 2) with what is under them:
+    a heatmap's cell, else the axes' or the figure's face.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, laid out here as it will be saved.
+    minimum : float
+        The least contrast ratio (WCAG AA for text: 4.5).
+
+    Returns
+    -------
+    list of str
+        Those texts, each with its ratio: ``"50 (1.9)"``.
+    """
+    renderer = _renderer(fig)
+    out = []
+    for text in _labels(fig):
+        if not text.get_visible() or not text.get_text().strip():
+            continue
+        ratio = contrast_ratio(_over(text.get_color(), "white"), _background(text, renderer))
+        if ratio < minimum:
+            out.append(f"{text.get_text()} ({ratio:.1f})")
+    return out
+
+
+#: A number that is not one, written as a word: ``nan``, ``inf`` (any case, any sign).
+_UNDEFINED = re.compile(r"(?<![\w.])[-+]?(nan|inf)(?![\w])", re.IGNORECASE)
+
+
+def undefined_texts(fig: Any) -> list[str]:
+    """The readable texts of ``fig`` (titles, labels, notes, legends) that print an
+    undefined number, ``nan`` or ``inf``, where a sentence ("no alarm") belongs.
+
+    Returns
+    -------
+    list of str
+    """
+    return [t.get_text() for t in _labels(fig) if _UNDEFINED.search(t.get_text())]
+
+
+def _tick_labels(ax: Any) -> list[Any]:
+    """The tick labels ``ax`` draws (in its view, on a visible axis)."""
+    out = []
+    for axis in (ax.xaxis, ax.yaxis):
+        if not axis.get_visible():
+            continue
+        for tick in axis._update_ticks():
+            out += [t for t in (tick.label1, tick.label2) if t.get_visible() and t.get_text()]
+    return out
+
+
+def _owned_texts(fig: Any) -> list[tuple[Any, list[Any]]]:
+    """Each drawn axes with its texts (titles, axis labels, tick labels, legend), and the
+    figure with its own (suptitle, figure labels and texts, figure legends)."""
+    groups = []
+    own = [*fig.texts, *fig.legends]
+    for name in ("_suptitle", "_supxlabel", "_supylabel"):
+        if getattr(fig, name, None) is not None:
+            own.append(getattr(fig, name))
+    groups.append((fig, own))
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        texts = [ax.title, ax._left_title, ax._right_title, *ax.texts]
+        if ax.axison:
+            texts += [
+                *(a.label for a in (ax.xaxis, ax.yaxis) if a.get_visible()),
+                *_tick_labels(ax),
+            ]
+        if ax.get_legend() is not None:
+            texts.append(ax.get_legend())
+        groups.append((ax, texts))
+    return groups
+
+
+def _name(artist: Any) -> str:
+    if hasattr(artist, "get_text"):
+        return artist.get_text()
+    texts = artist.get_texts()  # a legend
+    return f"legend '{texts[0].get_text()}'" if texts else "legend"
+
+
+def overlapping_texts(fig: Any) -> list[tuple[str, str]]:
+    """Texts of two different panels (or of a panel and the figure) drawn over each other:
+    titles, axis labels, tick labels, notes and legends, as laid out for saving.
+
+    Returns
+    -------
+    list of (str, str)
+        The two texts of each such pair.
+    """
+    renderer = _renderer(fig)
+    boxes = []
+    for owner, artists in _owned_texts(fig):
+        for artist in artists:
+            if not artist.get_visible() or (hasattr(artist, "get_text") and not artist.get_text()):
+                continue
+            boxes.append((owner, artist, artist.get_window_extent(renderer).shrunk(0.98, 0.98)))
+    out = []
+    for i, (owner, artist, box) in enumerate(boxes):
+        for other_owner, other, other_box in boxes[i + 1 :]:
+            if owner is not other_owner and box.overlaps(other_box):
+                out.append((_name(artist), _name(other)))
+    return out
+
+
+def _legends(fig: Any) -> list[Any]:
+    return [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
+
+
+def _style(artist: Any) -> tuple[tuple[float, ...], str, str]:
+    """A line's (colour, line style, marker), as a legend handle shows them."""
+    colour = tuple(round(c, 3) for c in to_rgb(artist.get_color()))
+    return colour, str(artist.get_linestyle()), str(artist.get_marker())
+
+
+def _is_reference_line(line: Any) -> bool:
+    """An ``axhline`` or ``axvline`` (two points on one x or one y): a threshold, an onset,
+    a goal, which the axis labels and the caption explain."""
+    x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+    return len(x) == 2 and (x[0] == x[1] or y[0] == y[1])
+
+
+def unexplained_lines(fig: Any) -> list[str]:
+    """The curves and markers of ``fig`` that no legend explains: neither their label is a
+    legend's entry, nor a legend shows their colour, line style and marker (one entry for
+    all three, or entries for the colour, the style and the marker apart, as a legend of
+    faults by colour and references by style does).  Straight reference lines
+    (``axhline``, ``axvline``) are not counted.
+
+    Returns
+    -------
+    list of str
+        Each such line's label (matplotlib's ``_child<n>`` where it has none) and panel.
+    """
+    legends = _legends(fig)
+    named = {t.get_text() for leg in legends for t in leg.get_texts()}
+    handles = [h for leg in legends for h in leg.legend_handles if hasattr(h, "get_linestyle")]
+    styles = {_style(h) for h in handles}
+    colours, linestyles, markers = (
+        (set(x) for x in zip(*styles, strict=True)) if styles else ((), (), ())
+    )
+    out = []
+    for ax in fig.axes:
+        for line in ax.get_lines():
+            xy = np.asarray(line.get_xydata(), float)
+            if not line.get_visible() or not np.isfinite(xy).all(axis=1).any():
+                continue
+            if _is_reference_line(line) or line.get_label() in named:
+                continue
+            colour, style, marker = _style(line)
+            if (colour, style, marker) in styles:
+                continue
+            if colour in colours and style in linestyles and marker in markers:
+                continue
+            title = ax.get_title() or ax.get_title(loc="left")
+            out.append(f"{line.get_label()} in '{title}'")
+    return out
+
+
+def _pixels(fig: Any, axes: Sequence[Any], dpi: float) -> np.ndarray:
+    """``axes`` of ``fig`` (laid out) drawn alone by Agg at ``dpi``: (height, width, 4)."""
+    saved = fig.dpi
+    try:
+        fig.dpi = dpi
+        width, height = fig.bbox.size
+        renderer = RendererAgg(int(width), int(height), dpi)
+        fig.patch.draw(renderer)
+        for ax in sorted(axes, key=lambda a: a.get_zorder()):
+            ax.patch.draw(renderer)  # the background an axes without its axis leaves out
+            ax.draw(renderer)
+        box = Bbox.union([ax.bbox for ax in axes])  # what they draw in: the rest is blank
+        x0, x1 = max(int(box.x0) - 2, 0), int(np.ceil(box.x1)) + 2
+        y0, y1 = max(int(height - box.y1) - 2, 0), int(np.ceil(height - box.y0)) + 2
+        return np.asarray(renderer.buffer_rgba())[y0:y1, x0:x1, :3].astype(np.int16)
+    finally:
+        fig.dpi = saved
+
+
+def _near(a: np.ndarray, b: np.ndarray, within: float = 40.0) -> np.ndarray:
+    """The pixels (RGB of 0-255) whose colours are within ``within`` in every channel."""
+    return (np.abs(a - b) <= within).all(axis=-1)
+
+
+def hidden_lines(fig: Any, minimum: float = 0.5, dpi: float = 200) -> list[str]:
+    """The curves a legend names that show less than ``minimum`` of themselves: of the
+    pixels a curve drawn alone paints in its own colour, fewer than that share keep it in
+    the figure, the curves, markers, bands and notes drawn over it taking the rest (a
+    measurement under the dashed prediction it matches, an onset line under a first alarm
+    0.6 s later).  A translucent curve keeps a pixel where it tints what is under it.
+
+    Rendered by Agg at ``dpi`` (that of the saved figures) as laid out for saving, the
+    curve's panel (and its twins) only, without legends and axes (they neither move nor
+    count): four drawings per curve.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    minimum : float
+        The least share of its pixels a named curve keeps.
+    dpi : float
+        Resolution of the drawings.
+
+    Returns
+    -------
+    list of str
+        Each such curve's label and the share it keeps: ``"measured (0.31)"``.
+    """
+    named = {t.get_text() for leg in _legends(fig) for t in leg.get_texts()}
+    fig.draw_without_rendering()  # the layout it is saved with, kept while drawn here
+    engine, shown = fig.get_layout_engine(), [ax for ax in fig.axes if ax.get_visible()]
+    data = [
+        a
+        for ax in shown
+        for a in (*ax.lines, *ax.collections, *ax.patches, *ax.images, *ax.texts)
+        if a.get_visible()
+    ]
+    hidden = [*_legends(fig), *(ax for ax in shown if ax.axison)]  # neither moves nor counts
+    lines = [ln for ax in shown for ln in ax.lines if ln in data and ln.get_label() in named]
+    out = []
+    try:
+        fig.set_layout_engine("none")
+        for artist in hidden:
+            artist.set_axis_off() if artist in shown else artist.set_visible(False)
+        for line in lines:
+            group = [ax for ax in shown if ax.bbox.overlaps(line.axes.bbox)]  # twins too
+            full = _pixels(fig, group, dpi)
+            for a in data:
+                a.set_visible(a is line)
+            alone = _pixels(fig, group, dpi)
+            line.set_visible(False)
+            empty = _pixels(fig, group, dpi)
+            for a in data:
+                a.set_visible(a is not line)
+            without = _pixels(fig, group, dpi)
+            line.set_visible(True)
+            alpha = 1.0 if line.get_alpha() is None else line.get_alpha()
+            ink = 255.0 * alpha * np.array(to_rgb(line.get_color()))
+            # its own pixels: where, drawn alone, it paints its colour over the empty axes
+            own = _near(alone, ink + (1.0 - alpha) * empty) & ~_near(alone, empty, 0)
+            kept = own & _near(full, ink + (1.0 - alpha) * without)
+            share = kept.sum() / max(own.sum(), 1)
+            if share < minimum:
+                out.append(f"{line.get_label()} ({share:.2f})")
+    finally:
+        for artist in hidden:
+            artist.set_axis_on() if artist in shown else artist.set_visible(True)
+        for a in data:
+            a.set_visible(True)
+        fig.set_layout_engine(engine)
+    return out
+
+
+#: A unit in parentheses: ``(s)``, ``(rad/s per deg)``, ``(mrad)``.
+_UNIT = re.compile(r"\([^()]*\w[^()]*\)")
+
+
+def labels_without_unit(fig: Any, axis: str = "y") -> list[str]:
+    """The panels of ``fig`` with data whose ``axis`` (``"x"`` or ``"y"``) label is empty or
+    names no unit in parentheses.
+
+    Returns
+    -------
+    list of str
+        Each such panel's title and its label.
+    """
+    out = []
+    for ax in fig.axes:
+        if not ax.get_visible() or not ax.axison:
+            continue
+        if not (ax.lines or ax.collections or ax.images or ax.patches):
+            continue
+        label = ax.get_ylabel() if axis == "y" else ax.get_xlabel()
+        if not _UNIT.search(label):
+            title = ax.get_title() or ax.get_title(loc="left")
+            out.append(f"'{title}': '{label}'")
+    return out
+
+
+def figure_problems(fig: Any) -> list[str]:
+    """Every cheap readability check of ``fig`` at once, each problem one line: legends
+    over data, texts off the figure or over another panel's, undefined numbers in texts,
+    texts of too little contrast, curves no legend explains.  (:func:`hidden_lines` renders
+    the figure and :func:`labels_without_unit` does not apply to every figure: run them
+    where they do.)
+
+    Returns
+    -------
+    list of str
+        Empty for a readable figure.
+    """
+    return [
+        *(f"legend over data: {t}" for t in legends_over_data(fig)),
+        *(f"off the figure: {t}" for t in clipped_texts(fig)),
+        *(f"texts over each other: {a} / {b}" for a, b in overlapping_texts(fig)),
+        *(f"undefined number: {t}" for t in undefined_texts(fig)),
+        *(f"low contrast: {t}" for t in low_contrast_texts(fig)),
+        *(f"not in a legend: {t}" for t in unexplained_lines(fig)),
+    ]

@@ -1,4 +1,5 @@
-"""The readability checks of :mod:`probing.analysis.figures` on hand-made figures."""
+"""The readability checks of :mod:`probing.analysis.figures` on hand-made figures, each
+seen to fail on the fault it finds and to pass once it is mended."""
 
 from __future__ import annotations
 
@@ -6,13 +7,24 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pytest
+from matplotlib.lines import Line2D
 from matplotlib.transforms import Bbox
 
 from probing.analysis.figures import (
     clipped_texts,
+    contrast_ratio,
     covers_data,
+    hidden_lines,
+    labels_without_unit,
+    legends_in_margins,
     legends_over_data,
+    low_contrast_texts,
+    overlapping_texts,
     place_clear_of_data,
+    text_colour_on,
+    undefined_texts,
+    unexplained_lines,
 )
 
 
@@ -67,4 +79,150 @@ def test_a_note_goes_to_the_first_clear_position() -> None:
     ax.plot([0.9, 0.9], [0, 1])
     assert not place_clear_of_data(ax, note, positions)
     assert note.get_position() == (0.98, 0.02)
+    plt.close(fig)
+
+
+def test_contrast_ratio_is_wcags() -> None:
+    """WCAG 2's published values: black on white 21, a colour on itself 1, #777777 on white
+    4.48 (just under AA's 4.5) and #767676 4.54 (just over)."""
+    assert contrast_ratio("black", "white") == pytest.approx(21.0)
+    assert contrast_ratio("white", "black") == pytest.approx(21.0)
+    assert contrast_ratio("C0", "C0") == pytest.approx(1.0)
+    assert contrast_ratio("#777777", "white") == pytest.approx(4.48, abs=0.005)
+    assert contrast_ratio("#767676", "white") == pytest.approx(4.54, abs=0.005)
+
+
+def test_text_colour_on_picks_the_higher_contrast() -> None:
+    """Black and white contrast equally with a grey of relative luminance 0.179 (sRGB
+    0.4603): white text just below it, black just above; white on navy, black on white."""
+    assert text_colour_on((0.45, 0.45, 0.45)) == "white"
+    assert text_colour_on((0.47, 0.47, 0.47)) == "black"
+    assert text_colour_on("#08306b") == "white"  # the darkest of matplotlib's Blues
+    assert text_colour_on("white") == "black"
+
+
+def test_numbers_on_a_heatmap_are_checked_against_their_cell() -> None:
+    fig, ax = plt.subplots(figsize=(3, 2))
+    values = np.array([[0.0, 50.0], [25.0, 10.0]])
+    image = ax.imshow(values, cmap="Blues")
+    for (i, j), v in np.ndenumerate(values):
+        ax.text(j, i, f"{v:.0f}", ha="center", va="center", color="black")
+    assert [t.split()[0] for t in low_contrast_texts(fig)] == ["50"]  # black on navy
+    for t in ax.texts:
+        i, j = round(t.get_position()[1]), round(t.get_position()[0])
+        t.set_color(text_colour_on(image.to_rgba(values[i, j])))
+    assert low_contrast_texts(fig) == []
+    ax.text(0.5, 0.5, "pale", color="0.8", transform=ax.transAxes)  # off the image: on white
+    ax.set_xlim(-0.5, 3.5)
+    assert low_contrast_texts(fig) == ["pale (1.6)"]
+    plt.close(fig)
+
+
+def test_undefined_numbers_in_texts_are_found() -> None:
+    fig, ax = plt.subplots()
+    ax.set_title("seed 1: first alarm nan s after the onset")
+    ax.set_xlabel("delay (s): -inf")
+    ax.set_ylabel("information (nanometre, infinite)")
+    assert undefined_texts(fig) == [ax.get_title(), ax.get_xlabel()]
+    ax.set_title("seed 1: no alarm after the onset")
+    ax.set_xlabel("delay (s)")
+    assert undefined_texts(fig) == []
+    plt.close(fig)
+
+
+def test_labels_of_two_rows_over_each_other_are_found() -> None:
+    """A y label taller than its row runs into the next row's; one label for the figure
+    does not."""
+    fig, axes = plt.subplots(2, 1, figsize=(3, 2.4), layout="constrained")
+    for ax in axes:
+        ax.plot([0, 1], [0, 1])
+        ax.set_ylabel("a label far taller than its own row (unit)")
+    assert overlapping_texts(fig) == [(axes[0].get_ylabel(), axes[1].get_ylabel())]
+    for ax in axes:
+        ax.set_ylabel("")
+    fig.supylabel("a label far taller than its own row (unit)")
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_every_curve_is_named_by_a_legend_or_its_style() -> None:
+    """A curve without a label is unexplained; one whose colour and style a legend of faults
+    (colour) and references (style) shows is explained; a threshold (axhline) is not a
+    curve."""
+    fig, ax = plt.subplots()
+    x = np.linspace(0, 1, 20)
+    ax.plot(x, x, color="C0")
+    ax.axhline(0.5, color="0.5")
+    ax.legend(handles=[Line2D([], [], color="C1", label="fault")])
+    assert unexplained_lines(fig) == ["_child0 in ''"]
+    ax.plot(x, x**2, "--", color="C1")  # the fault's colour, a reference's style
+    ax.legend(
+        handles=[
+            Line2D([], [], color="C0", label="fault 0"),
+            Line2D([], [], color="C1", label="fault 1"),
+            Line2D([], [], color="0.3", ls="--", label="reference"),
+        ]
+    )
+    assert unexplained_lines(fig) == []
+    ax.plot([0.5], [0.5], "o", color="C1")  # a marker no legend shows
+    assert unexplained_lines(fig) == ["_child3 in ''"]
+    plt.close(fig)
+
+
+def test_a_curve_under_the_dashed_one_it_matches_is_hidden() -> None:
+    """A curve under a dashed one of its width keeps a quarter of its pixels (the gaps);
+    drawn wider under a thinner dashed line it keeps most of them, and the dashed line all
+    of its own; a translucent band over a curve leaves it its colour, tinted."""
+    fig, ax = plt.subplots(figsize=(4, 3))
+    x = np.linspace(0, 5, 200)
+    ax.plot(x, np.sin(x), color="C0", lw=0.8, label="measured")
+    ax.plot(x, np.sin(x), "k--", lw=0.8, label="predicted")
+    ax.legend()
+    assert [h.split()[0] for h in hidden_lines(fig)] == ["measured"]
+    ax.lines[0].set_linewidth(2.0)
+    ax.lines[1].set_linewidth(0.7)
+    assert hidden_lines(fig) == []
+    assert [h.split()[0] for h in hidden_lines(fig, minimum=0.99)] == ["measured"]
+    ax.fill_between(x, -1, 1, color="C1", alpha=0.3, zorder=3)  # over both
+    assert [h.split()[0] for h in hidden_lines(fig)] == ["measured", "predicted"]
+    ax.collections[0].set_zorder(1)  # under both
+    assert hidden_lines(fig) == []
+    plt.close(fig)
+
+
+def test_a_label_without_a_unit_is_found() -> None:
+    fig, (a, b, c) = plt.subplots(1, 3)
+    for ax in (a, b, c):
+        ax.plot([0, 1], [0, 1])
+    a.set_ylabel("z of pitch (mrad)")
+    b.set_ylabel("pulse response")
+    assert labels_without_unit(fig) == ["'': 'pulse response'", "'': ''"]
+    assert labels_without_unit(fig, axis="x") == ["'': ''"] * 3
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("scale", ["linear", "log"])
+def test_a_legend_in_its_margin_hides_no_curve(scale: str) -> None:
+    """Curves that fill the axes up to the top and a vertical line: the legend at the top
+    lies over them; in its margin it hides none (on a log axis too), on the twin's curve
+    neither, and the vertical line stops under it."""
+    fig, ax = plt.subplots(figsize=(4, 3), layout="constrained")
+    x = np.linspace(1, 10, 100)
+    ax.plot(x, x, label="rising")
+    ax.plot(x, 11 - x, label="falling")
+    ax.set_yscale(scale)
+    twin = ax.twinx()
+    twin.plot(x, np.cos(x), color="C3", label="twin")
+    onset = ax.axvline(5.0, color="k", ls="--")
+    legend = twin.legend(
+        [*ax.get_lines()[:2], *twin.get_lines()],
+        ["rising", "falling", "twin"],
+        loc="upper center",
+        ncol=3,
+    )
+    assert legends_over_data(fig) == ["rising"]
+    legends_in_margins([(ax, legend, [twin])])
+    assert legends_over_data(fig) == []
+    renderer = _renderer(fig)
+    assert onset.get_window_extent(renderer).y1 < legend.get_window_extent(renderer).y0
     plt.close(fig)
