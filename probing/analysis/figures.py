@@ -34,6 +34,9 @@ from matplotlib.transforms import Bbox
 from probing.sim.channels import unit_of
 
 __all__ = [
+    "LW_DASHED_OVER",
+    "LW_OVER",
+    "LW_UNDER",
     "MIN_CONTRAST",
     "RC",
     "clipped_texts",
@@ -54,6 +57,11 @@ __all__ = [
     "undefined_texts",
     "unexplained_lines",
 ]
+
+#: Line widths (pt) that keep two curves visible where one lies exactly on the other (a
+#: measurement and the prediction it matches, a compensated curve and the baseline): the
+#: lower curve wide, the one on it thin, a dashed prediction thinner still (hidden_lines).
+LW_UNDER, LW_OVER, LW_DASHED_OVER = 2.4, 0.8, 0.7
 
 #: Style of the project's figures (matplotlib rc parameters).
 RC = {
@@ -531,11 +539,16 @@ def _is_reference_line(line: Any) -> bool:
     return len(x) == 2 and (x[0] == x[1] or y[0] == y[1])
 
 
+_NO_LINE = ("None", "none", "", " ")  # a marker-only curve: no line style to name
+_NO_MARKER = ("None", "none", "", " ")  # a curve without markers: no marker to name
+
+
 def unexplained_lines(fig: Any) -> list[str]:
     """The curves and markers of ``fig`` that no legend explains: neither their label is a
     legend's entry, nor a legend shows their colour, line style and marker (one entry for
     all three, or entries for the colour, the style and the marker apart, as a legend of
-    faults by colour and references by style does).  Straight reference lines
+    faults by colour and references by style does; a curve without markers needs no
+    marker named, dots without a line no line style).  Straight reference lines
     (``axhline``, ``axvline``) are not counted.
 
     Returns
@@ -561,7 +574,11 @@ def unexplained_lines(fig: Any) -> list[str]:
             colour, style, marker = _style(line)
             if (colour, style, marker) in styles:
                 continue
-            if colour in colours and style in linestyles and marker in markers:
+            if (
+                colour in colours
+                and style in (*linestyles, *_NO_LINE)
+                and marker in (*markers, *_NO_MARKER)
+            ):
                 continue
             title = ax.get_title() or ax.get_title(loc="left")
             out.append(f"{line.get_label()} in '{title}'")
@@ -592,12 +609,15 @@ def _near(a: np.ndarray, b: np.ndarray, within: float = 40.0) -> np.ndarray:
     return (np.abs(a - b) <= within).all(axis=-1)
 
 
-def hidden_lines(fig: Any, minimum: float = 0.5, dpi: float = 200) -> list[str]:
+def hidden_lines(fig: Any, minimum: float = 0.4, dpi: float = 200) -> list[str]:
     """The curves a legend names that show less than ``minimum`` of themselves: of the
-    pixels a curve drawn alone paints in its own colour, fewer than that share keep it in
-    the figure, the curves, markers, bands and notes drawn over it taking the rest (a
-    measurement under the dashed prediction it matches, an onset line under a first alarm
-    0.6 s later).  A translucent curve keeps a pixel where it tints what is under it.
+    pixels a curve drawn alone paints in its own colour, fewer than that share look more
+    like it than like what is under it in the figure, the curves, markers, bands and notes
+    drawn over it taking the rest.  A curve under a dashed one of its width (a measurement
+    under the prediction it matches) keeps about 0.3, as does an onset line 2 pixels from a
+    wider first alarm drawn over it; a curve drawn three times as wide as the one lying on
+    it about 0.5 or more; a translucent curve keeps the pixels where it tints what is under
+    it.
 
     Rendered by Agg at ``dpi`` (that of the saved figures) as laid out for saving, the
     curve's panel (and its twins) only, without legends and axes (they neither move nor
@@ -608,7 +628,7 @@ def hidden_lines(fig: Any, minimum: float = 0.5, dpi: float = 200) -> list[str]:
     fig : matplotlib.figure.Figure
         The figure.
     minimum : float
-        The least share of its pixels a named curve keeps.
+        The least share of its pixels a named curve keeps (0.4: between the examples).
     dpi : float
         Resolution of the drawings.
 
@@ -649,7 +669,9 @@ def hidden_lines(fig: Any, minimum: float = 0.5, dpi: float = 200) -> list[str]:
             ink = 255.0 * alpha * np.array(to_rgb(line.get_color()))
             # its own pixels: where, drawn alone, it paints its colour over the empty axes
             own = _near(alone, ink + (1.0 - alpha) * empty) & ~_near(alone, empty, 0)
-            kept = own & _near(full, ink + (1.0 - alpha) * without)
+            # kept: the pixel looks more like the curve over what is under it than like that
+            expected = ink + (1.0 - alpha) * without
+            kept = own & (np.abs(full - expected).max(-1) < np.abs(full - without).max(-1))
             share = kept.sum() / max(own.sum(), 1)
             if share < minimum:
                 out.append(f"{line.get_label()} ({share:.2f})")
@@ -668,7 +690,8 @@ _UNIT = re.compile(r"\([^()]*\w[^()]*\)")
 
 def labels_without_unit(fig: Any, axis: str = "y") -> list[str]:
     """The panels of ``fig`` with data whose ``axis`` (``"x"`` or ``"y"``) label is empty or
-    names no unit in parentheses.
+    names no unit in parentheses; a panel without its own label has the figure's
+    (``supylabel``, ``supxlabel``), if any.
 
     Returns
     -------
@@ -682,6 +705,9 @@ def labels_without_unit(fig: Any, axis: str = "y") -> list[str]:
         if not (ax.lines or ax.collections or ax.images or ax.patches):
             continue
         label = ax.get_ylabel() if axis == "y" else ax.get_xlabel()
+        shared = getattr(fig, "_supylabel" if axis == "y" else "_supxlabel", None)
+        if not label and shared is not None:
+            label = shared.get_text()
         if not _UNIT.search(label):
             title = ax.get_title() or ax.get_title(loc="left")
             out.append(f"'{title}': '{label}'")

@@ -170,9 +170,10 @@ def test_every_curve_is_named_by_a_legend_or_its_style() -> None:
 
 
 def test_a_curve_under_the_dashed_one_it_matches_is_hidden() -> None:
-    """A curve under a dashed one of its width keeps a quarter of its pixels (the gaps);
+    """A curve under a dashed one of its width keeps a third of its pixels (the gaps);
     drawn wider under a thinner dashed line it keeps most of them, and the dashed line all
-    of its own; a translucent band over a curve leaves it its colour, tinted."""
+    of its own; a translucent band over the curves leaves them their colour, tinted, an
+    opaque one hides them."""
     fig, ax = plt.subplots(figsize=(4, 3))
     x = np.linspace(0, 5, 200)
     ax.plot(x, np.sin(x), color="C0", lw=0.8, label="measured")
@@ -183,10 +184,10 @@ def test_a_curve_under_the_dashed_one_it_matches_is_hidden() -> None:
     ax.lines[1].set_linewidth(0.7)
     assert hidden_lines(fig) == []
     assert [h.split()[0] for h in hidden_lines(fig, minimum=0.99)] == ["measured"]
-    ax.fill_between(x, -1, 1, color="C1", alpha=0.3, zorder=3)  # over both
+    band = ax.fill_between(x, -1, 1, color="C1", alpha=0.3, zorder=3)  # over both
+    assert hidden_lines(fig) == []  # they show through it, tinted
+    band.set_alpha(1.0)  # an opaque one hides both
     assert [h.split()[0] for h in hidden_lines(fig)] == ["measured", "predicted"]
-    ax.collections[0].set_zorder(1)  # under both
-    assert hidden_lines(fig) == []
     plt.close(fig)
 
 
