@@ -18,8 +18,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, response_unit, save_figure
 from probing.experiment.output.storage import read_table
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 
@@ -192,6 +193,7 @@ def _snapshot(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.D
     g0 = per[(per.channel == channels[0]) & (per.period >= settle)]
     worst = int(g0.loc[g0.error.idxmax(), "period"])
     last = int(per.period.max())
+    probed = SURFACES[scenario["probe"].get("surface", DEFAULT_SURFACE)].unit  # h is per this
     fig, axes = plt.subplots(
         len(channels),
         2,
@@ -207,6 +209,7 @@ def _snapshot(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.D
             ax.plot(g.lag_s, g.h_est, "--", color="C1", label="probing output")
             ax.set_title(f"{name}, period {period} ({g.time_mid_s.iloc[0]:.1f} s): {channel}")
             ax.set_xlabel("lag (s)")
+            ax.set_ylabel(f"pulse response ({response_unit(channel, probed)})")
     axes[0, 0].legend()
     return fig
 
