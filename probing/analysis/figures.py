@@ -13,7 +13,8 @@ heatmap's cell), :func:`unexplained_lines` (a curve no legend names), :func:`hid
 (a named curve mostly under others, from the rendered pixels) and
 :func:`labels_without_unit`; :func:`figure_problems` runs the cheap ones at once.  The
 drawing helpers keep them: :func:`place_clear_of_data` puts a note where it hides no data,
-:func:`legends_in_margins` reserves a band at the top of axes for their legends and
+:func:`legends_in_margins` reserves a band at the top of axes for their legends
+(:func:`lift_legends` for every legend that hides data) and
 :func:`text_colour_on` picks black or white text for a background.
 """
 
@@ -27,7 +28,10 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_agg import RendererAgg
+from matplotlib.collections import QuadMesh
 from matplotlib.colors import to_rgb, to_rgba
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Bbox
 
@@ -48,6 +52,7 @@ __all__ = [
     "labels_without_unit",
     "legends_in_margins",
     "legends_over_data",
+    "lift_legends",
     "low_contrast_texts",
     "overlapping_texts",
     "place_clear_of_data",
@@ -322,6 +327,16 @@ def legends_in_margins(
         Layouts to settle the bands (a new range can change the tick labels and the layout).
     """
     tops = {a: a.get_ylim() for ax, _, twins in legends for a in (ax, *twins)}
+    spans = {  # the axvlines: x fixed, y over the axes (0 to 1), drawn on the x-axis blend
+        a: [
+            line
+            for line in a.get_lines()
+            if line.get_transform() == a.get_xaxis_transform()
+            and list(line.get_ydata()) == [0, 1]
+            and len(set(line.get_xdata())) == 1
+        ]
+        for a in tops
+    }
     for _ in range(tries):
         renderer = _renderer(legends[0][0].figure) if legends else None
         moved = False
@@ -338,11 +353,37 @@ def legends_in_margins(
                 low, high = scale.transform(np.array(tops[a], float))
                 top = low + (high - low) / (1.0 - share)
                 a.set_ylim(tops[a][0], float(scale.inverted().transform(np.array([top]))[0]))
-                for line in a.get_lines():
-                    if line.get_transform() == a.get_xaxis_transform():  # an axvline
-                        line.set_ydata([0.0, 1.0 - share])
+                for line in spans[a]:
+                    line.set_ydata([0.0, 1.0 - share])
         if not moved:
             return
+
+
+def lift_legends(fig: Any) -> None:
+    """Move every legend of ``fig``'s axes that hides data to the top of its axes, in a
+    band above the curves (:func:`legends_in_margins`; axes drawn over it, twins, count).
+    Legends that hide nothing stay where they are."""
+    renderer = _renderer(fig)
+    moved = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is None:
+            continue
+        twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
+        if any(covers_data(a, legend.get_window_extent(renderer)) for a in (ax, *twins)):
+            texts = legend.get_texts()
+            lifted = ax.legend(  # the same entries, in two columns: a low band
+                handles=legend.legend_handles,
+                labels=[t.get_text() for t in texts],
+                loc="upper center",
+                ncols=2 if len(texts) > 2 else 1,
+                frameon=legend.get_frame_on(),
+                fontsize=texts[0].get_fontsize() if texts else None,
+                title=legend.get_title().get_text() or None,
+            )
+            moved.append((ax, lifted, twins))
+    if moved:
+        legends_in_margins(moved)
 
 
 #: WCAG 2's least contrast ratio for text (level AA): text against what is under it.
@@ -387,36 +428,59 @@ def _over(top: Any, bottom: Any) -> tuple[float, float, float]:
     return tuple(a * np.array([r, g, b]) + (1.0 - a) * base)  # type: ignore[return-value]
 
 
-def _background(text: Any, renderer: Any) -> tuple[float, float, float]:
-    """The colour under the centre of ``text``: the cell of an image it lies on (a
-    heatmap), else its axes' face, else the figure's."""
-    fig = text.get_figure(root=True)
-    colour = _over(fig.get_facecolor(), "white")
-    ax = text.axes
-    if ax is None:
-        return colour
-    colour = _over(ax.get_facecolor(), colour)
-    if text not in ax.texts:  # a title, a label, a legend's entry: off the data
-        return colour
-    box = text.get_window_extent(renderer)
-    x, y = ax.transData.inverted().transform(((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2))
-    for image in reversed(ax.get_images()):
-        left, right, bottom, top = image.get_extent()
-        values = image.get_array()
+def _cell_colour(artist: Any, x: float, y: float) -> tuple[float, ...] | None:
+    """The RGBA of the cell of an image (``imshow``) or a rectilinear mesh (``pcolormesh``)
+    at data coordinates (x, y), or None outside it or where it is blank."""
+    values = np.ma.asarray(artist.get_array())
+    if isinstance(artist, QuadMesh):
+        coords = artist.get_coordinates()
+        xs, ys = coords[0, :, 0], coords[:, 0, 1]
+        values = values.reshape(len(ys) - 1, len(xs) - 1)
+        col = int(np.searchsorted(np.sort(xs), x)) - 1
+        row = int(np.searchsorted(np.sort(ys), y)) - 1
+        col = col if xs[0] < xs[-1] else len(xs) - 2 - col
+        row = row if ys[0] < ys[-1] else len(ys) - 2 - row
+    else:
+        left, right, bottom, top = artist.get_extent()
         rows, cols = values.shape[:2]
         col = int(np.floor((x - left) / (right - left) * cols))
         row = int(np.floor((top - y) / (top - bottom) * rows))
-        if image.origin == "lower":
+        if artist.origin == "lower":
             row = rows - 1 - row
-        if 0 <= row < rows and 0 <= col < cols:
-            return _over(image.to_rgba(values[row, col], alpha=image.get_alpha()), colour)
+    if not (0 <= row < values.shape[0] and 0 <= col < values.shape[1]):
+        return None
+    if np.ma.is_masked(values[row, col]):
+        return None
+    return artist.to_rgba(values[row, col], alpha=artist.get_alpha())
+
+
+def _background(text: Any, renderer: Any) -> tuple[float, float, float]:
+    """The colour under the centre of ``text``: its own box if it has one, else the cell
+    of an image or a mesh it lies on (a heatmap), else its axes' face, else the figure's."""
+    fig = text.get_figure(root=True)
+    colour = _over(fig.get_facecolor(), "white")
+    ax = text.axes
+    if ax is not None:
+        colour = _over(ax.get_facecolor(), colour)
+    if ax is not None and text in ax.texts:  # a note on the data (not a title, a label)
+        box = text.get_window_extent(renderer)
+        x, y = ax.transData.inverted().transform(((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2))
+        grids = [*ax.get_images(), *(c for c in ax.collections if isinstance(c, QuadMesh))]
+        for grid in sorted(grids, key=lambda a: a.get_zorder()):
+            cell = _cell_colour(grid, x, y)
+            if cell is not None:
+                colour = _over(cell, colour)
+    patch = text.get_bbox_patch()
+    if patch is not None and patch.get_visible():
+        colour = _over(patch.get_facecolor(), colour)
     return colour
 
 
 def low_contrast_texts(fig: Any, minimum: float = MIN_CONTRAST) -> list[str]:
     """The readable texts of ``fig`` (:func:`clipped_texts`' and the notes in its axes)
     whose colour has less than ``minimum`` contrast ratio (WCAG 2) with what is under them:
-    a heatmap's cell, else the axes' or the figure's face.
+    their own box, else a heatmap's cell (``imshow``, ``pcolormesh``), else the axes' or
+    the figure's face.
 
     Parameters
     ----------
@@ -533,10 +597,11 @@ def _style(artist: Any) -> tuple[tuple[float, ...], str, str]:
 
 
 def _is_reference_line(line: Any) -> bool:
-    """An ``axhline`` or ``axvline`` (two points on one x or one y): a threshold, an onset,
-    a goal, which the axis labels and the caption explain."""
-    x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
-    return len(x) == 2 and (x[0] == x[1] or y[0] == y[1])
+    """An ``axhline`` or ``axvline`` (drawn across the axes, on an axis's blend of data and
+    axes coordinates): a threshold, an onset, a goal, which the axis labels and the caption
+    explain."""
+    ax = line.axes
+    return line.get_transform() in (ax.get_xaxis_transform(), ax.get_yaxis_transform())
 
 
 _NO_LINE = ("None", "none", "", " ")  # a marker-only curve: no line style to name
@@ -549,7 +614,8 @@ def unexplained_lines(fig: Any) -> list[str]:
     all three, or entries for the colour, the style and the marker apart, as a legend of
     faults by colour and references by style does; a curve without markers needs no
     marker named, dots without a line no line style).  Straight reference lines
-    (``axhline``, ``axvline``) are not counted.
+    (``axhline``, ``axvline``) are not counted, nor the one curve of a panel without a
+    legend (its axis label names it); a panel with a legend names every curve.
 
     Returns
     -------
@@ -558,24 +624,36 @@ def unexplained_lines(fig: Any) -> list[str]:
     """
     legends = _legends(fig)
     named = {t.get_text() for leg in legends for t in leg.get_texts()}
-    handles = [h for leg in legends for h in leg.legend_handles if hasattr(h, "get_linestyle")]
+    handles = [h for leg in legends for h in leg.legend_handles if isinstance(h, Line2D)]
     styles = {_style(h) for h in handles}
+    patches = {  # a bar's or a band's colour names the curves of that colour
+        tuple(round(c, 3) for c in to_rgb(h.get_facecolor()))
+        for leg in legends
+        for h in leg.legend_handles
+        if isinstance(h, Patch)
+    }
     colours, linestyles, markers = (
         (set(x) for x in zip(*styles, strict=True)) if styles else ((), (), ())
     )
     out = []
     for ax in fig.axes:
-        for line in ax.get_lines():
-            xy = np.asarray(line.get_xydata(), float)
-            if not line.get_visible() or not np.isfinite(xy).all(axis=1).any():
-                continue
-            if _is_reference_line(line) or line.get_label() in named:
+        curves = [
+            line
+            for line in ax.get_lines()
+            if line.get_visible()
+            and np.isfinite(np.asarray(line.get_xydata(), float)).all(axis=1).any()
+            and not _is_reference_line(line)
+        ]
+        if len(curves) == 1 and ax.get_legend() is None:
+            continue  # a panel's one curve, without a legend: its axis label names it
+        for line in curves:
+            if line.get_label() in named:
                 continue
             colour, style, marker = _style(line)
             if (colour, style, marker) in styles:
                 continue
             if (
-                colour in colours
+                colour in {*colours, *patches}
                 and style in (*linestyles, *_NO_LINE)
                 and marker in (*markers, *_NO_MARKER)
             ):

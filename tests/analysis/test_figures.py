@@ -19,6 +19,7 @@ from probing.analysis.figures import (
     labels_without_unit,
     legends_in_margins,
     legends_over_data,
+    lift_legends,
     low_contrast_texts,
     overlapping_texts,
     place_clear_of_data,
@@ -226,4 +227,47 @@ def test_a_legend_in_its_margin_hides_no_curve(scale: str) -> None:
     assert legends_over_data(fig) == []
     renderer = _renderer(fig)
     assert onset.get_window_extent(renderer).y1 < legend.get_window_extent(renderer).y0
+    plt.close(fig)
+
+
+def test_a_panels_one_curve_needs_no_legend_unless_the_panel_has_one() -> None:
+    """A panel with one curve and no legend is named by its axis label; give it a legend
+    that names only its threshold and the curve is unexplained (the oracle study's
+    statistic panels named the threshold and the onset, not the statistic)."""
+    fig, ax = plt.subplots()
+    ax.plot([0, 1, 2], [1, 3, 2])
+    ax.set_ylabel("statistic")
+    assert unexplained_lines(fig) == []
+    ax.axhline(2.5, color="C3", label="threshold")
+    ax.legend()
+    assert unexplained_lines(fig) == ["_child0 in ''"]
+    plt.close(fig)
+
+
+def test_lift_legends_moves_only_a_legend_that_hides_data() -> None:
+    fig, (a, b) = plt.subplots(1, 2, figsize=(6, 3), layout="constrained")
+    x = np.linspace(0, 1, 50)
+    a.plot(x, 1 - x, label="falling")
+    a.plot(x, x, label="rising")
+    a.legend(loc="lower right")  # over the rising line
+    b.plot(x, 0 * x, label="low")
+    b.set_ylim(-0.1, 1)
+    b.legend(loc="upper right")  # over nothing
+    lift_legends(fig)
+    assert legends_over_data(fig) == []
+    assert a.get_legend()._loc == 9 and b.get_legend()._loc == 1  # upper center; as it was
+    assert [t.get_text() for t in a.get_legend().get_texts()] == ["falling", "rising"]
+    plt.close(fig)
+
+
+def test_a_number_on_a_mesh_cell_or_in_its_own_box_is_checked_against_that() -> None:
+    """pcolormesh cells count as an image's do; a text with a box (a label on a hatched
+    cell) is read against its box."""
+    fig, ax = plt.subplots(figsize=(3, 2))
+    ax.pcolormesh(np.array([[0.0, 1.0]]), cmap="Greys", vmin=0, vmax=1)
+    ax.text(0.5, 0.5, "on white", ha="center", va="center", color="white")
+    ax.text(1.5, 0.5, "on black", ha="center", va="center", color="white")
+    assert [t.split(" (")[0] for t in low_contrast_texts(fig)] == ["on white"]
+    ax.texts[0].set_bbox({"fc": "black", "ec": "none"})
+    assert low_contrast_texts(fig) == []
     plt.close(fig)
