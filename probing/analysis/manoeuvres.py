@@ -17,8 +17,9 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.lines import Line2D
 
-from probing.analysis.figures import RC, response_unit, save_figure
+from probing.analysis.figures import RC, legends_in_margins, response_unit, save_figure
 from probing.experiment.output.storage import read_table
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -141,6 +142,17 @@ def _periods(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.Da
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), title="run")
     for ax in axes[-1]:
         ax.set_xlabel("time after trim (s)")
+    styles = []  # what the line styles are, in a band above the curves of two panels
+    for ax, entries in (
+        (axes[0, 0], (("reference", ":", "None"), ("twin reached", "-", "None"))),
+        (axes[1, 0], (("single pulse at mid-period", "-", "None"), ("probing output", "", "o"))),
+    ):
+        proxies = [
+            Line2D([], [], color="0.3", ls=ls, marker=m, ms=2, label=label)
+            for label, ls, m in entries
+        ]
+        styles.append((ax, ax.legend(handles=proxies, loc="upper center", ncols=2, fontsize=6), []))
+    legends_in_margins(styles)
     return fig
 
 
