@@ -65,12 +65,14 @@ def _panel_figure(study: Study, key: str, bounds: bool = False) -> Any:
             h0, h = ac(base.mean(CHANNEL)), ac(run.mean(CHANNEL))
             predicted = ac(predicted_estimate(run, base, CHANNEL))
             g, shape = gain_and_shape(h, h0)
-            ax.plot(  # thin, over the measured estimate where their tails meet
+            ax.plot(  # thin and dotted, over the others: where all three coincide (a rate
+                # limit the signal does not reach) the theory's dashes show between its dots
                 lag[shown],
                 h0[shown],
-                color="0.6",
+                color="0.45",
+                ls=(0, (1.0, 1.5)),
                 lw=LW_OVER,
-                zorder=2.2,
+                zorder=2.6,
                 label="linear (same signal)",
             )
             ax.plot(  # wide: the theory's dashes lie on it (the PRBS's exactly)

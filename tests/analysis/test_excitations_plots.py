@@ -30,7 +30,8 @@ def study(tmp_path_factory) -> Study:
             continue
         scn = r["scenario"]
         lag = np.arange(scn.bits_per_period) * scn.bit_duration_s
-        shape = np.exp(-lag / 0.3) * np.sin(lag / 0.08) * (1.0 if r["role"] == "baseline" else 0.67)
+        scale = 1.0 if r["role"] in ("baseline", "f_rate_limit") else 0.67  # (f): untouched
+        shape = np.exp(-lag / 0.3) * np.sin(lag / 0.08) * scale
         h = {c: shape + 1e-3 * rng.standard_normal((4, lag.size)) for c in CHANNELS}
         runs[(r["aircraft"], r["signal"], r["role"], r["seed"])] = Run(scn, out, h, h)
     return Study(out, {}, runs)
@@ -55,4 +56,14 @@ def test_the_dead_band_and_relay_figure_names_every_curve(study: Study) -> None:
     with plt.rc_context(excitations_plots.RC):
         fig = excitations_plots._deadband_relay(study)
     assert figure_problems(fig) == []
+    plt.close(fig)
+
+
+def test_three_curves_that_coincide_all_show(study: Study) -> None:
+    """A rate limit the signals do not reach: the linear estimate, the measured one and the
+    theory are one curve; the linear one is dotted over the others (it was solid under the
+    theory's dashes, which hid two thirds of it), each keeps its pixels."""
+    with plt.rc_context(excitations_plots.RC):
+        fig = excitations_plots._panel_figure(study, "f_rate_limit")
+    assert hidden_lines(fig) == []
     plt.close(fig)
