@@ -252,9 +252,9 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
         bx.set_xlabel("time after the trim (s)")
         bx.set_ylabel("statistic: -log10 p of no change")
         found = (
-            f"first alarm {f.delay_s:.1f} s after the onset"
+            f"first alarm {f.delay_s:.1f} s after onset"
             if np.isfinite(f.delay_s)
-            else "no alarm after the onset"
+            else "no alarm after onset"
         )
         bx.set_title(f"seed {f.seed}, {drift} reference: {found}")
         right = bx.legend(frameon=False, loc="upper center", ncol=3)

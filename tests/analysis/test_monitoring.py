@@ -749,7 +749,7 @@ def test_the_fault_figure_says_when_no_alarm_came_and_hides_no_curve(crowded):
     from probing.analysis.monitoring_plots import fault_figure
 
     fig = fault_figure(crowded, "deadband")
-    assert fig.axes[1].get_title() == "seed 1, gust reference: no alarm after the onset"
+    assert fig.axes[1].get_title() == "seed 1, gust reference: no alarm after onset"
     assert figure_problems(fig) == []
     assert fig.axes[0].get_ylabel() == "h_est of theta_rad (rad per deg)"
     plt.close(fig)
