@@ -17,7 +17,7 @@ from probing.analysis.figures import (
     save_figure,
     text_colour_on,
 )
-from probing.analysis.monitoring import DRIFT_LABELS, FAULTS, roc
+from probing.analysis.monitoring import DRIFT_LABELS, FAULTS, Fault, roc
 from probing.analysis.probe_only import probe_only_figure
 from probing.experiment.output.storage import read_table
 from probing.sim.surfaces import SURFACES
@@ -279,6 +279,27 @@ def _delay_median(g: pd.DataFrame) -> float:
     return float(np.median(g.delay_periods.fillna(math.inf)))
 
 
+def _amplitude_lines(
+    ax: plt.Axes, bx: plt.Axes, g: pd.DataFrame, spec: Fault, drift: str, level: str
+) -> None:
+    """One reference's and turbulence level's lines of the amplitude figure: detection
+    within the goal (``ax``, a star where it first reaches the goal) and the median delay
+    (``bx``), against the amplitude."""
+    within = (g.delay_periods <= spec.goal_periods).astype(float)
+    p = within.groupby(g.amplitude_deg).mean()
+    med = g.groupby("amplitude_deg").apply(_delay_median, include_groups=False)
+    style = dict(color=TURBULENCE_COLOR[level], ms=3)
+    label = f"{drift}, {level or 'base'}"
+    ax.plot(p.index, p.to_numpy(), DRIFT_STYLE[drift], marker="o", label=label, **style)
+    shown = np.minimum(med.to_numpy(), 3 * spec.goal_periods)
+    bx.plot(med.index, shown, DRIFT_STYLE[drift], marker="o", **style)
+    reached = p[p >= spec.goal_probability]
+    if len(reached):
+        ax.plot(
+            reached.index[0], reached.iloc[0], "*", ms=10, color=style["color"], mec="k", mew=0.4
+        )
+
+
 def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
     """The headline: per fault flown over an amplitude axis, the probability of detection
     within the goal's periods (left) and the median detection delay (right) against the
@@ -306,25 +327,8 @@ def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
                         & (flights.drift == drift)
                         & (flights.turbulence == level)
                     ]
-                    if not len(g):
-                        continue
-                    by = g.groupby("amplitude_deg")
-                    within = (g.delay_periods <= spec.goal_periods).astype(float)
-                    p = within.groupby(g.amplitude_deg).mean()
-                    med = by.apply(_delay_median, include_groups=False)
-                    style = dict(color=TURBULENCE_COLOR[level], ms=3)
-                    label = f"{drift}, {level or 'base'}"
-                    ax.plot(
-                        p.index, p.to_numpy(), DRIFT_STYLE[drift], marker="o", label=label, **style
-                    )
-                    shown = np.minimum(med.to_numpy(), 3 * spec.goal_periods)
-                    bx.plot(med.index, shown, DRIFT_STYLE[drift], marker="o", **style)
-                    reached = p[p >= spec.goal_probability]
-                    if len(reached):
-                        a = reached.index[0]
-                        ax.plot(
-                            a, reached.iloc[0], "*", ms=10, color=style["color"], mec="k", mew=0.4
-                        )
+                    if len(g):
+                        _amplitude_lines(ax, bx, g, spec, drift, level)
             ax.axhline(spec.goal_probability, color="0.5", lw=0.6, ls=":")
             bx.axhline(spec.goal_periods, color="0.5", lw=0.6, ls=":")
             ax.set_ylim(-0.02, 1.02)

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 
 from probing.analysis import analyze_plots
 from probing.analysis.analyze_plots import ZOOM_WHEN, auto_max_lag_s, draw_bounds
-from probing.analysis.figures import figure_problems, legends_over_data
+from probing.analysis.figure_checks import figure_problems, legends_over_data
 
 
 def _capture(monkeypatch: pytest.MonkeyPatch) -> dict:

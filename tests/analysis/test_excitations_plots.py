@@ -12,7 +12,7 @@ import pytest
 
 from probing.analysis import excitations_plots
 from probing.analysis.excitations import CHANNELS, Run, Study
-from probing.analysis.figures import figure_problems, hidden_lines, labels_without_unit
+from probing.analysis.figure_checks import figure_problems, hidden_lines, labels_without_unit
 from probing.experiment.studies.excitations import planned
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,7 +15,7 @@ import pytest
 from matplotlib.collections import PolyCollection
 
 from probing.analysis import fig4, fig4_plots
-from probing.analysis.figures import hidden_lines
+from probing.analysis.figure_checks import hidden_lines
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import compensate
 from probing.core.recorded import tap_bounds

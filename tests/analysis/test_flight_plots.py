@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from probing.analysis.figures import figure_problems, hidden_lines
+from probing.analysis.figure_checks import figure_problems, hidden_lines
 from probing.analysis.flight_plots import monitor_figure
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import gtm_damage
-from probing.analysis.figures import figure_problems
+from probing.analysis.figure_checks import figure_problems
 
 ONSET_S = 10.0
 

@@ -71,7 +71,7 @@ def test_the_phugoid_reference_is_sqrt2_g_over_v() -> None:
 def test_axes_labels_carry_units() -> None:
     """Every frequency in rad/s, the damping ratios dimensionless; and the figure reads (the
     phugoid panel's legend named its approximation, not the JSBSim curve)."""
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
 
     fig = gtm_modes.figure(_points())
     assert figure_problems(fig) == []

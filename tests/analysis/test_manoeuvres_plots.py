@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import manoeuvres
-from probing.analysis.figures import (
+from probing.analysis.figure_checks import (
     clipped_texts,
     figure_problems,
     labels_without_unit,

@@ -717,7 +717,7 @@ def test_the_study_figures_hide_no_curve_and_read_on_every_cell(crowded, name):
     is beside its panels, each count in the colour that reads on its cell, every curve named
     by a legend (faults by colour, references by line style, the dot of c = 1)."""
     from probing.analysis import monitoring_plots
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
 
     fig = getattr(monitoring_plots, name)(crowded)
     assert figure_problems(fig) == []
@@ -727,7 +727,7 @@ def test_the_study_figures_hide_no_curve_and_read_on_every_cell(crowded, name):
 def test_the_panels_name_the_references_the_flights_have(study):
     """Flights stored when the oracle was called "reference": the panels say oracle (the
     oracle study's said "drift = reference" and "nominal twin")."""
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
     from probing.analysis.monitoring_plots import roc_figure
 
     for draw in (roc_figure, verdict_figure):
@@ -745,7 +745,7 @@ def test_the_fault_figure_says_when_no_alarm_came_and_hides_no_curve(crowded):
     """The dead band's first flight under the gust reference was never detected: the title
     says so (it said "first alarm nan s after the onset") and names the reference; the
     legends lie above the curves, every curve named, the response's unit on its axis."""
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
     from probing.analysis.monitoring_plots import fault_figure
 
     fig = fault_figure(crowded, "deadband")
@@ -759,7 +759,7 @@ def test_the_amplitude_figure_legend_hides_no_curve():
     """Nine lines (three references, three turbulence levels) rising from 0 to 1 across the
     amplitudes, their delays falling from the top: the legend, which lay in the first
     panel's upper left over the lines, is under the panels, with the goal's star."""
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
     from probing.analysis.monitoring_plots import amplitude_figure
 
     rows = []

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from probing.analysis.figures import figure_problems
+from probing.analysis.figure_checks import figure_problems
 from probing.analysis.probe_only import probe_only_figure, probe_only_markdown, probe_only_table
 
 PERIOD_S = 2.0  # the dead band's goal: 5 periods, 10 s; the damage case's: 3 periods, 6 s

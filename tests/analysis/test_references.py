@@ -101,7 +101,7 @@ def test_the_figure_is_drawn(study, tmp_path, monkeypatch):
     """The figure is saved, and reads: its legend (in the upper left, over the dots) lifted
     above them, each flight's dot named (figure_problems)."""
     from probing.analysis import references
-    from probing.analysis.figures import figure_problems
+    from probing.analysis.figure_checks import figure_problems
 
     seen = []
     real = references.save_figure

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import simultaneous
-from probing.analysis.figures import figure_problems
+from probing.analysis.figure_checks import figure_problems
 
 
 def _table() -> pd.DataFrame:

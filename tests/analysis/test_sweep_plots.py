@@ -18,7 +18,7 @@ import pytest
 from conftest import base_scenario
 
 from probing.analysis import sweep_plots
-from probing.analysis.figures import figure_problems
+from probing.analysis.figure_checks import figure_problems
 from probing.analysis.sweep_plots import (
     classify,
     load_sweep_data,
