@@ -15,9 +15,17 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.lines import Line2D
 
 from probing.analysis.excitations import Study, ac, predicted_estimate
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import (
+    LW_DASHED_OVER,
+    LW_OVER,
+    LW_UNDER,
+    RC,
+    response_unit,
+    save_figure,
+)
 from probing.core.metrics import gain_and_shape, harmonic_ratio
 from probing.core.recorded import tap_bounds
 from probing.experiment.output.layouts import BOUNDS_LEVEL
@@ -57,17 +65,30 @@ def _panel_figure(study: Study, key: str, bounds: bool = False) -> Any:
             h0, h = ac(base.mean(CHANNEL)), ac(run.mean(CHANNEL))
             predicted = ac(predicted_estimate(run, base, CHANNEL))
             g, shape = gain_and_shape(h, h0)
-            ax.plot(lag[shown], h0[shown], color="0.6", lw=0.8, label="linear (same signal)")
-            ax.plot(lag[shown], h[shown], color=COLOURS.get(signal, "k"), lw=1.0, label="measured")
-            ax.plot(lag[shown], predicted[shown], "k--", lw=0.7, label="theory")
+            ax.plot(  # thin and dotted, over the others: where all three coincide (a rate
+                # limit the signal does not reach) the theory's dashes show between its dots
+                lag[shown],
+                h0[shown],
+                color="0.45",
+                ls=(0, (1.0, 1.5)),
+                lw=LW_OVER,
+                zorder=2.6,
+                label="linear (same signal)",
+            )
+            ax.plot(  # wide: the theory's dashes lie on it (the PRBS's exactly)
+                lag[shown], h[shown], color=COLOURS.get(signal, "k"), lw=LW_UNDER, label="measured"
+            )
+            ax.plot(
+                lag[shown], predicted[shown], "k--", lw=LW_DASHED_OVER, zorder=2.5, label="theory"
+            )
             if bounds:
                 _band(ax, base.h[CHANNEL], shown, lag, "0.6")
                 _band(ax, run.h[CHANNEL], shown, lag, COLOURS.get(signal, "k"))
             ax.set_title(f"{craft}, {signal}\ngain {g:.2f}, shape error {shape:.3f}", loc="left")
-            if j == 0:
-                ax.set_ylabel("q pulse response, rad/s per deg")
             if i == len(aircraft) - 1:
-                ax.set_xlabel("lag, s")
+                ax.set_xlabel("lag (s)")
+    # one label for the rows: each row's own was taller than the row and ran into the next
+    fig.supylabel(f"q pulse response ({response_unit(CHANNEL)})", fontsize=8)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize=7)
     label = study.run(aircraft[0], signals[0], key).scenario
@@ -117,10 +138,14 @@ def _deadband_relay(study: Study) -> Any:
         axes[i, 1].set_xscale("log")
         axes[i, 1].set_ylabel("|Q_k / P_k|")
         axes[i, 0].set_ylabel("deflection / a")
-    axes[1, 0].set_xlabel("time, s")
-    axes[1, 1].set_xlabel("frequency, Hz")
-    handles, labels = axes[0, 1].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=4, fontsize=7)
+    axes[1, 0].set_xlabel("time (s)")
+    axes[1, 1].set_xlabel("frequency (Hz)")
+    handles = [  # a signal's colour: its steps (left) and its harmonics' gains (right)
+        Line2D([], [], color=COLOURS.get(s, "k"), marker=".", ms=3, label=s) for s in study.signals
+    ]
+    probe = Line2D([], [], color="0.5", lw=0.5, alpha=0.5, label="the probe itself (faint)")
+    handles += [probe, *axes[0, 1].get_legend_handles_labels()[0][len(study.signals) :]]
+    fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=7)
     fig.suptitle(
         "A binary probe keeps its shape through a dead band and a relay; "
         "a multisine and a chirp do not"

@@ -21,7 +21,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from probing.analysis.fig4 import Fig4Data, PanelResult
-from probing.analysis.figures import RC, place_clear_of_data, save_figure
+from probing.analysis.figures import (
+    LW_DASHED_OVER,
+    LW_OVER,
+    LW_UNDER,
+    RC,
+    place_clear_of_data,
+    save_figure,
+)
 from probing.core.forked import can_fork, forked_map
 from probing.core.nonlinearities import RateLimit
 from probing.core.recorded import tap_bounds
@@ -101,7 +108,7 @@ def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -
             p.predicted_gain * z0 * MRAD,
             color=C_PRED,
             ls="--",
-            lw=0.8,
+            lw=LW_DASHED_OVER,
             zorder=Z_PRED,
             label="(a~/a) x no nonlinearity",
         )
@@ -121,7 +128,7 @@ def _plot_prediction(ax: Any, p: PanelResult, z0: np.ndarray, lag: np.ndarray) -
             _predicted_z(p, z0) * MRAD,
             color=C_PRED,
             ls="--",
-            lw=0.8,
+            lw=LW_DASHED_OVER,
             zorder=Z_PRED,
             label="predicted, eq. (11)",
         )
@@ -133,20 +140,30 @@ def _draw_panel(
 ) -> Any:
     """One nonlinearity's panel (``bounds``: with its estimates' confidence bands); returns
     the note on the saturation offset or None."""
-    ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+    ax.plot(lag, z0 * MRAD, color=C_BASE, lw=LW_UNDER, label="no nonlinearity")
     _band(ax, lag, data.baseline.z, C_BASE, bounds)
     note = _plot_prediction(ax, p, z0, lag)
-    ax.plot(lag, p.run.z.mean(axis=0) * MRAD, color=C_NL, lw=0.8, label="with nonlinearity")
-    _band(ax, lag, p.run.z, C_NL, bounds)
     if p.key == "b_saturation" and data.remedy is not None:
         _band(ax, lag, data.remedy.z, C_FIX, bounds)
-        ax.plot(
+        ax.plot(  # under the dashed (a~/a) z0 it recovers: wide, and under the red curve
             lag,
             data.remedy.z.mean(axis=0) * MRAD,
             color=C_FIX,
-            lw=0.8,
+            lw=LW_UNDER,
             label="offset twin subtracted",
         )
+    # eq. (11)'s dashed line lies on the red curve it predicts: that one is drawn wide
+    predicted = p.key != "b_saturation" and not isinstance(
+        p.run.scenario.build_nonlinearity(), RateLimit
+    )
+    ax.plot(
+        lag,
+        p.run.z.mean(axis=0) * MRAD,
+        color=C_NL,
+        lw=LW_UNDER if predicted else LW_OVER,
+        label="with nonlinearity",
+    )
+    _band(ax, lag, p.run.z, C_NL, bounds)
     ax.set_title(_title(p, _measured_gain(p, data)), loc="left")
     ax.set_ylabel("z of pitch θ (mrad)")
     if p.key == "b_saturation":
@@ -191,7 +208,10 @@ def _info_text(data: Fig4Data) -> str:
         + "(b) the offset b~ is a step input: its transient\n"
         "leaks into z.  Blue: the same run minus a twin\n"
         "that receives only the constant b~ (no probe):\n"
-        "the scaled pulse response (a~/a) z0 is recovered."
+        "the scaled pulse response (a~/a) z0 is recovered.\n\n"
+        "A dashed prediction is drawn thin over the wide\n"
+        "curve it predicts: where the two coincide, the\n"
+        "curve shows on both sides of the dashes."
     )
 
 
@@ -233,9 +253,9 @@ def _compensated(data: Fig4Data, bounds: bool = False) -> Any:
         rows, 2, figsize=(7.0, 2.0 * rows + 0.4), sharex=True, constrained_layout=True
     )
     for ax, p in zip(axes.flat, items, strict=False):
-        ax.plot(lag, z0 * MRAD, color=C_BASE, lw=1.6, label="no nonlinearity")
+        ax.plot(lag, z0 * MRAD, color=C_BASE, lw=LW_UNDER, label="no nonlinearity")
         _band(ax, lag, data.baseline.z, C_BASE, bounds)
-        ax.plot(lag, p.compensated_z * MRAD, color=C_FIX, lw=0.8, label="compensated")
+        ax.plot(lag, p.compensated_z * MRAD, color=C_FIX, lw=LW_OVER, label="compensated")
         if p.compensated_periods is not None:
             _band(ax, lag, p.compensated_periods, C_FIX, bounds)
         if p.letter == "b'":

@@ -1,11 +1,15 @@
 """What every figure of the project shares: the style, the one way figures are saved and
-the checks that keep them readable.
+the drawing rules that keep them readable.
 
 Figures are saved without a creation date, so the same results give byte-identical files
 (the committed figures stay unchanged when a documented command redraws them).
-:func:`covers_data`, :func:`legends_over_data` and :func:`clipped_texts` say, from the
-laid-out figure, whether a box (a legend, a note) hides plotted data and whether a text
-runs off the figure; :func:`place_clear_of_data` puts a note where it hides none.
+:func:`covers_data` says whether a box (a legend, a note) hides plotted data;
+:func:`place_clear_of_data` puts a note where it hides none, :func:`legends_in_margins`
+reserves a band at the top of axes for their legends (:func:`lift_legends` for every legend
+that hides data), :func:`text_colour_on` picks black or white text for a background (by
+WCAG's :func:`contrast_ratio`), and :data:`LW_UNDER` over :data:`LW_OVER` keeps two curves
+that coincide both visible.  :mod:`probing.analysis.figure_checks` holds the checks every
+figure's tests run.
 """
 
 from __future__ import annotations
@@ -16,18 +20,33 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.colors import to_rgb
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Bbox
 
+from probing.sim.channels import unit_of
+
 __all__ = [
+    "LW_DASHED_OVER",
+    "LW_OVER",
+    "LW_UNDER",
     "RC",
-    "clipped_texts",
+    "contrast_ratio",
     "covers_data",
     "detached_figure",
-    "legends_over_data",
+    "layout_renderer",
+    "legends_in_margins",
+    "lift_legends",
     "place_clear_of_data",
+    "response_unit",
     "save_figure",
+    "text_colour_on",
 ]
+
+#: Line widths (pt) that keep two curves visible where one lies exactly on the other (a
+#: measurement and the prediction it matches, a compensated curve and the baseline): the
+#: lower curve wide, the one on it thin, a dashed prediction thinner still (hidden_lines).
+LW_UNDER, LW_OVER, LW_DASHED_OVER = 2.4, 0.8, 0.7
 
 #: Style of the project's figures (matplotlib rc parameters).
 RC = {
@@ -55,6 +74,18 @@ def detached_figure(**kwargs: Any) -> Any:
     plt.close(fig)  # which leaves the figure a bare canvas
     canvas(fig)  # drawn by the backend's again (a renderer, the notebook's formatter)
     return fig
+
+
+def response_unit(channel: str, per: str = "deg") -> str:
+    """The unit of a pulse response of ``channel`` per ``per`` of probe, for an axis label:
+    ``"rad/s per deg"`` for ``q_rad_s``.
+
+    Examples
+    --------
+    >>> response_unit("q_rad_s"), response_unit("nz_g", "norm")
+    ('rad/s per deg', 'g per norm')
+    """
+    return f"{unit_of(channel)} per {per}"
 
 
 def save_figure(
@@ -90,7 +121,7 @@ def save_figure(
     return paths
 
 
-def _renderer(fig: Any) -> Any:
+def layout_renderer(fig: Any) -> Any:
     """The renderer of ``fig`` once laid out as it will be saved (constrained layout run)."""
     fig.draw_without_rendering()
     return fig.canvas.get_renderer()
@@ -142,76 +173,6 @@ def covers_data(ax: Any, box: Bbox) -> bool:
     return False
 
 
-def _labels(fig: Any) -> list[Any]:
-    """The texts of ``fig`` a reader reads, tick labels aside: suptitle, figure texts and
-    legends, and of every axes drawn its titles, notes and legend, with its axis labels if
-    its axes are on."""
-    texts = [*fig.texts]
-    if fig._suptitle is not None:
-        texts.append(fig._suptitle)
-    for legend in fig.legends:
-        texts += [legend.get_title(), *legend.get_texts()]
-    for ax in fig.axes:
-        if not ax.get_visible():
-            continue
-        texts += [ax.title, ax._left_title, ax._right_title, *ax.texts]
-        if ax.axison:
-            texts += [ax.xaxis.label, ax.yaxis.label]
-        if ax.get_legend() is not None:
-            texts += [ax.get_legend().get_title(), *ax.get_legend().get_texts()]
-    return texts
-
-
-def legends_over_data(fig: Any) -> list[str]:
-    """The legends of ``fig`` (its own and its axes') that hide data of an axes, each named
-    by its first entry.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        The figure, laid out here as it will be saved.
-
-    Returns
-    -------
-    list of str
-        The first entry of each legend that crosses a line or marker.
-    """
-    renderer = _renderer(fig)
-    legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
-    out = []
-    for legend in legends:
-        box = legend.get_window_extent(renderer)
-        if any(covers_data(ax, box) for ax in fig.axes):
-            out.append(legend.get_texts()[0].get_text() if legend.get_texts() else "")
-    return out
-
-
-def clipped_texts(fig: Any) -> list[str]:
-    """The visible, non-empty texts of ``fig`` (titles, axis labels, notes, legends' entries;
-    not tick labels) that run past the figure's edge when it is saved.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        The figure, laid out here as it will be saved.
-
-    Returns
-    -------
-    list of str
-        Those texts, in the order the figure holds them.
-    """
-    renderer = _renderer(fig)
-    edge = fig.bbox.padded(0.5)  # half a pixel of rounding
-    out = []
-    for text in _labels(fig):
-        if not text.get_visible() or not text.get_text().strip():
-            continue
-        box = text.get_window_extent(renderer)
-        if not (edge.contains(box.x0, box.y0) and edge.contains(box.x1, box.y1)):
-            out.append(text.get_text())
-    return out
-
-
 def place_clear_of_data(
     ax: Any, text: Any, positions: Sequence[tuple[float, float, str, str]], margin: float = 3.0
 ) -> bool:
@@ -234,7 +195,7 @@ def place_clear_of_data(
     bool
         True if a clear position was found; otherwise the text is left at the first.
     """
-    renderer = _renderer(ax.figure)
+    renderer = layout_renderer(ax.figure)
     legend = ax.get_legend()
     for x, y, ha, va in positions:
         text.set_position((x, y))
@@ -251,3 +212,116 @@ def place_clear_of_data(
     text.set_horizontalalignment(ha)
     text.set_verticalalignment(va)
     return False
+
+
+def legends_in_margins(
+    legends: Sequence[tuple[Any, Any, Sequence[Any]]], pad_pt: float = 3.0, tries: int = 4
+) -> None:
+    """For each ``(ax, legend, twins)``: raise the top of ``ax``'s y range (and its
+    ``twins``', on its x axis) so that ``legend``, placed at the top of the axes, sits in a
+    band above every curve, and stop the vertical reference lines (``axvline``) under it.
+
+    For axes whose curves fill them, where no corner is free (``loc="best"`` then lays the
+    legend over data).  Linear and logarithmic y axes alike: the band is a share of the
+    axes' height.  A legend that hides nothing is left where it is.  Call it once the
+    figure is drawn, for all its legends at once (each try lays the figure out).
+
+    Parameters
+    ----------
+    legends : sequence of (Axes, Legend, sequence of Axes)
+        An axes, its legend (with an upper ``loc``: ``"upper center"``, ``"upper left"``)
+        and the axes drawn over it on the same x axis (``ax.twinx()``; their ranges grow too).
+    pad_pt : float
+        Clearance between a legend and the highest curve, in points.
+    tries : int
+        Layouts to settle the bands (a new range can change the tick labels and the layout).
+    """
+    tops = {a: a.get_ylim() for ax, _, twins in legends for a in (ax, *twins)}
+    spans = {  # the axvlines: x fixed, y over the axes (0 to 1), drawn on the x-axis blend
+        a: [
+            line
+            for line in a.get_lines()
+            if line.get_transform() == a.get_xaxis_transform()
+            and list(line.get_ydata()) == [0, 1]
+            and len(set(line.get_xdata())) == 1
+        ]
+        for a in tops
+    }
+    for _ in range(tries):
+        renderer = layout_renderer(legends[0][0].figure) if legends else None
+        moved = False
+        for ax, legend, twins in legends:
+            box = legend.get_window_extent(renderer)
+            group = (ax, *twins)
+            if not any(covers_data(a, box) for a in group):
+                continue
+            moved = True
+            pad = pad_pt * ax.figure.dpi / 72.0
+            share = min((ax.bbox.y1 - box.y0 + pad) / ax.bbox.height, 0.8)
+            for a in group:
+                scale = a.yaxis.get_transform()
+                low, high = scale.transform(np.array(tops[a], float))
+                top = low + (high - low) / (1.0 - share)
+                a.set_ylim(tops[a][0], float(scale.inverted().transform(np.array([top]))[0]))
+                for line in spans[a]:
+                    line.set_ydata([0.0, 1.0 - share])
+        if not moved:
+            return
+
+
+def lift_legends(fig: Any) -> None:
+    """Move every legend of ``fig``'s axes that hides data to the top of its axes, in a
+    band above the curves (:func:`legends_in_margins`; axes drawn over it, twins, count).
+    Legends that hide nothing stay where they are."""
+    renderer = layout_renderer(fig)
+    moved = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is None:
+            continue
+        twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
+        if any(covers_data(a, legend.get_window_extent(renderer)) for a in (ax, *twins)):
+            texts = legend.get_texts()
+            lifted = ax.legend(  # the same entries, in two columns: a low band
+                handles=legend.legend_handles,
+                labels=[t.get_text() for t in texts],
+                loc="upper center",
+                ncols=2 if len(texts) > 2 else 1,
+                frameon=legend.get_frame_on(),
+                fontsize=texts[0].get_fontsize() if texts else None,
+                title=legend.get_title().get_text() or None,
+            )
+            moved.append((ax, lifted, twins))
+    if moved:
+        legends_in_margins(moved)
+
+
+def _luminance(colour: Any) -> float:
+    """WCAG 2's relative luminance of a colour (sRGB, linearised)."""
+    rgb = np.array(to_rgb(colour))
+    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return float(linear @ [0.2126, 0.7152, 0.0722])
+
+
+def contrast_ratio(foreground: Any, background: Any) -> float:
+    """WCAG 2's contrast ratio of two colours, (L1 + 0.05) / (L2 + 0.05) with L1 the
+    lighter's relative luminance: 1 (the same) to 21 (black on white).
+
+    Parameters
+    ----------
+    foreground, background : matplotlib colour
+        Any colour matplotlib reads (``"k"``, ``"C0"``, an RGB tuple).
+
+    Returns
+    -------
+    float
+    """
+    light, dark = sorted((_luminance(foreground), _luminance(background)), reverse=True)
+    return (light + 0.05) / (dark + 0.05)
+
+
+def text_colour_on(background: Any) -> str:
+    """``"black"`` or ``"white"``, whichever contrasts more with ``background`` (black on a
+    tie): the colour of a number written on a heatmap's cell."""
+    black, white = contrast_ratio("black", background), contrast_ratio("white", background)
+    return "black" if black >= white else "white"

@@ -17,8 +17,9 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.lines import Line2D
 
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, legends_in_margins, save_figure
 from probing.experiment.output.storage import read_table
 from probing.experiment.studies.gtm_damage_set import case_file
 from probing.sim.flight import DAMAGE_CASES
@@ -113,15 +114,20 @@ PANELS = (
 
 
 def figure(case: int, cases: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> Any:
-    """The four panels of NASA's Example 6 for ``case``, the undamaged flight in gray."""
+    """The four panels of NASA's Example 6 for ``case``, the undamaged flight dotted; each
+    panel's legend in a band above its curves (they fill the panels: the EAS on the right
+    axis ran through the left axis's legend)."""
     ts, meta = cases[case]
     nominal = cases.get(0, (None, None))[0] if case != 0 else None
     onset = meta["example6"]["onset_s"]
     with plt.rc_context(RC):
-        fig, axes = plt.subplots(2, 2, figsize=(8.0, 5.6), sharex=True)
+        fig, axes = plt.subplots(2, 2, figsize=(8.0, 5.6), sharex=True, layout="constrained")
+        legends = []
         for ax, (title, lines) in zip(axes.flat, PANELS, strict=True):
+            handles = []
             for column, label in lines:
                 (line,) = ax.plot(ts["time_s"], ts[column], label=label)
+                handles.append(line)
                 if nominal is not None:
                     ax.plot(
                         nominal["time_s"],
@@ -131,27 +137,35 @@ def figure(case: int, cases: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> 
                         ls=":",
                         label=f"{label}, undamaged",
                     )
+            twins = []
             if title.startswith("flight-path"):
                 twin = ax.twinx()
-                twin.plot(ts["time_s"], ts["eas_kt"], color="C3", label="EAS")
+                handles += twin.plot(ts["time_s"], ts["eas_kt"], color="C3", label="EAS")
                 if nominal is not None:
                     twin.plot(nominal["time_s"], nominal["eas_kt"], color="C3", lw=0.6, ls=":")
                 twin.set_ylabel("EAS (kt)", color="C3")
                 twin.grid(False)
+                twins.append(twin)
+            if nominal is not None:
+                handles.append(Line2D([], [], color="0.4", lw=0.6, ls=":", label="undamaged"))
             ax.axvline(onset, color="k", lw=0.6, ls="--")
             ax.set_title(title)
-            ax.legend(loc="best", ncol=2, fontsize=6)
+            owner = twins[-1] if twins else ax  # drawn last: no curve over its legend
+            legend = owner.legend(
+                handles=handles, loc="upper center", ncol=len(handles), fontsize=6, frameon=False
+            )
+            legends.append((ax, legend, twins))
         for ax in axes[1]:
             ax.set_xlabel("time (s)")
         setup = meta["example6"]
         fig.suptitle(
-            f"GTM T2, damage case {case}: {meta['case_name']} at {onset:g} s\n"
+            f"GTM T2, damage case {case}: {meta['case_name']} at {onset:g} s (dashed)\n"
             f"open loop from a {setup['bank_deg']:g} deg bank climbing turn trimmed at zero "
             f"sideslip, {setup['speed_keas']:g} kt EAS, gamma {setup['gamma_deg']:g} deg "
             "(NASA's Example 6); dotted: undamaged",
             fontsize=8,
         )
-        fig.tight_layout()
+        legends_in_margins(legends)  # once the layout is whole
     return fig
 
 

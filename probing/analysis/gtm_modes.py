@@ -54,7 +54,7 @@ def figure(points: list[ModePoint]) -> Any:
         (axes[1, 1], [p.modes.ph_zeta for p in ok], "phugoid $\\zeta$"),
     )
     for ax, y, label in series:
-        ax.plot(v, y, "o-")
+        ax.plot(v, y, "o-", label="JSBSim, linearised")
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
     ph_ref = [math.sqrt(2) * 32.174 / (p.ve_kts * 1.68781) for p in ok]

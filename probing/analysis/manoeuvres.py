@@ -17,10 +17,12 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.lines import Line2D
 
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, legends_in_margins, response_unit, save_figure
 from probing.core.fixedorder import norm
 from probing.experiment.output.storage import read_table
+from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["draw", "figures", "load_runs", "period_table", "summary_markdown"]
 
@@ -141,6 +143,17 @@ def _periods(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.Da
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), title="run")
     for ax in axes[-1]:
         ax.set_xlabel("time after trim (s)")
+    styles = []  # what the line styles are, in a band above the curves of two panels
+    for ax, entries in (
+        (axes[0, 0], (("reference", ":", "None"), ("twin reached", "-", "None"))),
+        (axes[1, 0], (("single pulse at mid-period", "-", "None"), ("probing output", "", "o"))),
+    ):
+        proxies = [
+            Line2D([], [], color="0.3", ls=ls, marker=m, ms=2, label=label)
+            for label, ls, m in entries
+        ]
+        styles.append((ax, ax.legend(handles=proxies, loc="upper center", ncols=2, fontsize=6), []))
+    legends_in_margins(styles)
     return fig
 
 
@@ -193,6 +206,7 @@ def _snapshot(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.D
     g0 = per[(per.channel == channels[0]) & (per.period >= settle)]
     worst = int(g0.loc[g0.error.idxmax(), "period"])
     last = int(per.period.max())
+    probed = SURFACES[scenario["probe"].get("surface", DEFAULT_SURFACE)].unit  # h is per this
     fig, axes = plt.subplots(
         len(channels),
         2,
@@ -208,6 +222,7 @@ def _snapshot(runs: dict[str, tuple[pd.DataFrame, dict]], tables: dict[str, pd.D
             ax.plot(g.lag_s, g.h_est, "--", color="C1", label="probing output")
             ax.set_title(f"{name}, period {period} ({g.time_mid_s.iloc[0]:.1f} s): {channel}")
             ax.set_xlabel("lag (s)")
+            ax.set_ylabel(f"pulse response ({response_unit(channel, probed)})")
     axes[0, 0].legend()
     return fig
 

@@ -8,11 +8,19 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.lines import Line2D
 
-from probing.analysis.figures import RC, save_figure
-from probing.analysis.monitoring import FAULTS, roc
+from probing.analysis.figures import (
+    RC,
+    legends_in_margins,
+    response_unit,
+    save_figure,
+    text_colour_on,
+)
+from probing.analysis.monitoring import DRIFT_LABELS, FAULTS, Fault, roc
 from probing.analysis.probe_only import probe_only_figure
 from probing.experiment.output.storage import read_table
+from probing.sim.surfaces import SURFACES
 
 __all__ = [
     "amplitude_figure",
@@ -28,10 +36,28 @@ __all__ = [
 DRIFT_STYLE = {"gust": "-", "nominal": "-.", "follow": "-.", "oracle": ":", "detrend": "--"}
 
 
+#: Each line style's name, for the legends.
+STYLE_NAMES = {"-": "solid", "-.": "dash-dot", ":": "dotted", "--": "dashed"}
+
+
 def _drifts(flights: pd.DataFrame) -> list[str]:
     """The references the flights have, in :data:`DRIFT_STYLE`'s order."""
     present = set(flights.drift)
     return [d for d in DRIFT_STYLE if d in present]
+
+
+def _reference(drift: str) -> str:
+    """How a panel's title names the reference its flights subtract (the data's own)."""
+    return f"reference: {drift}"
+
+
+def _reference_handles(drifts: list[str]) -> list[Line2D]:
+    """A legend's entries for the references, one line style each (in a neutral grey),
+    each named as the tables name it (the oracle as the bound)."""
+    return [
+        Line2D([], [], color="0.3", ls=DRIFT_STYLE[d], label=f"reference: {DRIFT_LABELS[d]}")
+        for d in drifts
+    ]
 
 
 def _at_design_amplitude(flights: pd.DataFrame) -> pd.DataFrame:
@@ -58,12 +84,14 @@ def _faults(flights: pd.DataFrame) -> list[str]:
 
 
 def detection_figure(flights: pd.DataFrame) -> plt.Figure:
-    """Probability of detection by n probe periods after the onset, per fault and drift."""
+    """Probability of detection by n probe periods after the onset, per fault (colour) and
+    reference (line style); the legend beside the panel, where it hides no curve."""
     flights = _at_design_amplitude(flights)
     drifts = _drifts(flights)
     with plt.rc_context(RC):
-        fig, ax = plt.subplots(figsize=(6.5, 3.6))
+        fig, ax = plt.subplots(figsize=(7.5, 3.6), layout="constrained")
         n = np.linspace(0, 12, 241)
+        handles = []
         for i, key in enumerate(_faults(flights)):
             color = f"C{i}"
             for drift in drifts:
@@ -72,8 +100,8 @@ def detection_figure(flights: pd.DataFrame) -> plt.Figure:
                     continue
                 periods = g.delay_periods.to_numpy()
                 p = [(periods <= x).mean() for x in n]
-                label = FAULTS[key].label if drift == drifts[0] else None
-                ax.plot(n, p, DRIFT_STYLE[drift], color=color, label=label)
+                ax.plot(n, p, DRIFT_STYLE[drift], color=color)
+            handles.append(Line2D([], [], color=color, label=FAULTS[key].label))
         ax.axvline(3, color="0.5", lw=0.6)
         ax.axvline(5, color="0.5", lw=0.6)
         ax.axhline(0.95, color="0.5", lw=0.6, ls=":")
@@ -81,48 +109,65 @@ def detection_figure(flights: pd.DataFrame) -> plt.Figure:
         ax.set_xlabel("time after the onset (probe periods T)")
         ax.set_ylabel("probability of detection")
         ax.set_ylim(-0.02, 1.02)
-        styles = {"-": "solid", "-.": "dash-dot", ":": "dotted", "--": "dashed"}
         ax.set_title(
-            "Detection: " + ", ".join(f"{d} ({styles[DRIFT_STYLE[d]]})" for d in drifts),
+            "Detection after the onset: "
+            + ", ".join(f"{d} ({STYLE_NAMES[DRIFT_STYLE[d]]})" for d in drifts),
             fontsize=8,
         )
-        ax.legend(loc="center right", frameon=False)
-        fig.tight_layout()
+        fig.legend(
+            handles=handles + _reference_handles(drifts),
+            loc="outside right upper",
+            frameon=False,
+        )
     return fig
 
 
 def roc_figure(flights: pd.DataFrame) -> plt.Figure:
     """ROC per fault: detection within the goal's periods against false alarms per hour,
     the threshold (-log10 alpha) scaled by a factor c (alpha to the power c); the dot is the
-    monitor's own threshold (c = 1)."""
+    monitor's own threshold (c = 1).  One panel per reference; the legend beside them."""
     factors = np.geomspace(0.05, 50, 121)
     flights = _at_design_amplitude(flights)
     drifts = _drifts(flights)
     with plt.rc_context(RC):
         fig, axes = plt.subplots(
-            1, len(drifts), figsize=(3.75 * len(drifts), 3.4), sharey=True, squeeze=False
+            1,
+            len(drifts),
+            figsize=(3.4 * len(drifts) + 1.6, 3.4),
+            sharey=True,
+            squeeze=False,
+            layout="constrained",
         )
         axes = axes[0]
+        handles = {}
         for ax, drift in zip(axes, drifts, strict=True):
             for i, key in enumerate(_faults(flights)):
                 fa, pd_ = roc(flights, key, drift, factors)
                 if not np.isfinite(fa).any():
                     continue
-                ax.plot(np.maximum(fa, 1e-3), pd_, color=f"C{i}", label=FAULTS[key].label)
+                ax.plot(np.maximum(fa, 1e-3), pd_, color=f"C{i}")
                 one = int(np.argmin(np.abs(factors - 1.0)))
                 ax.plot(max(fa[one], 1e-3), pd_[one], "o", color=f"C{i}", ms=3)
+                handles[key] = Line2D([], [], color=f"C{i}", label=FAULTS[key].label)
             ax.set_xscale("log")
             ax.axvline(0.1, color="0.5", lw=0.6)
             ax.set_xlabel("false alarms per monitored hour (0: drawn at 1e-3)")
-            ax.set_title(f"drift = {drift}")
+            ax.set_title(_reference(drift))
         axes[0].set_ylabel("probability of detection within the goal")
-        axes[0].legend(loc="lower right", frameon=False, fontsize=6)
-        fig.tight_layout()
+        dot = Line2D([], [], ls="None", marker="o", ms=3, color="0.3")
+        dot.set_label("the monitor's threshold (c = 1)")
+        fig.legend(
+            handles=[*(handles[k] for k in _faults(flights) if k in handles), dot],
+            loc="outside right upper",
+            frameon=False,
+            fontsize=6,
+        )
     return fig
 
 
 def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
-    """The verdicts after the onset per fault (rows) and drift (panels): counts."""
+    """The verdicts after the onset per fault (rows) and reference (panels): counts, each
+    written in black or white, whichever reads better on its cell."""
     flights = _at_design_amplitude(flights)
     keys = _faults(flights)
     # a sensor column where a sensor fault was flown or a flight was called one
@@ -136,6 +181,7 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
             figsize=(3.75 * len(drifts), 0.45 * len(keys) + 1.2),
             sharey=True,
             squeeze=False,
+            layout="constrained",
         )
         axes = axes[0]
         for ax, drift in zip(axes, drifts, strict=True):
@@ -144,23 +190,30 @@ def verdict_figure(flights: pd.DataFrame) -> plt.Figure:
                 g = flights[(flights.fault == key) & (flights.drift == drift)]
                 for j, c in enumerate(cols):
                     m[i, j] = (g.verdict_after == c).sum()
-            ax.imshow(m, cmap="Blues", aspect="auto")
+            image = ax.imshow(m, cmap="Blues", aspect="auto")
             for i in range(len(keys)):
                 truth = FAULTS[keys[i]].truth
                 for j in range(len(cols)):
-                    weight = "bold" if cols[j] == truth else "normal"
-                    ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center", weight=weight)
+                    ax.text(
+                        j,
+                        i,
+                        f"{m[i, j]:.0f}",
+                        ha="center",
+                        va="center",
+                        weight="bold" if cols[j] == truth else "normal",
+                        color=text_colour_on(image.to_rgba(m[i, j])),
+                    )
             ax.set_xticks(range(len(cols)), cols)
             ax.set_yticks(range(len(keys)), [FAULTS[k].label for k in keys])
-            ax.set_title(f"verdict, drift = {drift} (right one in bold)")
-        fig.tight_layout()
+            ax.set_title(f"verdicts, {_reference(drift)}\n(the right one in bold)")
     return fig
 
 
 def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     """One flight with the fault (the lowest seed, the first reference of
     :data:`DRIFT_STYLE` flown, the design's amplitude): its mean pulse-response estimate
-    over the window before the onset and after it, and the test statistic."""
+    over the window before the onset and after it, and the test statistic of each
+    detector; each panel's legend in a band above its curves."""
     flights = _at_design_amplitude(flights)
     drift = _drifts(flights[flights.fault == key])[0]
     g = flights[(flights.fault == key) & (flights.drift == drift)].sort_values("seed")
@@ -174,8 +227,9 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
     onset_period = math.floor(f.fault_onset_s / f.period_s)
     before = range(onset_period - window, onset_period)
     after = range(onset_period + 1, onset_period + 1 + window)
+    per = SURFACES[f.probe].unit if "probe" in f and f.probe in SURFACES else "deg"
     with plt.rc_context(RC):
-        fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.5, 3.0))
+        fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.5, 3.2), layout="constrained")
         for periods, label, color in ((before, "before", "C0"), (after, "after", "C3")):
             sel = pr[pr.period.isin(periods)]
             h = sel.groupby("tap").h_est.mean()
@@ -184,9 +238,9 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
                 lag, h, color=color, label=f"{label} the onset (periods {periods[0]}-{periods[-1]})"
             )
         ax.set_xlabel("lag (s)")
-        ax.set_ylabel(f"h_est of {channel} (per deg)")
+        ax.set_ylabel(f"h_est of {channel} ({response_unit(channel, per)})")
         ax.set_title(f"{FAULTS[key].label}: pulse-response estimate")
-        ax.legend(frameon=False)
+        left = ax.legend(frameon=False, loc="upper center", ncol=1)
         tested = mon[mon.statistic.notna() & (mon.channel == channel)]
         if "detector" not in tested:
             tested = tested.assign(detector="probing")
@@ -197,9 +251,14 @@ def fault_figure(flights: pd.DataFrame, key: str) -> plt.Figure:
         bx.axvline(f.fault_onset_s, color="0.3", ls="--", lw=0.8, label="onset")
         bx.set_xlabel("time after the trim (s)")
         bx.set_ylabel("statistic: -log10 p of no change")
-        bx.set_title(f"seed {f.seed}: first alarm {f.delay_s:.1f} s after the onset")
-        bx.legend(frameon=False)
-        fig.tight_layout()
+        found = (
+            f"first alarm {f.delay_s:.1f} s after onset"
+            if np.isfinite(f.delay_s)
+            else "no alarm after onset"
+        )
+        bx.set_title(f"seed {f.seed}, {drift} reference: {found}")
+        right = bx.legend(frameon=False, loc="upper center", ncol=3)
+        legends_in_margins([(ax, left, []), (bx, right, [])])
     return fig
 
 
@@ -220,6 +279,27 @@ def _delay_median(g: pd.DataFrame) -> float:
     return float(np.median(g.delay_periods.fillna(math.inf)))
 
 
+def _amplitude_lines(
+    ax: plt.Axes, bx: plt.Axes, g: pd.DataFrame, spec: Fault, drift: str, level: str
+) -> None:
+    """One reference's and turbulence level's lines of the amplitude figure: detection
+    within the goal (``ax``, a star where it first reaches the goal) and the median delay
+    (``bx``), against the amplitude."""
+    within = (g.delay_periods <= spec.goal_periods).astype(float)
+    p = within.groupby(g.amplitude_deg).mean()
+    med = g.groupby("amplitude_deg").apply(_delay_median, include_groups=False)
+    style = dict(color=TURBULENCE_COLOR[level], ms=3)
+    label = f"{drift}, {level or 'base'}"
+    ax.plot(p.index, p.to_numpy(), DRIFT_STYLE[drift], marker="o", label=label, **style)
+    shown = np.minimum(med.to_numpy(), 3 * spec.goal_periods)
+    bx.plot(med.index, shown, DRIFT_STYLE[drift], marker="o", **style)
+    reached = p[p >= spec.goal_probability]
+    if len(reached):
+        ax.plot(
+            reached.index[0], reached.iloc[0], "*", ms=10, color=style["color"], mec="k", mew=0.4
+        )
+
+
 def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
     """The headline: per fault flown over an amplitude axis, the probability of detection
     within the goal's periods (left) and the median detection delay (right) against the
@@ -231,7 +311,12 @@ def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
     levels = [t for t in TURBULENCE_COLOR if t in set(flights.turbulence)]
     with plt.rc_context(RC):
         fig, axes = plt.subplots(
-            len(keys), 2, figsize=(8.4, 3.5 * len(keys)), squeeze=False, sharex=True
+            len(keys),
+            2,
+            figsize=(8.4, 3.5 * len(keys) + 0.6),
+            squeeze=False,
+            sharex=True,
+            layout="constrained",
         )
         for (ax, bx), key in zip(axes, keys, strict=True):
             spec = FAULTS[key]
@@ -242,25 +327,8 @@ def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
                         & (flights.drift == drift)
                         & (flights.turbulence == level)
                     ]
-                    if not len(g):
-                        continue
-                    by = g.groupby("amplitude_deg")
-                    within = (g.delay_periods <= spec.goal_periods).astype(float)
-                    p = within.groupby(g.amplitude_deg).mean()
-                    med = by.apply(_delay_median, include_groups=False)
-                    style = dict(color=TURBULENCE_COLOR[level], ms=3)
-                    label = f"{drift}, {level or 'base'}"
-                    ax.plot(
-                        p.index, p.to_numpy(), DRIFT_STYLE[drift], marker="o", label=label, **style
-                    )
-                    shown = np.minimum(med.to_numpy(), 3 * spec.goal_periods)
-                    bx.plot(med.index, shown, DRIFT_STYLE[drift], marker="o", **style)
-                    reached = p[p >= spec.goal_probability]
-                    if len(reached):
-                        a = reached.index[0]
-                        ax.plot(
-                            a, reached.iloc[0], "*", ms=10, color=style["color"], mec="k", mew=0.4
-                        )
+                    if len(g):
+                        _amplitude_lines(ax, bx, g, spec, drift, level)
             ax.axhline(spec.goal_probability, color="0.5", lw=0.6, ls=":")
             bx.axhline(spec.goal_periods, color="0.5", lw=0.6, ls=":")
             ax.set_ylim(-0.02, 1.02)
@@ -277,8 +345,16 @@ def amplitude_figure(flights: pd.DataFrame) -> plt.Figure:
             bx.set_title(
                 "line: reference (oracle dotted: knows the gusts); colour: turbulence", fontsize=7
             )
-        axes[0][0].legend(frameon=False, fontsize=6, ncol=2)
-        fig.tight_layout()
+        handles, _ = axes[0][0].get_legend_handles_labels()
+        star = Line2D([], [], ls="None", marker="*", ms=8, color="0.6", mec="k", mew=0.4)
+        star.set_label("where a line first reaches the goal")
+        fig.legend(  # under the panels: their curves fill them
+            handles=[*handles, star],
+            loc="outside lower center",
+            ncol=min(len(handles) + 1, 5),
+            frameon=False,
+            fontsize=6,
+        )
     return fig
 
 

@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from probing.analysis.figures import save_figure
+from probing.analysis.figures import lift_legends, save_figure
 from probing.core.fixedorder import dot, vdot
 from probing.experiment.output.storage import read_footer, read_table
 
@@ -198,10 +198,12 @@ def draw(runs: pd.DataFrame, figures: Path) -> list[Path]:
     for j, reference in enumerate(refs):
         ax.bar(np.nan, np.nan, color=colours[j], alpha=0.35, label=f"{reference}")
     ax.plot([], [], "k--", lw=1, label=f"{GOAL_RATIO:g} x oracle (goal)")
+    ax.plot([], [], ".", color="0.3", label="a flight (bar: the median)")
     ax.set_xticks(range(len(levels)), [f"turbulence: {t}" for t in levels])
     ax.set_yscale("log")
     ax.set_ylabel("per-period gain scatter (1 sigma)")
     ax.set_title("What each reference leaves: GTM, 800 ft, 75 KCAS, NASA T2 sensors")
     ax.legend(fontsize=8, ncol=3, loc="upper left")
     ax.grid(True, axis="y", which="both", alpha=0.3)
+    lift_legends(fig)  # above the dots where they reach the upper left
     return save_figure(fig, figures / "references_scatter")

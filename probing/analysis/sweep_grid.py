@@ -11,6 +11,7 @@ import matplotlib.ticker
 import numpy as np
 from matplotlib.colors import LogNorm, TwoSlopeNorm
 
+from probing.analysis.figures import text_colour_on
 from probing.analysis.sweep_axes import (
     C_FAIL,
     SHAPE_FLOOR,
@@ -112,8 +113,6 @@ def _write_cells(
                     bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1.0},
                 )
             elif np.isfinite(value):
-                rgba = mesh.cmap(mesh.norm(colours[i, j]))
-                dark = 0.299 * rgba[0] + 0.587 * rgba[1] + 0.114 * rgba[2] < 0.5
                 ax.text(
                     j,
                     i,
@@ -121,7 +120,7 @@ def _write_cells(
                     ha="center",
                     va="center",
                     fontsize=6,
-                    color="white" if dark else "black",
+                    color=text_colour_on(mesh.cmap(mesh.norm(colours[i, j]))),
                 )
             else:
                 text = "undefined\n(gain 0)" if log and np.isposinf(value) else "n/a"

@@ -162,7 +162,11 @@ def plot_noise(data: SweepData) -> Any:
     ax1.set_ylabel(f"standard error of mean h  [{units}]")
     ax1.set_title("standard error of h (o measured, + noise model)", loc="left")
     if ax1.get_legend_handles_labels()[0]:
-        ax1.legend(frameon=False, loc="upper left")
+        legend = ax1.legend(frameon=False, loc="upper left")
+        for handle, text in zip(legend.legend_handles, legend.get_texts(), strict=True):
+            if text.get_text().startswith("noise model"):  # its points: each group's +
+                handle.set_marker("+")
+                handle.set_markersize(7)
     ax2.set_ylabel("measured / predicted standard error")
     ax2.set_title("measured over predicted (> 1: spread not from noise)", loc="left")
     if ax2.get_legend_handles_labels()[0]:

@@ -35,7 +35,7 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 
-from probing.analysis.figures import RC, save_figure
+from probing.analysis.figures import RC, lift_legends, save_figure
 from probing.analysis.sweep_data import KINDS, NotASweepError, SweepData, classify, load_sweep_data
 from probing.analysis.sweep_gain import plot_nonlinearity, plot_other, plot_rate_limit, theory_curve
 from probing.analysis.sweep_grid import plot_flight_grid
@@ -68,9 +68,12 @@ _DRAW = {
 
 # ------------------------------------------------------------------ entry points
 def sweep_figure(data: SweepData) -> Any:
-    """The figure of a sweep, laid out by :func:`classify` (close it, or :func:`plot_sweep`)."""
+    """The figure of a sweep, laid out by :func:`classify` (close it, or :func:`plot_sweep`);
+    a legend that would hide data is lifted above the curves."""
     with plt.rc_context(RC):
-        return _DRAW[classify(data)](data)
+        fig = _DRAW[classify(data)](data)
+        lift_legends(fig)
+    return fig
 
 
 def plot_sweep(folder: Path, figures: Path | None = None) -> list[Path]:

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 
 from probing.analysis import analyze_plots
 from probing.analysis.analyze_plots import ZOOM_WHEN, auto_max_lag_s, draw_bounds
-from probing.analysis.figures import legends_over_data
+from probing.analysis.figure_checks import figure_problems, legends_over_data
 
 
 def _capture(monkeypatch: pytest.MonkeyPatch) -> dict:
@@ -31,6 +31,7 @@ def _capture(monkeypatch: pytest.MonkeyPatch) -> dict:
         seen["xlabel"] = fig.axes[-1].get_xlabel()
         seen["xlim"] = fig.axes[-1].get_xlim()
         seen["covered"] = legends_over_data(fig)
+        seen["problems"] = figure_problems(fig)
         return real(fig, stem)
 
     monkeypatch.setattr(analyze_plots, "save_figure", keep)
@@ -67,6 +68,7 @@ def test_units_convention_zoom_and_legend(tmp_path: Path, monkeypatch: pytest.Mo
     assert seen["xlabel"].startswith("lag (s): zoomed to 0-")
     assert seen["xlim"][1] < ZOOM_WHEN * 5.1
     assert seen["covered"] == []
+    assert seen["problems"] == []
     draw_bounds(bounds, tmp_path / "fig2", max_lag_s=2.0)
     assert seen["xlim"] == (0.0, 2.0)  # it said "(--max-lag-s)", in Python too
     assert seen["xlabel"] == "lag (s): 0-2 s shown of the period's 5.1 s"

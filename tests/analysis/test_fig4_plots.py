@@ -15,6 +15,7 @@ import pytest
 from matplotlib.collections import PolyCollection
 
 from probing.analysis import fig4, fig4_plots
+from probing.analysis.figure_checks import hidden_lines
 from probing.core.metrics import gain_and_shape
 from probing.core.nonlinearities import compensate
 from probing.core.recorded import tap_bounds
@@ -92,7 +93,7 @@ def test_bounds_shade_each_estimates_tap_bounds_and_change_no_line(
         bands = _bands(ax)
         runs = [data.baseline.z, p.run.z]
         if p.key == "b_saturation":
-            runs.append(data.remedy.z)  # the offset twin subtracted
+            runs.insert(1, data.remedy.z)  # the offset twin subtracted, under the red curve
         assert len(bands) == len(runs), p.key
         for band, periods in zip(bands, runs, strict=True):
             _assert_band(band, periods)
@@ -219,3 +220,40 @@ def test_the_dashed_prediction_is_drawn_over_the_curve_it_predicts(data: fig4.Fi
                 checked += 1
     assert checked == 3 + 4 * 2  # (b): over the baseline, red and blue; (a c d g): two each
     plt.close(fig)
+
+
+@pytest.fixture(scope="module")
+def exact() -> fig4.Fig4Data:
+    """Panels whose runs are exactly what eq. (11) predicts, as the paper's are to the
+    last digit: a~/a times the baseline's periods (the hysteresis relay's and the relay's
+    b~ = 0), the offset twin subtracted (b') at a~/a, the rate limit that meets its bound
+    equal to the baseline, the one below it not."""
+    base = _run("baseline", 1.0, 0)
+    z0, h0 = base.z.mean(axis=0), base.h.mean(axis=0)
+    panels = []
+    for key, letter in PANELS.items():
+        scn = load_scenario(SET / f"{key}.toml")
+        gain = fig4._panel_result(key, letter, _run(key, 1.0, 1), h0, z0).predicted_gain
+        if key == "b_saturation":
+            run = _run(key, 0.6, 2, -3e-4)  # the leaked step: no curve it matches
+        elif key == "e_rate_limit":
+            run = _run(key, 0.8, 3)
+        else:
+            scale = 1.0 if key == "f_rate_limit" else gain
+            run = fig4.RunData(scn, LAG, scale * base.z, scale * base.h)
+        panels.append(fig4._panel_result(key, letter, run, h0, z0))
+    sat = load_scenario(SET / "b_saturation.toml")
+    remedy = fig4.RunData(sat, LAG, 0.5 * base.z, 0.5 * base.h)
+    remedy_row = fig4._remedy_row(remedy, panels, h0, z0)
+    return fig4.Fig4Data("synthetic", base, panels, remedy, remedy_row, pd.DataFrame())
+
+
+def test_a_curve_its_prediction_lies_on_stays_visible(exact: fig4.Fig4Data) -> None:
+    """Where the dashed prediction lies exactly on the measured curve ((b): the blue curve,
+    the offset twin subtracted, under (a~/a) x no nonlinearity; (a c d g): the red one under
+    eq. (11)) and where a curve lies on the baseline ((f), and every compensated curve),
+    each curve keeps at least half of its own pixels: the lower one is drawn wider."""
+    figs = fig4_plots.figures(exact)
+    for suffix, fig in figs.items():
+        assert hidden_lines(fig) == [], suffix
+        plt.close(fig)

@@ -69,7 +69,12 @@ def test_the_phugoid_reference_is_sqrt2_g_over_v() -> None:
 
 
 def test_axes_labels_carry_units() -> None:
+    """Every frequency in rad/s, the damping ratios dimensionless; and the figure reads (the
+    phugoid panel's legend named its approximation, not the JSBSim curve)."""
+    from probing.analysis.figure_checks import figure_problems
+
     fig = gtm_modes.figure(_points())
+    assert figure_problems(fig) == []
     axes = np.array(fig.axes).reshape(2, 2)
     for ax in axes[1]:
         assert ax.get_xlabel() == "equivalent airspeed (kt)"

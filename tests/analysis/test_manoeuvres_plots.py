@@ -8,7 +8,12 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import manoeuvres
-from probing.analysis.figures import clipped_texts, legends_over_data
+from probing.analysis.figure_checks import (
+    clipped_texts,
+    figure_problems,
+    labels_without_unit,
+    legends_over_data,
+)
 
 CHANNELS = ("q_rad_s", "nz_g")
 SETTLE = 2
@@ -90,7 +95,21 @@ def test_no_manoeuvre_figure_has_a_legend_over_data_or_clipped_text() -> None:
     (the periods figure's legend lay over the 0.1 kt/s line in its first panel)."""
     figs = manoeuvres.figures(_runs())
     for name, fig in figs.items():
-        assert legends_over_data(fig) == [], name
-        assert clipped_texts(fig) == [], name
+        assert figure_problems(fig) == [], name  # the periods figure's styles were unnamed
     for fig in figs.values():
         plt.close(fig)
+
+
+def test_the_snapshot_names_the_pulse_response_and_its_unit() -> None:
+    """Each panel of the snapshot (a channel's row) says what its curves are and in which
+    unit (they had no y label)."""
+    fig = manoeuvres.figures(_runs())["snapshot"]
+    assert [ax.get_ylabel() for ax in fig.axes] == [
+        "pulse response (rad/s per deg)",
+        "pulse response (rad/s per deg)",
+        "pulse response (g per deg)",
+        "pulse response (g per deg)",
+    ]
+    assert labels_without_unit(fig) == []
+    assert figure_problems(fig) == []
+    plt.close(fig)

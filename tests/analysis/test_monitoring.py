@@ -6,6 +6,7 @@ import json
 import math
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -652,3 +653,135 @@ def test_the_threshold_law_names_the_probe_where_a_study_has_several(tmp_path):
     text = summary_markdown(evaluate(load_study(tmp_path)))
     for probe in ("aileron", "rudder"):
         assert f"| {probe} probe, oracle (upper bound: knows the gusts) | probing | 28 |" in text
+
+
+def _probing_table(folder: Path, onset_period: int) -> None:
+    """A probing.parquet whose pulse response halves after ``onset_period``."""
+    taps = np.arange(64)
+    shape = np.exp(-taps / 10.0) * np.sin(taps / 3.0)
+    rows = [
+        pd.DataFrame(
+            {
+                "channel": "theta_rad",
+                "period": period,
+                "tap": taps,
+                "lag_s": taps * 0.04,
+                "h_est": shape * (0.5 if period > onset_period else 1.0),
+            }
+        )
+        for period in range(2, 40)
+    ]
+    pd.concat(rows).to_parquet(folder / "probing.parquet")
+
+
+@pytest.fixture
+def crowded(tmp_path: Path) -> pd.DataFrame:
+    """Three faults under two references, six flights each, detected 1 to 12 periods after
+    the onset (41 s) or never, so that the curves fill the figures; the dead band's first
+    seed under the gust reference is never detected, its statistic scattered from 0.01 to
+    8; healthy flights with false alarms."""
+    onset = 41.0
+    for f, fault in enumerate(("deadband", "stuck", "damage5")):
+        rows = []
+        verdict = "airframe" if fault == "damage5" else "actuator"
+        for d, drift in enumerate(("gust", "detrend")):
+            delays = [None if fault == "deadband" else 1 + f, 2 + f + d, 3 + 2 * f, 5 + d]
+            delays += [8 + f, 12 + d] if f else [None, None]  # the dead band's: half by 12 T
+            for seed, k in enumerate(delays, start=1):
+                alarms = {} if k is None else {20 + k: verdict, 21 + k: verdict}
+                pid = f"{fault[:2]}{d}{seed}"
+                row = _flight(tmp_path, f"monitor-{fault}", pid, onset, alarms, verdict)
+                rows.append({**row, "drift": drift})
+        pd.DataFrame(rows).to_parquet(tmp_path / f"monitor-{fault}" / "summary.parquet")
+    folder = tmp_path / "monitor-deadband" / "points" / "point_id=de01"
+    _probing_table(folder, 20)
+    # its statistic scattered over the whole axis, under the threshold (10), as flown
+    table = pq.read_table(folder / "monitor.parquet")
+    spread = 10 ** np.random.default_rng(1).uniform(-2.0, 0.9, table.num_rows)
+    spread[~np.isfinite(table["statistic"].to_numpy(zero_copy_only=False))] = np.nan
+    table = table.set_column(table.schema.get_field_index("statistic"), "statistic", [spread])
+    pq.write_table(table, folder / "monitor.parquet")
+    rows = []
+    for d, drift in enumerate(("gust", "detrend")):
+        for seed, alarms in enumerate(({}, {15: "airframe"}, {30: "actuator", 33: "none"}), 1):
+            row = _flight(tmp_path, "monitor-none", f"h{d}{seed}", math.nan, alarms)
+            rows.append({**row, "drift": drift})
+    pd.DataFrame(rows).to_parquet(tmp_path / "monitor-none" / "summary.parquet")
+    return evaluate(load_study(tmp_path))
+
+
+@pytest.mark.parametrize("name", ["detection_figure", "roc_figure", "verdict_figure"])
+def test_the_study_figures_hide_no_curve_and_read_on_every_cell(crowded, name):
+    """The detection and ROC figures' legends lay over their curves (loc="center right",
+    "lower right"); the verdict figure's counts were black on navy cells: now each legend
+    is beside its panels, each count in the colour that reads on its cell, every curve named
+    by a legend (faults by colour, references by line style, the dot of c = 1)."""
+    from probing.analysis import monitoring_plots
+    from probing.analysis.figure_checks import figure_problems
+
+    fig = getattr(monitoring_plots, name)(crowded)
+    assert figure_problems(fig) == []
+    plt.close(fig)
+
+
+def test_the_panels_name_the_references_the_flights_have(study):
+    """Flights stored when the oracle was called "reference": the panels say oracle (the
+    oracle study's said "drift = reference" and "nominal twin")."""
+    from probing.analysis.figure_checks import figure_problems
+    from probing.analysis.monitoring_plots import roc_figure
+
+    for draw in (roc_figure, verdict_figure):
+        fig = draw(study)
+        (title,) = [ax.get_title() for ax in fig.axes if ax.get_title()]
+        assert "reference: oracle" in title and figure_problems(fig) == []
+        plt.close(fig)
+    fig = detection_figure(study)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["dead band, a~/a = 0.8", "reference: oracle (upper bound: knows the gusts)"]
+    plt.close(fig)
+
+
+def test_the_fault_figure_says_when_no_alarm_came_and_hides_no_curve(crowded):
+    """The dead band's first flight under the gust reference was never detected: the title
+    says so (it said "first alarm nan s after the onset") and names the reference; the
+    legends lie above the curves, every curve named, the response's unit on its axis."""
+    from probing.analysis.figure_checks import figure_problems
+    from probing.analysis.monitoring_plots import fault_figure
+
+    fig = fault_figure(crowded, "deadband")
+    assert fig.axes[1].get_title() == "seed 1, gust reference: no alarm after onset"
+    assert figure_problems(fig) == []
+    assert fig.axes[0].get_ylabel() == "h_est of theta_rad (rad per deg)"
+    plt.close(fig)
+
+
+def test_the_amplitude_figure_legend_hides_no_curve():
+    """Nine lines (three references, three turbulence levels) rising from 0 to 1 across the
+    amplitudes, their delays falling from the top: the legend, which lay in the first
+    panel's upper left over the lines, is under the panels, with the goal's star."""
+    from probing.analysis.figure_checks import figure_problems
+    from probing.analysis.monitoring_plots import amplitude_figure
+
+    rows = []
+    amplitudes = (0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
+    for d, drift in enumerate(("gust", "oracle", "detrend")):
+        for t, level in enumerate(("none", "light", "moderate")):
+            for a, amp in enumerate(amplitudes):
+                detected = min(max(a - 1 - (d + t) // 2, 0), 4)  # of 4 flights
+                for seed in range(4):
+                    delay = 1.0 + 6.0 / (a + 1) if seed < detected else math.nan
+                    rows.append(
+                        {
+                            "fault": "deadband",
+                            "drift": drift,
+                            "turbulence": level,
+                            "amplitude_deg": amp,
+                            "delay_periods": delay,
+                            "point_id": f"{d}{t}{a}{seed}",
+                        }
+                    )
+    fig = amplitude_figure(pd.DataFrame(rows))
+    assert figure_problems(fig) == []
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels[-1] == "where a line first reaches the goal" and len(labels) == 10
+    plt.close(fig)

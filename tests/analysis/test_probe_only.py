@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from probing.analysis.figure_checks import figure_problems
 from probing.analysis.probe_only import probe_only_figure, probe_only_markdown, probe_only_table
 
 PERIOD_S = 2.0  # the dead band's goal: 5 periods, 10 s; the damage case's: 3 periods, 6 s
@@ -67,5 +68,6 @@ def test_the_section_and_the_figure():
     assert probe_only_markdown(STUDY[STUDY.drift == "detrend"]) == ""
     fig = probe_only_figure(STUDY)
     assert isinstance(fig, matplotlib.figure.Figure)
+    assert figure_problems(fig) == []
     bars = fig.axes[0].patches
     assert len(bars) == 3 * 2  # probing, trajectory and probe-only bars of each fault

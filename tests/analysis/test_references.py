@@ -97,9 +97,23 @@ def test_the_table_gives_each_ratio_to_the_oracle_and_the_false_alarms(study):
     )
 
 
-def test_the_figure_is_drawn(study, tmp_path):
+def test_the_figure_is_drawn(study, tmp_path, monkeypatch):
+    """The figure is saved, and reads: its legend (in the upper left, over the dots) lifted
+    above them, each flight's dot named (figure_problems)."""
+    from probing.analysis import references
+    from probing.analysis.figure_checks import figure_problems
+
+    seen = []
+    real = references.save_figure
+
+    def check(fig, *args, **kwargs):
+        seen.append(figure_problems(fig))
+        return real(fig, *args, **kwargs)
+
+    monkeypatch.setattr(references, "save_figure", check)
     (path,) = draw(load_runs(study), tmp_path / "figures")
     assert path.name == "references_scatter.png" and path.stat().st_size > 10_000
+    assert seen == [[]]
 
 
 def test_without_a_calm_oracle_or_a_sweep_it_says_so(tmp_path, study):

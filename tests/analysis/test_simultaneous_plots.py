@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from probing.analysis import simultaneous
-from probing.analysis.figures import clipped_texts, legends_over_data
+from probing.analysis.figure_checks import figure_problems
 
 
 def _table() -> pd.DataFrame:
@@ -52,6 +52,5 @@ def test_figure_plots_the_table() -> None:
 def test_legend_hides_no_curve_and_no_text_is_clipped() -> None:
     """The legend used to sit in the upper right of the first panel, over its curves."""
     fig = simultaneous.figure("shift-737", _table())
-    assert legends_over_data(fig) == []
-    assert clipped_texts(fig) == []
+    assert figure_problems(fig) == []
     plt.close(fig)

@@ -18,6 +18,7 @@ import pytest
 from conftest import base_scenario
 
 from probing.analysis import sweep_plots
+from probing.analysis.figure_checks import figure_problems
 from probing.analysis.sweep_plots import (
     classify,
     load_sweep_data,
@@ -305,8 +306,13 @@ def _failed_x(ax: Any, n: int) -> np.ndarray:
 
 
 def _figure(folder: Path) -> tuple[Any, pd.DataFrame]:
+    """The sweep's figure, which reads: no legend over data (the rate limit's and the noise
+    figure's lay over their points), no unnamed curve, no text over another, every number
+    legible on its cell (figure_problems)."""
     data = load_sweep_data(folder)
-    return sweep_figure(data), data.summary
+    fig = sweep_figure(data)
+    assert figure_problems(fig) == []
+    return fig, data.summary
 
 
 def _done(summary: pd.DataFrame) -> np.ndarray:

@@ -214,7 +214,8 @@ def test_figures_are_readable(results, which):
     did), and the note on the offset in panel (b) hides neither a curve nor the legend (on
     the 737 it lay across the curve with the nonlinearity)."""
     from probing.analysis import fig4_plots
-    from probing.analysis.figures import clipped_texts, covers_data, legends_over_data
+    from probing.analysis.figure_checks import clipped_texts, legends_over_data
+    from probing.analysis.figures import covers_data
 
     figs = fig4_plots.figures(fig4.collect(results[which]))
     for suffix, fig in figs.items():
