@@ -45,9 +45,10 @@ def _cmd_design(args: argparse.Namespace) -> int:
         except DesignInputError as exc:
             raise UsageError(_said(exc)) from None
         except DesignError as exc:
+            reason = exc.line(option_of)  # the options it names as the command line's
             if args.json:
-                print(strict_json({"feasible": False, "reason": str(exc)}, sort_keys=False))
-            return print_error(f"infeasible: {exc}", 2)
+                print(strict_json({"feasible": False, "reason": reason}, sort_keys=False))
+            return print_error(f"infeasible: {reason}", 2)
         d, modes, scn = rec.design, rec.modes, rec.scenario
         written = _write_exports(args, d, scn)
         if args.json:

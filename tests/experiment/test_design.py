@@ -70,7 +70,7 @@ def test_probe_shape_stays_inside_the_surface_range():
             (20.0, 20.0),
             r"clearing the deadband \(half width 5 deg\) takes an amplitude of 15 deg \(3 x its "
             r"half width\), which exceeds the largest amplitude a scenario takes \(10 deg\); a "
-            r"margin of at most 2 \(--deadband-margin\) would fit",
+            r"margin of at most 2 \(deadband_margin\) would fit",
         ),
         (
             {"deadband_deg": (-12.0, 5.0)},
@@ -82,7 +82,7 @@ def test_probe_shape_stays_inside_the_surface_range():
             {"deadband_deg": (-5.0, 5.0), "saturation_deg": (-8.0, 8.0)},
             (20.0, 20.0),
             r"exceeds the saturation margin \(8 deg\); a margin of at most 1.6 "
-            r"\(--deadband-margin\) or a wider saturation would fit",
+            r"\(deadband_margin\) or a wider saturation would fit",
         ),
     ],
 )
@@ -120,6 +120,21 @@ def test_design_with_a_deadband_no_amplitude_clears_says_why(capsys):
     assert out == "" and err.count("\n") == 1, err
     assert err.startswith("probing: error: infeasible: clearing the deadband (half width 5 deg)")
     assert "largest amplitude a scenario takes (10 deg)" in err and "probe." not in err
+    assert "a margin of at most 2 (--deadband-margin) would fit" in err  # the command's option
+
+
+def test_a_design_error_names_the_keyword_in_python_and_the_option_on_the_command_line():
+    """The API's DesignError says ``deadband_margin``, the keyword of probing.design; the
+    command line the same message with its option, --deadband-margin; both survive a fork."""
+    import pickle
+
+    exc = DesignError("a margin of at most 2 (`deadband_margin`) would fit")
+    assert str(exc) == "a margin of at most 2 (deadband_margin) would fit"
+    assert exc.line(lambda n: "--" + n.replace("_", "-")) == (
+        "a margin of at most 2 (--deadband-margin) would fit"
+    )
+    again = pickle.loads(pickle.dumps(exc))
+    assert type(again) is DesignError and again.message == exc.message
 
 
 def test_detectable_stderr_from_the_normal_quantiles():

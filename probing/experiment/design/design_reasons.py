@@ -51,7 +51,7 @@ def no_amplitude(request: DesignRequest, half_deg: float, room_deg: float, limit
             f"{limit} ({room_deg:g} deg): no amplitude clears one and stays inside the other"
         )
     margin = request.deadband_margin
-    remedy = f"a margin of at most {room_deg / half_deg:.3g} (--deadband-margin)" + (
+    remedy = f"a margin of at most {room_deg / half_deg:.3g} (`deadband_margin`)" + (
         " or a wider saturation" if limit == SATURATION else ""
     )
     return (
@@ -66,8 +66,8 @@ def too_tight(request: DesignRequest, shape: Any, kind: str, goal: float, exc: D
     by the design's ``shape`` (its amplitude, deg), with what would meet it."""
     what = "gain standard error" if kind == "gain" else f"standard error of h on {request.channel}"
     return (
-        f"the target {what} {goal:.3g} is out of reach: {exc}; the scatter falls as 1/a, so "
-        f"a larger amplitude than {shape.amplitude_deg:g} deg (--amplitude-deg) or less "
+        f"the target {what} {goal:.3g} is out of reach: {exc.message}; the scatter falls as 1/a, "
+        f"so a larger amplitude than {shape.amplitude_deg:g} deg (`amplitude_deg`) or less "
         "noise would be needed"
     )
 

@@ -9,11 +9,11 @@ import dataclasses
 import functools
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field
 from typing import Any
 
-from probing.core.errors import ArgumentError, ProbingError, choice, integer, number
+from probing.core.errors import ArgumentError, ProbingError, choice, integer, number, refer
 from probing.core.noise import ESTIMATORS
 from probing.core.sensors import SENSOR_SUITES
 from probing.experiment.scenario import Scenario, ScenarioError, parse_scenario
@@ -36,7 +36,26 @@ def _option(default: Any = MISSING, *, help: str, exclusive: str | None = None, 
 
 
 class DesignError(ProbingError, ValueError):
-    """The request cannot be met; the message says why."""
+    """The request cannot be met; ``message`` says why, an option it names written between
+    backticks: the Python keyword in ``str(error)``, the command line's option in
+    :meth:`line`.
+
+    Examples
+    --------
+    >>> str(DesignError("a margin of at most 2 (`deadband_margin`) would fit"))
+    'a margin of at most 2 (deadband_margin) would fit'
+    """
+
+    def __init__(self, message: str) -> None:
+        self.message = message
+        super().__init__(refer(message, str))
+
+    def __reduce__(self) -> tuple[Any, ...]:  # pickled as made (a forked run hands it back)
+        return type(self), (self.message,)
+
+    def line(self, name: Callable[[str], str]) -> str:
+        """The one line, each option it names written ``name(option)``."""
+        return refer(self.message, name)
 
 
 class DesignInputError(ArgumentError):
