@@ -3,7 +3,7 @@ map.toml reads (docs/formats.md, "A log recorded elsewhere").
 
     probing monitor examples/foreign-log/scenario.toml --out results/own
     python examples/foreign-log/make_flight.py results/own/gtm-flight-test/sensors.parquet \
-        flight.csv
+        results/flight.csv
 
 Each column the map names is renamed to the file's column and divided by the map's scale
 (value_file = value_project / scale: rad -> deg, ft/s -> kt, ft -> m); floats are written

@@ -336,7 +336,8 @@ def test_the_shipped_example_maps_every_column_its_scenario_reads() -> None:
 @pytest.mark.slow
 def test_the_docs_recipe_makes_a_flight_csv_the_monitor_replays(tmp_path: Path) -> None:
     """docs/formats.md's three commands (fly the example, convert its log with
-    examples/foreign-log/make_flight.py, replay it through the map), on the example scenario
+    examples/foreign-log/make_flight.py into results/, which git ignores, replay it through
+    the map), on the example scenario
     shortened (24 periods, a baseline of 14): the replay's estimates are the flight's own to
     the rounding of the unit conversions, and its alarms the same."""
     import subprocess
@@ -347,8 +348,8 @@ def test_the_docs_recipe_makes_a_flight_csv_the_monitor_replays(tmp_path: Path) 
     for command in (
         "probing monitor examples/foreign-log/scenario.toml --out results/own",
         "python examples/foreign-log/make_flight.py "
-        "results/own/gtm-flight-test/sensors.parquet flight.csv",
-        "probing monitor examples/foreign-log/scenario.toml --replay flight.csv "
+        "results/own/gtm-flight-test/sensors.parquet results/flight.csv",
+        "probing monitor examples/foreign-log/scenario.toml --replay results/flight.csv "
         "--map examples/foreign-log/map.toml --out results",
     ):
         assert command in doc, command
