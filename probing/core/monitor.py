@@ -81,7 +81,7 @@ import numpy as np
 from scipy.special import fdtrc, fdtri, stdtr, stdtrit
 
 from probing.core.baseline import BaselineWindow
-from probing.core.errors import ProbingError
+from probing.core.errors import ProbingError, integer, number
 from probing.core.fixedorder import cov, dot, inv, orthonormal_complement, solve, vdot
 
 __all__ = [
@@ -255,7 +255,9 @@ def _checked(name: str, value: object) -> object:
     Raises
     ------
     SettingError
-        If it is not, or is not of the setting's kind (a bool is no integer or number).
+        If it is not, or is not of the setting's kind (:func:`probing.core.errors.integer`
+        and :func:`~probing.core.errors.number`: numpy's integers and floats are, a bool is
+        no integer or number).
     """
     bound = _BOUNDS[name]
     if value is None and name in _OPTIONAL:
@@ -265,23 +267,8 @@ def _checked(name: str, value: object) -> object:
             raise SettingError(name, f"must be true or false, got {value!r}")
         return value
     if bound.kind == "integer":
-        if bound.lo is None:
-            allowed = "an integer"
-        else:
-            allowed = f"an integer from {bound.lo} to {bound.hi}"
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise SettingError(name, f"must be {allowed}, got {value!r}")
-        if bound.lo is not None and not bound.lo <= value <= bound.hi:
-            raise SettingError(name, f"must be {allowed}, got {value}")
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SettingError(name, f"must be a number, got {value!r}")
-    value = float(value)
-    above = value > bound.lo if bound.lo_open else value >= bound.lo
-    if not (math.isfinite(value) and above and value <= bound.hi):
-        lowest = f"> {bound.lo:g}" if bound.lo_open else f">= {bound.lo:g}"
-        raise SettingError(name, f"must be {lowest} and <= {bound.hi:g}, got {value:g}")
-    return value
+        return integer(value, name, lo=bound.lo, hi=bound.hi, error=SettingError)
+    return number(value, name, lo=bound.lo, hi=bound.hi, lo_open=bound.lo_open, error=SettingError)
 
 
 @dataclass(frozen=True)

@@ -197,6 +197,8 @@ def test_replace_takes_numpy_integers_and_refuses_a_key_that_is_no_name() -> Non
             scn.replace({key: 7})
     with pytest.raises(probing.ScenarioError, match=r"got 7\.0"):
         scn.replace({"probe.order": 7.0})
+    monitored = probing.example("references/base").replace({"monitor.window_periods": np.int64(3)})
+    assert monitored.to_dict()["monitor"]["window_periods"] == 3  # the [monitor] section too
 
 
 def test_a_section_given_as_a_dict_replaces_the_whole_section() -> None:

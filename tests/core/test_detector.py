@@ -412,6 +412,21 @@ def test_numbers_are_kept_as_floats():
     assert type(made.false_alarms_per_hour) is float and made.false_alarms_per_hour == 1.0
 
 
+def test_numpy_integers_are_integers_and_kept_as_ints():
+    """A setting computed with numpy (``np.int64(4)``, what a loop over ``np.arange`` gives)
+    is an integer as Scenario.replace's other sections take it, kept as a Python int (the
+    metadata's JSON); a bool still is none, and the bounds hold as for an int."""
+    import json
+
+    made = MonitorSettings(window_periods=np.int64(4), false_alarms_per_hour=np.float64(0.2))
+    assert type(made.window_periods) is int and made.window_periods == 4
+    assert json.dumps(made.to_dict())
+    with pytest.raises(SettingError, match="must be an integer from 3 to 64, got 2"):
+        MonitorSettings(windows=np.int64(2))
+    with pytest.raises(SettingError, match=r"must be an integer from 1 to 1000, got np\.True_"):
+        MonitorSettings(window_periods=np.bool_(True))
+
+
 def test_the_false_alarm_probability_per_period_is_capped_at_a_half():
     """A rate that would give more than 0.5 per period is capped there (a test at alpha above
     a half would alarm more often than not); exactly 0.5 is kept."""
