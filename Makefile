@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup lock notebook test lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
+.PHONY: setup lock notebook test test-fast test-random lint format fig4 sweeps sweep modes gtm-damage monitor monitor-oracle monitor-lateral references simultaneous manoeuvres excitations bench clean
 
 setup: $(STAMP)
 
@@ -64,8 +64,28 @@ format: setup
 	$(PY) -m ruff format .
 	$(PY) -m ruff check --fix .
 
+# The whole suite, on every core the machine has (pytest-xdist; TEST_WORKERS=1 runs it in
+# this process, TEST_WORKERS=4 on four), each worker taking the next test as it is free;
+# the 25 slowest tests are listed at the end, so CI shows the next slow test as it lands.
+TEST_WORKERS ?= logical
+TEST_ARGS = -n $(TEST_WORKERS) --dist worksteal --durations=25
 test: setup lint
-	$(PY) -m pytest
+	$(PY) -m pytest $(TEST_ARGS)
+
+# The inner loop while developing (under a minute): the numerical core, the scenario rules
+# and the command line's refusals, without the tests that fly JSBSim.  make test before a
+# commit: it is the whole suite.
+FAST_TESTS := probing/core tests/core tests/experiment/test_scenario.py \
+  tests/experiment/test_scenario_sections.py tests/experiment/test_scenario_sensors.py \
+  tests/test_scenarios.py tests/cli
+test-fast: setup
+	$(PY) -m pytest $(FAST_TESTS) -m "not jsbsim and not slow" -n $(TEST_WORKERS) -q
+
+# The whole suite in a random order across files (pytest-random-order), to show that no test
+# depends on another's leftovers; the header prints the seed, SEED=<it> repeats that order.
+test-random: setup
+	$(PY) -m pytest $(TEST_ARGS) --random-order-bucket=global \
+	  $(if $(SEED),--random-order-seed=$(SEED))
 
 fig4: setup
 	$(PY) -m probing fig4
