@@ -161,8 +161,15 @@ def base_scenario(changes: dict[str, Any] | None = None, /, **entries: Any) -> d
 
 @pytest.fixture(scope="session", autouse=True)
 def _private_twin_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """One twin cache per test run, shared by its workers (pytest-xdist's, whose temporary
+    folders sit side by side in the run's): a twin one worker built, the others read.  Twins
+    appear whole (written aside and renamed, :mod:`probing.sim.twins`), so workers building
+    the same one at once each write their own and the last rename wins, as processes do."""
+    run = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        run = run.parent
     old = os.environ.get("PROBING_TWIN_CACHE")
-    os.environ["PROBING_TWIN_CACHE"] = str(tmp_path_factory.mktemp("twins"))
+    os.environ["PROBING_TWIN_CACHE"] = str(run / "twins")
     yield
     if old is None:
         os.environ.pop("PROBING_TWIN_CACHE", None)

@@ -212,23 +212,33 @@ def test_impossible_targets_are_one_line_and_exit_2(extra, message, capsys):
 
 
 # ------------------------------------------------------------------ the promise
+def _settled_h_z(scn, aircraft) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """A run's settled h of every channel and the mean settled z of its first channel's taps."""
+    with tempfile.TemporaryDirectory() as tmp:
+        result = run_scenario(scn, tmp, progress=False, aircraft=aircraft, timeseries=False)
+        df = pd.read_parquet(result.out_dir / "probing.parquet")
+    df = df[(df.channel == scn.channels[0]) & (df.period >= scn.settle_periods)]
+    return result.h_est, df.pivot(index="period", columns="tap", values="z").to_numpy().mean(axis=0)
+
+
 def measured_over_seeds(toml: str, channel: str, seeds: int = 50) -> dict[str, float]:
     """Run the design's scenario at ``seeds`` seeds: the seed-to-seed standard deviations of
     the mean settled z and h (RMS over taps) and of the gain against a noise-free baseline
     (the same scenario without sensor noise, its nonlinearity kept: what a monitor's baseline
-    learns)."""
+    learns).  One load and trim, forked runs: each run's bytes are those of the run on its
+    own (test_batch.py, ``test_grouped_runs_are_the_same_bytes_and_load_once``)."""
+    from probing.experiment.flight.batch import run_grouped
+
     scn = parse_scenario(tomllib.loads(toml))
-    h, z = [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        calm = scn.replace({"name": "calm", "disturbance.sensor_noise": {}})
-        ref = run_scenario(calm, tmp, progress=False).h_est[channel]
-        for seed in range(seeds):
-            result = run_scenario(scn.replace({"disturbance.seed": seed}), tmp, progress=False)
-            df = pd.read_parquet(result.out_dir / "probing.parquet")
-            df = df[(df.channel == channel) & (df.period >= scn.settle_periods)]
-            z.append(df.pivot(index="period", columns="tap", values="z").to_numpy().mean(axis=0))
-            h.append(result.h_est[channel])
-    h, z = np.array(h), np.array(z)
+    assert scn.channels[0] == channel
+    calm = scn.replace({"name": "calm", "disturbance.sensor_noise": {}})
+    runs = [calm] + [scn.replace({"disturbance.seed": seed}) for seed in range(seeds)]
+    flown = [None] * len(runs)
+    for i, outcome in run_grouped(runs, lambda s: s, _settled_h_z):
+        flown[i] = outcome.get()
+    ref = flown[0][0][channel]
+    h = np.array([h_est[channel] for h_est, _ in flown[1:]])
+    z = np.array([z for _, z in flown[1:]])
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
     return {
         "predicted_gain_stderr": float((h @ ref / (ref @ ref)).std(ddof=1)),
