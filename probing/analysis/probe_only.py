@@ -34,9 +34,6 @@ from probing.analysis.monitoring import FAULTS
 
 __all__ = ["probe_only_figure", "probe_only_markdown", "probe_only_table"]
 
-#: The columns a study's rows need (:func:`probing.analysis.monitoring.evaluate`).
-NEEDED = ("fault", "drift", "period_s", "delay_probing_s", "delay_trajectory_s")
-
 
 def _saved(probing: pd.Series, trajectory: pd.Series) -> float:
     """The median of trajectory - probing delay (s), a missing trajectory alarm infinite."""

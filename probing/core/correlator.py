@@ -216,16 +216,6 @@ class StreamingCorrelator:
         self._completed += count
 
     # ------------------------------------------------------------- results
-    @property
-    def samples_seen(self) -> int:
-        """Number of samples pushed so far."""
-        return self._seen
-
-    @property
-    def completed_periods(self) -> int:
-        """Number of complete periods seen so far."""
-        return self._completed
-
     def pop_periods(self) -> PeriodEstimates:
         """The periods completed since the last call, oldest first.
 

@@ -61,7 +61,6 @@ __all__ = [
     "cyclic_estimates",
     "estimator_weights",
     "noise_model",
-    "sample_autocovariance",
     "white",
 ]
 
@@ -200,17 +199,6 @@ def cyclic_estimates(
 def white(sigma: float) -> np.ndarray:
     """Autocovariance of white noise of standard deviation ``sigma``: ``[sigma^2]``."""
     return np.array([float(sigma) ** 2])
-
-
-def sample_autocovariance(x: np.ndarray, max_lag: int | None = None) -> np.ndarray:
-    """Autocovariance r(0..max_lag) of zero-mean realisations ``x`` (K, n), pooled over the
-    realisations and over time (each lag averaged over the samples it has)."""
-    x = np.atleast_2d(np.asarray(x, dtype=float))
-    n = x.shape[1]
-    max_lag = n - 1 if max_lag is None else min(int(max_lag), n - 1)
-    f = np.fft.rfft(x, 2 * n, axis=1)
-    acorr = np.fft.irfft((np.abs(f) ** 2).mean(axis=0), 2 * n)[: max_lag + 1]
-    return acorr / np.arange(n, n - max_lag - 1, -1)
 
 
 def _sampled_variance(

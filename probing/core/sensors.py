@@ -69,7 +69,6 @@ __all__ = [
     "SensorSpec",
     "SensorSpecError",
     "SensorSuite",
-    "suite_table",
 ]
 
 #: ft/s per knot: 1 kt = 1852 m/h exactly, 1 ft = 0.3048 m exactly.
@@ -376,11 +375,6 @@ class SensorSuite:
             except SensorSpecError as err:
                 raise SensorSpecError(f"channel {channel!r}: {err}", err.field) from None
         return SensorSuite(self.name, sensors, self.source)
-
-
-def suite_table(suite: SensorSuite) -> list[dict[str, Any]]:
-    """One row a channel, ``{"channel": name, **spec.to_dict()}``, for documentation."""
-    return [{"channel": ch, **spec.to_dict()} for ch, spec in suite.sensors.items()]
 
 
 _NASA_FILE = "NoiseParams_T2.m"

@@ -14,7 +14,6 @@ from probing.core.noise import (
     cyclic_estimates,
     estimator_weights,
     noise_model,
-    sample_autocovariance,
     white,
 )
 from probing.core.prbs import mls
@@ -182,32 +181,6 @@ def test_detrended_weights_match_monte_carlo(estimator: str, order: int) -> None
         got.append(np.mean([h_rows @ x[-h_rows.shape[1] :] for x in windows], axis=0))
     model = noise_model(ref, A, estimator, periods, white(1.0), detrend_order=order)
     assert rms(np.std(got, axis=0)) / rms(model.h_std()) == pytest.approx(1.0, abs=0.05)
-
-
-def test_sample_autocovariance_of_ar1() -> None:
-    rng = np.random.default_rng(8)
-    x = ar1(rng, (200, 2000), 0.8)
-    acov = sample_autocovariance(x, 10)
-    expected = 0.8 ** np.arange(11) / (1 - 0.8**2)
-    np.testing.assert_allclose(acov, expected, rtol=0.05)
-
-
-@pytest.mark.parametrize("max_lag", [None, 3])
-def test_sample_autocovariance_averages_each_lag_over_the_products_it_has(max_lag) -> None:
-    """Three made-up realisations of 6 samples: r(k) is the mean of the 3 (6 - k) products
-    x[t] x[t + k], summed here term by term (an unbiased average per lag, not divided by
-    n for every lag)."""
-    rng = np.random.default_rng(9)
-    x = rng.standard_normal((3, 6))
-    n = x.shape[1]
-    lags = n if max_lag is None else max_lag + 1
-    expected = [
-        sum(x[r, t] * x[r, t + k] for r in range(3) for t in range(n - k)) / (3 * (n - k))
-        for k in range(lags)
-    ]
-    np.testing.assert_allclose(sample_autocovariance(x, max_lag), expected, rtol=1e-12)
-    ones = sample_autocovariance(np.ones((1, 5)))  # every product is 1, at every lag
-    np.testing.assert_allclose(ones, np.ones(5), rtol=1e-12)
 
 
 @pytest.mark.parametrize("estimator", ["streaming", "cyclic", "ac"])

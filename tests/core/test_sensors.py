@@ -19,7 +19,6 @@ from probing.core.sensors import (
     SensorSpec,
     SensorSpecError,
     SensorSuite,
-    suite_table,
 )
 
 NASA_FILE = Path("/work/shared/gtm/nasa/NoiseParams_T2.m")
@@ -217,11 +216,10 @@ def test_overrides() -> None:
     assert info.value.field == "noise_sigma"
 
 
-def test_suite_is_read_only_and_tabulates() -> None:
+def test_suite_is_read_only() -> None:
     suite = SensorSuite("x", {"a": SensorSpec(bias=1.0)}, "test")
     with pytest.raises(TypeError):
         suite.sensors["b"] = SensorSpec()  # type: ignore[index]
-    assert suite_table(suite) == [{"channel": "a", **SensorSpec(bias=1.0).to_dict()}]
     with pytest.raises(TypeError):
         SensorSuite("x", {"a": 1.0}, "test")  # type: ignore[dict-item]
 

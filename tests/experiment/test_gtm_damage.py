@@ -13,7 +13,7 @@ from conftest import BLAS_KERNELS, run_with_blas_kernel
 
 from probing.analysis import gtm_damage
 from probing.cli import main as cli_main
-from probing.experiment.studies.gtm_damage import EXAMPLE6, fly_case, run_example6
+from probing.experiment.studies.gtm_damage import EXAMPLE6, fly, run_example6
 from probing.sim.flight import Flight
 
 pytestmark = pytest.mark.jsbsim
@@ -93,7 +93,7 @@ def test_the_rudder_holds_zero_sideslip_in_a_damaged_turn() -> None:
 def test_the_damage_acts_from_the_step_after_onset() -> None:
     """Up to the onset sample the damaged flight is the undamaged one to the bit; from the
     next step on it is not (vertical tail off: the side force and yaw change at once)."""
-    calm, hit = fly_case(0, SHORT), fly_case(2, SHORT)
+    calm, hit = fly(0, SHORT)[0], fly(2, SHORT)[0]
     onset = round(SHORT.onset_s / SHORT.dt_s)
     assert calm["time_s"][onset] == pytest.approx(SHORT.onset_s)
     for column in ("beta_deg", "r_deg_s", "phi_deg", "alpha_deg"):
@@ -118,7 +118,7 @@ NASA_CASE4 = {
 def test_case4_rolls_as_nasas_plot() -> None:
     """The lost wing tip (case 4) with the CG where NASA's simulation puts it rolls through
     about 1.4 turns by 15 s, with NASA's alpha, roll rate and speed."""
-    c = fly_case(4)
+    c = fly(4)[0]
     after = c["time_s"] >= EXAMPLE6.onset_s
     got = {
         "bank_deg": float(np.degrees(np.unwrap(np.radians(c["phi_deg"])))[-1]),

@@ -10,8 +10,9 @@ Timing conventions (documented in ``docs/method.md``):
 
 The run is four pieces, each small: :class:`_Rig` (set-up: probe, nonlinearity, trimmed
 plant, twin, metadata), :func:`_chunks` (stepping, period by period, handed on in chunks of
-whole periods), a drift correction per ``output.drift`` mode (:class:`_Streaming`,
-:class:`_Detrended`) that turns a chunk into per-period estimates, and :class:`SettledMean`
+whole periods), a drift correction per ``output.drift`` mode
+(:func:`probing.experiment.flight.drift.drift_correction`) that turns a chunk into per-period
+estimates, and :class:`SettledMean`
 (the average over the settled periods, and their per-tap bounds for ``bounds.parquet``).
 """
 

@@ -14,12 +14,9 @@ from probing.sim.autopilot import COMMAND_COLUMNS
 
 __all__ = [
     "DRIFT_MODES",
-    "GUST_KNOWING_DRIFTS",
-    "REALISABLE_DRIFTS",
     "REFERENCES",
     "REFERENCE_FIELDS",
     "REFERENCE_KINDS",
-    "TWIN_DRIFTS",
     "Reference",
     "realisable_drifts",
 ]
@@ -123,14 +120,6 @@ REFERENCE_FIELDS = ("drift", "detrend_order")
 
 #: ``output.drift``'s values, in the table's order.
 DRIFT_MODES = tuple(REFERENCES)
-#: The references whose twin flies the same gusts as the aircraft (simulation only).
-GUST_KNOWING_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.knows_gusts)
-#: The references that subtract a precomputed twin.
-TWIN_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.kind == "twin")
-#: The references a flight computer can compute: what a live flight and a log recorded
-#: elsewhere can use (the table's, as the project ships it: :func:`realisable_drifts` reads
-#: the table as it is now).
-REALISABLE_DRIFTS = tuple(n for n, r in REFERENCES.items() if r.realisable)
 
 
 def realisable_drifts() -> tuple[str, ...]:

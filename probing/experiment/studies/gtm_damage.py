@@ -2,7 +2,7 @@
 
 NASA's ``example6.m`` trims the undamaged T2 in a 45 deg bank climbing turn at 95 kt EAS and
 3 deg flight-path angle, holds every control at its trim value (open loop), switches a damage
-case on at 10 s and simulates to 15 s.  :func:`fly_case` does the same on ``gtm_t2``
+case on at 10 s and simulates to 15 s.  :func:`fly` does the same on ``gtm_t2``
 (the turn trimmed at zero sideslip as NASA's ``trimgtm.m`` trims it,
 :meth:`probing.sim.plant.Plant.trim`; the damage as a fault at its onset,
 :meth:`~probing.sim.plant.Plant.schedule`); :func:`run_example6` flies the undamaged aircraft
@@ -24,10 +24,10 @@ from probing.sim.flight import DAMAGE_CASES, DAMAGE_MODEL, Flight
 from probing.sim.plant import TurnTrim, make_plant
 from probing.sim.world import JSBSimWorld
 
-__all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly", "fly_case", "run_example6"]
+__all__ = ["EXAMPLE6", "SIGNALS", "Example6", "case_file", "fly", "run_example6"]
 
 
-def fly_case(case: int, setup: Example6 = EXAMPLE6) -> dict[str, np.ndarray]:
+def fly(case: int, setup: Example6 = EXAMPLE6) -> tuple[dict[str, np.ndarray], TurnTrim]:
     """Trim in the turn, fly ``setup.end_s`` open loop with damage ``case`` from onset.
 
     Parameters
@@ -42,13 +42,10 @@ def fly_case(case: int, setup: Example6 = EXAMPLE6) -> dict[str, np.ndarray]:
     dict
         ``time_s`` and every column of :data:`SIGNALS`, one sample per step, the first at
         the trim (t = 0).
+    TurnTrim
+        How the turn was trimmed (JSBSim's turn trim, beta free, and the zero-sideslip
+        trim flown: attitude, controls, the six accelerations).
     """
-    return fly(case, setup)[0]
-
-
-def fly(case: int, setup: Example6 = EXAMPLE6) -> tuple[dict[str, np.ndarray], TurnTrim]:
-    """:func:`fly_case`, and how the turn was trimmed (JSBSim's turn trim, beta free, and
-    the zero-sideslip trim flown: attitude, controls, the six accelerations)."""
     flight = Flight(
         DAMAGE_MODEL,
         setup.altitude_ft,
