@@ -403,3 +403,23 @@ def test_a_new_reference_flies_live_as_in_this_process(lowpass):
 def test_a_live_flight_with_a_new_reference_replays_bit_for_bit(lowpass):
     live = _table(lowpass.live, "probing.parquet")
     assert len(live) > 0 and live.equals(lowpass.replay_probing)
+
+
+def test_a_new_reference_is_written_beside_each_channel_by_probing_run(tmp_path, capsys):
+    """``probing run`` with the new reference writes ``<channel>_reference`` in
+    ``timeseries.parquet``: scipy's low-pass of the channel as measured (``run.py`` once named
+    the drift modes that have one itself, and the writer dropped the columns silently)."""
+    scenario = tmp_path / "lowpass.toml"
+    text = _with(SHORT, "lowpass-run").replace('drift = "detrend"', 'drift = "lowpass"')
+    scenario.write_text(text)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(REFERENCES, "lowpass", LOWPASS)
+        mp.setitem(onboard.SOURCES, "lowpass", LowPass)
+        assert main(["run", str(scenario), "--out", str(tmp_path / "out")]) == 0
+        scn = load_scenario(scenario)
+    ts = _table(tmp_path / "out" / "lowpass-run", "timeseries.parquet")
+    a = scn.dt_s / LOWPASS_S
+    for channel in scn.channels:
+        y = ts[channel].to_numpy()
+        expected = lfilter([a], [1.0, a - 1.0], y, zi=[(1.0 - a) * y[0]])[0]
+        np.testing.assert_allclose(ts[f"{channel}_reference"], expected, rtol=1e-12, atol=1e-15)

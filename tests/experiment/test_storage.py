@@ -112,6 +112,25 @@ def test_a_writer_refuses_a_schema_that_names_a_column_twice(tmp_path: Path) -> 
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_writer_refuses_a_column_its_schema_does_not_have(tmp_path: Path) -> None:
+    """Rows with a column the schema lacks are an error naming it, not a column dropped (as
+    Arrow's table of a mapping and a schema drops it); rows without one of its columns are
+    one too; the file is not written."""
+    import pyarrow as pa
+
+    from probing.experiment.output.storage import AtomicParquetWriter
+
+    schema = pa.schema([("a_deg", pa.float64()), ("b_deg", pa.float64())])
+    w = AtomicParquetWriter(tmp_path / "x.parquet", schema, {})
+    with pytest.raises(ValueError, match=r"x.parquet has no column 'c_deg'"):
+        w.write({"a_deg": [1.0], "b_deg": [2.0], "c_deg": [3.0]})
+    with pytest.raises(KeyError, match="b_deg"):
+        w.write({"a_deg": [1.0]})
+    w.write({"a_deg": [1.0], "b_deg": [2.0]})  # the schema's columns: written
+    w.abort()
+    assert list(tmp_path.iterdir()) == []
+
+
 def _monitor_rows(n: int) -> dict:
     """``n`` made-up rows of the monitor's layout."""
     return {

@@ -546,7 +546,7 @@ def _timeseries_writer(flown: _Reader, rig: _Rig, timeseries: bool) -> Any:
     if not timeseries:
         return None
     scn, channels = rig.scn, list(rig.scn.channels)
-    with_reference = flown.twin is not None or scn.follows or scn.drift == "gust"
+    with_reference = flown.computer.onboard.source is not None  # what it subtracts, if a model
     stepped = rig.autopilot is not None
     schema = timeseries_schema(channels, with_reference, stepped, scn.surface)
     assert flown.outputs is not None
