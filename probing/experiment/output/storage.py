@@ -55,11 +55,7 @@ from probing.experiment.output.output_paths import (
     check_output_file,
     check_output_folder,
 )
-from probing.experiment.output.pandas_keys import (
-    from_pandas_attrs,
-    stored_text,
-    to_pandas_attrs,
-)
+from probing.experiment.output.pandas_keys import from_pandas_attrs, stored_text, to_pandas_attrs
 from probing.experiment.output.staging import DIGEST_KEY, earlier_files, report_removed
 
 __all__ = [
@@ -282,7 +278,6 @@ class AtomicParquetWriter:
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
             raise ValueError(f"{Path(path).name}: column names given twice: {twice}")
-        self._names = frozenset(names)
         self.path = Path(path)
         self.tmp = self.path.with_name(f".{self.path.name}.{tempfiles.writer_tag()}.tmp")
         self.schema = schema.with_metadata(metadata)
@@ -316,15 +311,10 @@ class AtomicParquetWriter:
         """Append rows (columns of equal length); written out once a row group is full.
 
         The values are copied: the caller may reuse its arrays right away (Arrow would
-        otherwise wrap a numpy array without copying, and buffered rows would change).
-
-        Raises
-        ------
-        ValueError
-            For a column the file's schema does not have (Arrow would drop it silently).
+        otherwise wrap a numpy array without copying, and buffered rows would change).  A
+        column the schema lacks is a ValueError (Arrow would drop it silently).
         """
-        unknown = [k for k in columns if k not in self._names]
-        if unknown:
+        if unknown := [k for k in columns if k not in self.schema.names]:
             raise ValueError(f"{self.path.name} has no column {', '.join(map(repr, unknown))}")
         columns = {k: np.array(v) if isinstance(v, np.ndarray) else v for k, v in columns.items()}
         table = pa.table(columns, schema=self.schema)
