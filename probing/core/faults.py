@@ -288,7 +288,7 @@ class SensorFault(Protocol):
     A world that measures step by step (:meth:`probing.sim.world.JSBSimWorld.fly` with a
     sensor suite, :class:`probing.experiment.flight.live.SocketWorld`) calls :meth:`measure` after
     each step with the channel's measurement; one that measures a block of steps at once
-    (:class:`probing.sim.sensing.ChannelNoise`) calls it through :func:`apply_sensor_fault`,
+    (:class:`probing.core.measuring.ChannelNoise`) calls it through :func:`apply_sensor_fault`,
     row by row in order.  Either way the fault sees each step once, in order, so it may keep
     a state (a sensor stuck at its value at the onset, say).
     """

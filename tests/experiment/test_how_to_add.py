@@ -117,7 +117,7 @@ FAULT = (
 def scaled(request, tmp_path_factory):
     """The fault type added to FAULTS; the flight with it live and in this process, and
     without it in this process: without sensors (the block form of the hook,
-    :class:`~probing.sim.sensing.ChannelNoise`) and with NASA's T2 suite (step by step)."""
+    :class:`~probing.core.measuring.ChannelNoise`) and with NASA's T2 suite (step by step)."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(FAULTS, "sensor_ramp", SENSOR_RAMP)
         base = tmp_path_factory.mktemp(f"scaled-{request.param}")

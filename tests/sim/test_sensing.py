@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from probing.core.faults import SensorBias
+from probing.core.measuring import SensorBank
 from probing.core.sensors import SENSOR_SUITES
 from probing.sim.control import ClosedLoop, control_power
 from probing.sim.flight import Control, Flight
 from probing.sim.plant import make_plant
-from probing.sim.sensing import Sensing, SensorBank
+from probing.sim.sensing import Sensing
 
 pytestmark = pytest.mark.jsbsim
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from probing.core.errors import ProbingError
 from probing.core.faults import onset_step
+from probing.core.measuring import ChannelNoise, SensorBank
 from probing.experiment.flight.flight_computer import FlightComputer, flight_autopilot, folder_of
 from probing.experiment.flight.monitor import Monitor, MonitorResult
 from probing.experiment.flight.onboard import calm_nominal, open_reference_twin, reference_source
@@ -57,7 +58,6 @@ from probing.sim.control import control_power, trim_of
 from probing.sim.errors import DivergenceError, SimulatorLostError
 from probing.sim.flight import disturbance_properties
 from probing.sim.plant import DAMAGE_PROPERTY, Plant, make_plant
-from probing.sim.sensing import ChannelNoise, SensorBank
 from probing.sim.surfaces import SURFACES
 from probing.sim.world import JSBSimWorld, flight_plan
 
@@ -210,19 +210,17 @@ class SocketWorld:
         true = sim.get(props)  # held: the trimmed aircraft
         self.row = list(true)  # the latest row: its state this frame's, the rest the last's
         n_log = len(self.logged)
-        self.bank = None if suite is None else SensorBank(suite, scn.dt_s, scn.seed, true[:n_log])
+        fault = scn.build_fault("sensor")
+        self.bank = None
+        if suite is not None:
+            self.bank = SensorBank(suite, scn.dt_s, scn.seed, true[:n_log], fault)
         #: The latest measurement of each channel read (the loops' inputs).
         self.current = list(self.bank.current) if self.bank is not None else true[:n_log]
         self.current += true[n_log : len(self.channels)]
-        fault = scn.build_fault("sensor")
         self.noise = None
         if self.bank is None:
             sigma = [scn.sensor_noise.get(c, 0.0) for c in self.logged]
             self.noise = ChannelNoise(self.logged, sigma, scn.seed, fault, scn.dt_s)
-        self.sensor_fault = None  # (column, fault, onset step) of a sensor fault in the suite
-        if fault is not None and self.bank is not None:
-            onset = onset_step(fault.onset_s, scn.dt_s)
-            self.sensor_fault = (self.bank.index(fault.channel), fault, onset)
         self.fault = scn.actuator_fault
         self.fault_onset = onset_step(self.fault.onset_s, scn.dt_s) if self.fault else -1
         self.held: float | None = None
@@ -359,13 +357,14 @@ class SocketWorld:
     ) -> None:
         """The suite's sensors measure ``columns`` of ``row``, the row of frame ``step`` (the
         sensor fault added), into ``out`` and :attr:`current`."""
-        assert self.bank is not None
+        bank = self.bank
+        assert bank is not None
         for j in columns:
             if j >= len(self.logged):
                 continue  # the probed surface's position: the actuator's, not logged
-            value = self.bank.sensors[j].step(row[j], draws[j])
-            if self.sensor_fault is not None and j == self.sensor_fault[0]:
-                value = self.sensor_fault[1].measure(value, step, self.sensor_fault[2])
+            value = bank.sensors[j].step(row[j], draws[j])
+            if j == bank.fault_channel:
+                value = bank.fault.measure(value, step, bank.fault_onset)
             out[j] = self.current[j] = value
 
     def finish(self) -> None:

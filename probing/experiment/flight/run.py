@@ -29,6 +29,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from probing.core.forked import INTERRUPTS
+from probing.core.measuring import ChannelNoise
 from probing.core.prbs import Probe
 from probing.experiment.flight.flight_computer import (
     FlightComputer,
@@ -60,7 +61,7 @@ from probing.sim.control import control_power
 from probing.sim.errors import DivergenceError
 from probing.sim.fork import TrimmedAircraft, trim_key, trim_spec
 from probing.sim.plant import Plant, TrimResult, make_plant
-from probing.sim.sensing import ChannelNoise, Sensing
+from probing.sim.sensing import Sensing
 from probing.sim.surfaces import SURFACES
 from probing.sim.twins import ReferenceTwin
 from probing.sim.world import JSBSimWorld
