@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import base_scenario
 
-from probing.experiment.flight.run import run_scenario
+from probing.experiment.flight.run import CHUNK_STEPS, chunk_periods, run_scenario
 from probing.experiment.output.storage import AtomicParquetWriter
 from probing.experiment.scenario import parse_scenario
 from probing.experiment.studies.truth import compute_truth, predicted_probing
@@ -641,3 +641,13 @@ def test_a_detrended_runs_bounds_are_its_settled_periods_pinned_by_their_tail(
     assert json.loads(meta[b"probing.convention"])["h_est"] == dict.fromkeys(
         scn.channels, "reference"
     )
+
+
+@pytest.mark.parametrize(
+    ("period_steps", "periods"),
+    [(CHUNK_STEPS // 2, 2), (CHUNK_STEPS // 2 + 1, 1), (CHUNK_STEPS, 1), (CHUNK_STEPS + 1, 1)],
+)
+def test_a_chunk_is_the_whole_periods_in_chunk_steps_at_least_one(period_steps, periods):
+    """Two periods of half a chunk fill it, a step more and one fits; a period of a chunk or
+    longer is a chunk alone (never none)."""
+    assert chunk_periods(period_steps) == periods

@@ -562,3 +562,14 @@ def test_the_scenarios_probe_is_built_once_and_follows_replace() -> None:
     other = scn.replace({"probe.amplitude_deg": 0.02, "probe.bit_duration_s": 0.03})
     assert other.probe.amplitude_deg == 0.02 and other.steps_per_bit == 3
     assert scn.probe.amplitude_deg == scn.amplitude_deg  # the original's is untouched
+
+
+@pytest.mark.parametrize(("bit_duration_s", "steps_per_bit"), [(0.01, 1), (0.03, 3)])
+def test_a_period_is_its_bits_times_the_steps_of_a_bit(bit_duration_s, steps_per_bit):
+    """The one count of a period's steps: M = 511 bits (order 9) of 1 or 3 steps of 0.01 s;
+    the run is its periods of them."""
+    from conftest import base_scenario
+
+    scn = parse_scenario(base_scenario({"probe.bit_duration_s": bit_duration_s}))
+    assert scn.period_steps == 511 * steps_per_bit
+    assert scn.total_steps == scn.periods * scn.period_steps == 8 * 511 * steps_per_bit

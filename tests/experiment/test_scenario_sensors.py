@@ -22,6 +22,7 @@ from probing.experiment.scenario import (
     parse_scenario,
     read_toml,
 )
+from probing.experiment.scenario.references import REFERENCES
 from probing.sim.flight import LOOP_SENSORS, Control
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -77,7 +78,7 @@ def small_suite(monkeypatch: pytest.MonkeyPatch) -> SensorSuite:
 # ------------------------------------------------------------------ the section
 def test_a_scenario_without_sensors_has_none_and_writes_none() -> None:
     scn = parse_scenario(base_scenario())
-    assert scn.sensors is None and scn.sensor_overrides == {}
+    assert scn.sensors is None and scn.sensors_section is None
     assert "sensors" not in scn.to_dict()
 
 
@@ -101,7 +102,7 @@ def test_overrides_change_their_sensor_only() -> None:
         if channel != "theta_rad":
             assert scn.sensors.sensors[channel] == spec
     assert SENSOR_SUITES["nasa_t2"].sensors["theta_rad"] == nasa["theta_rad"]  # untouched
-    assert scn.sensor_overrides == {"theta_rad": {"bias": 0.0, "rate_hz": 50.0}}
+    assert scn.sensors_section.overrides == {"theta_rad": {"bias": 0.0, "rate_hz": 50.0}}
 
 
 @pytest.mark.parametrize(
@@ -248,12 +249,13 @@ def test_the_drift_names() -> None:
 )
 def test_which_references_are_twins(drift: str, uses_twin: bool, knows_gusts: bool) -> None:
     scn = parse_scenario(base_scenario({"output.drift": drift}))
-    assert (scn.uses_twin, scn.twin_knows_gusts) == (uses_twin, knows_gusts)
+    assert (REFERENCES[drift].kind == "twin", scn.twin_knows_gusts) == (uses_twin, knows_gusts)
 
 
 def test_gust_is_no_precomputed_twin() -> None:
     scn = parse_scenario(gust_ready())
-    assert (scn.uses_twin, scn.twin_knows_gusts, scn.follows) == (False, False, False)
+    twin = REFERENCES[scn.drift].kind == "twin"
+    assert (twin, scn.twin_knows_gusts, scn.follows) == (False, False, False)
 
 
 def test_reference_in_turbulence_is_refused() -> None:
@@ -276,7 +278,8 @@ def test_other_references_fly_turbulence(drift: str) -> None:
 def test_oracle_in_calm_air_is_the_reference_twin() -> None:
     ref = parse_scenario(base_scenario())
     oracle = parse_scenario(base_scenario({"output.drift": "oracle"}))
-    assert oracle.flight == ref.flight and oracle.uses_twin and oracle.twin_knows_gusts
+    assert oracle.flight == ref.flight and REFERENCES["oracle"].kind == "twin"
+    assert oracle.twin_knows_gusts
 
 
 def test_gust_is_accepted_with_its_sensors_and_a_pitch_hold() -> None:

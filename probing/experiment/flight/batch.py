@@ -220,7 +220,7 @@ def _work(i: int, items: Sequence[T], work: Callable, aircraft: TrimmedAircraft 
 
 def _store(scn: Scenario, aircraft: TrimmedAircraft) -> None:
     """Simulate and store a scenario's reference twin (in a child)."""
-    steps_per_period = scn.bits_per_period * scn.steps_per_bit
+    steps_per_period = scn.period_steps
     flight = twin_flight(scn, nominal=False)
     assert flight is not None
     plant = aircraft.plant_for(flight)

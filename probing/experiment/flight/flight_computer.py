@@ -128,7 +128,7 @@ class FlightComputer:
     ) -> None:
         self.scn, self.autopilot, self.monitor = scn, autopilot, monitor
         self.chunk_periods = int(chunk_periods)
-        self.period_steps = scn.probe.length * scn.steps_per_bit
+        self.period_steps = scn.period_steps
         self.x_period = scn.probe.samples(scn.dt_s, 1)
         self.nl = scn.build_nonlinearity()
         self._nl_state = self.nl.initial_state() if self.nl else None

@@ -121,7 +121,7 @@ def wrong_probe(
 def wrong_length(rows: int, scn: Scenario) -> str | None:
     """Why a log of ``rows`` rows is not whole probe periods of ``scn``'s flight, at least
     one and at most its ``probe.periods``; None if it is."""
-    period = scn.probe.length * scn.steps_per_bit
+    period = scn.period_steps
     if rows == 0:
         return "it holds no rows"
     if rows % period:

@@ -36,7 +36,7 @@ from probing.experiment.flight.onboard import (
     open_reference_twin,
     reference_source,
 )
-from probing.experiment.flight.run import CHUNK_STEPS, Companion, RunResult, run_scenario
+from probing.experiment.flight.run import Companion, RunResult, chunk_periods, run_scenario
 from probing.experiment.output.progress import progress_bar
 from probing.experiment.output.storage import (
     MONITOR_SCHEMA,
@@ -453,7 +453,7 @@ def logged_chunk_periods(meta: dict[bytes, bytes], period_steps: int) -> int:
     recorded = meta.get(b"probing.chunk_periods")
     if recorded is not None:
         return int(json.loads(recorded))
-    return max(1, CHUNK_STEPS // period_steps)
+    return chunk_periods(period_steps)
 
 
 def replay_monitor(
@@ -494,12 +494,10 @@ def replay_monitor(
     scn, baseline = logged_scenario(log, meta, table)
     settings = scn.monitor_settings()
     monitor = Monitor(scn, settings)
-    probe = scn.probe
-    m = probe.length
-    period_steps = m * probe.steps_per_bit(scn.dt_s)
+    period_steps = scn.period_steps
     chunk_periods = logged_chunk_periods(meta, period_steps)  # the flight's own chunks
     folder = Path(folder) if folder is not None else Path(out) / scn.name
-    lag_s = np.arange(m) * probe.bit_duration_s
+    lag_s = np.arange(scn.bits_per_period) * scn.probe.bit_duration_s
     ended = meta.get(b"probing.ended")
     kept = {k: v for k, v in meta.items() if k.startswith(b"probing.") and k not in _LOG_ONLY}
     twin = open_reference_twin(scn, nominal=True, use_cache=twin_cache)

@@ -138,7 +138,7 @@ class GustSource:
         self.channels = len(scn.channels)
         self.twin = GustTwin(flight, scn.control, power, [*scn.channels, "h_ft"], plant)
         self.estimator = GustEstimator(self.twin.span_ft, scn.dt_s, STEADY_WIND_TIME_S)
-        self.period_steps = scn.probe.length * scn.probe.steps_per_bit(scn.dt_s)
+        self.period_steps = scn.period_steps
         self.follow = 1.0 / ALTITUDE_FOLLOW_S  # 1/s
         self.down = 0.0  # the vertical wind that keeps the twin at the measured altitude
         self.last: np.ndarray | None = None  # the last measured roll rate and bank angle
@@ -192,7 +192,7 @@ class FollowSource:
         self.plant = plant
         self.loop = ClosedLoop(plant, Control())  # healthy, its loops open: it replays
         self.nodes = plant.channel_nodes(list(scn.channels))
-        self.period_steps = scn.probe.length * scn.steps_per_bit
+        self.period_steps = scn.period_steps
         #: Steps flown so far.
         self.steps = 0
 

@@ -12,8 +12,8 @@ The run is four pieces, each small: :class:`_Rig` (set-up: probe, nonlinearity, 
 plant, twin, metadata), :func:`_chunks` (stepping, period by period, handed on in chunks of
 whole periods), a drift correction per ``output.drift`` mode
 (:func:`probing.experiment.flight.drift.drift_correction`) that turns a chunk into per-period
-estimates, and :class:`SettledMean`
-(the average over the settled periods, and their per-tap bounds for ``bounds.parquet``).
+estimates, and :class:`probing.experiment.output.settled.SettledMean` (the average over the
+settled periods, and their per-tap bounds for ``bounds.parquet``).
 """
 
 from __future__ import annotations
@@ -46,7 +46,6 @@ from probing.experiment.flight.onboard import (
 )
 from probing.experiment.flight.runners import runner_of
 from probing.experiment.output.progress import progress_bar
-from probing.experiment.output.settled import SettledMean
 from probing.experiment.output.storage import (
     OutputFolder,
     Settled,
@@ -66,11 +65,16 @@ from probing.sim.surfaces import SURFACES
 from probing.sim.twins import ReferenceTwin
 from probing.sim.world import JSBSimWorld
 
-__all__ = ["Companion", "RunObserver", "RunResult", "SettledMean", "flight_key", "run_scenario"]
+__all__ = ["Companion", "RunObserver", "RunResult", "chunk_periods", "flight_key", "run_scenario"]
 
 #: Steps post-processed together (noise, correlation, Parquet rows): whole periods, at
 #: least one; the plant is still stepped and checked period by period.
 CHUNK_STEPS = 8192
+
+
+def chunk_periods(period_steps: int) -> int:
+    """Periods estimated together here: about :data:`CHUNK_STEPS` steps, at least one."""
+    return max(1, CHUNK_STEPS // period_steps)
 
 
 @dataclass
@@ -190,12 +194,7 @@ class _Rig:
     @property
     def period_steps(self) -> int:
         """Simulation steps of one probe period."""
-        return self.probe.length * self.probe.steps_per_bit(self.scn.dt_s)
-
-    @property
-    def chunk_periods(self) -> int:
-        """Periods post-processed together: about :data:`CHUNK_STEPS` steps, at least one."""
-        return max(1, CHUNK_STEPS // self.period_steps)
+        return self.scn.period_steps
 
     @property
     def lag_s(self) -> np.ndarray:
@@ -275,7 +274,7 @@ def _reader(
     source = reference_source(scn, twin, follower)
     autopilot = rig.autopilot if scn is rig.scn else None
     computer = FlightComputer(
-        scn, autopilot, rig.y_trim, source, rig.chunk_periods, companion.observer
+        scn, autopilot, rig.y_trim, source, chunk_periods(rig.period_steps), companion.observer
     )
     return _Reader(scn, companion.folder, computer, twin, follower, nominal_twin)
 
@@ -319,7 +318,7 @@ def _chunks(rig: _Rig, computer: FlightComputer) -> Iterator[_Chunk]:
         scn.build_fault("sensor"),
         scn.dt_s,
     )
-    chunk = rig.chunk_periods
+    chunk = chunk_periods(n_steps)
     out, surface, nl_out, control, commands, sensed = _buffers(rig, chunk * n_steps)
     for first in range(0, scn.periods, chunk):
         k = min(chunk, scn.periods - first)

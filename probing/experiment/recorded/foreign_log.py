@@ -219,7 +219,7 @@ def foreign_log(log: str | Path, how: LogMap, scn: Scenario) -> pa.Table:
     cols = {n: _values(log, table, n, how.columns.get(n, Column(n))) for n in replay_columns(scn)}
     _check_time(log, cols["time_s"], scn.dt_s)
     trim = _trim(log, how, scn, cols)
-    period_steps = scn.probe.length * scn.probe.steps_per_bit(scn.dt_s)
+    period_steps = scn.period_steps
     first = int(np.searchsorted(cols["time_s"], 0.0, side="right"))
     periods = (cols["time_s"].size - first) // period_steps
     try:

@@ -233,10 +233,6 @@ class Scenario:
     def sensors(self) -> SensorSuite | None:
         return self.sensors_section.suite if self.sensors_section else None
 
-    @property
-    def sensor_overrides(self) -> dict[str, dict[str, float]]:
-        return self.sensors_section.overrides if self.sensors_section else {}
-
     # -------------------------------------------------------------- derived
     @property
     def surface_unit(self) -> str:
@@ -265,18 +261,14 @@ class Scenario:
         return self.probe.memory_s
 
     @property
+    def period_steps(self) -> int:
+        """Simulation steps of one probe period (the one count of it)."""
+        return self.probe_section.period_steps(self.dt_s)
+
+    @property
     def total_steps(self) -> int:
         """Simulation steps of the whole run (one aircraft)."""
         return self.probe_section.total_steps(self.dt_s)
-
-    @property
-    def uses_twin(self) -> bool:
-        """True if the drift correction subtracts a precomputed unprobed twin: ``reference``
-        and ``oracle`` (the nominal aircraft through the same turbulence realisation) or
-        ``nominal`` (the nominal aircraft in calm air, flying its own autopilot).  ``gust``
-        is not one: its twin is flown from the sensor stream, through the gust estimated
-        from it."""
-        return REFERENCES[self.drift].kind == "twin"
 
     @property
     def twin_knows_gusts(self) -> bool:

@@ -198,9 +198,14 @@ class ProbeSection:
         """The probe: order, bit duration and amplitude (in the surface's unit), built once."""
         return Probe(self.order, self.bit_duration_s, self.amplitude_deg, self.excitation)
 
+    def period_steps(self, dt_s: float) -> int:
+        """Simulation steps of one probe period at the step ``dt_s`` (s): M bits of
+        ``steps_per_bit`` steps each."""
+        return self.probe.length * self.probe.steps_per_bit(dt_s)
+
     def total_steps(self, dt_s: float) -> int:
         """Simulation steps of the whole run at the step ``dt_s`` (s)."""
-        return self.periods * self.probe.length * self.probe.steps_per_bit(dt_s)
+        return self.periods * self.period_steps(dt_s)
 
     def to_dict(self) -> dict[str, Any]:
         """The section; the elevator and the PRBS are left out, as the digests were before
