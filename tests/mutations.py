@@ -62,9 +62,9 @@ MUTATIONS = [
         "tests/experiment/test_surfaces.py::test_the_aileron_driven_and_measured_is_the_right_panel",
     ),
     (
-        "probing/sim/plant.py",
-        "onset_step(flight.damage_onset_s, self.dt_s))",
-        "onset_step(flight.damage_onset_s, self.dt_s) + 1)",
+        "probing/sim/flight.py",
+        "return onset_step(self.damage_onset_s, self.dt_s)",
+        "return onset_step(self.damage_onset_s, self.dt_s) + 1",
         "tests/sim/test_plant.py::test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset",
     ),
     (

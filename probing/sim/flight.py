@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from probing.core.faults import ACTUATOR_FAULTS, ActuatorFault  # re-exported: the autopilot's
+# ACTUATOR_FAULTS and ActuatorFault are re-exported: the autopilot's
+from probing.core.faults import ACTUATOR_FAULTS, ActuatorFault, onset_step
 from probing.core.sensors import FPS_PER_KT
 from probing.sim.surfaces import DEFAULT_SURFACE, SURFACES
 
@@ -360,6 +361,14 @@ class Flight:
     def trimmed_damage(self) -> int:
         """The damage case the aircraft is trimmed with (0 when it comes in flight)."""
         return self.damage_case if self.damage_onset_s is None else 0
+
+    @property
+    def damage_onset_step(self) -> int | None:
+        """The step that starts at the damage's onset, the first damaged (None: no damage
+        comes in flight), counted from the trim; the one count of it for every world."""
+        if self.damage_onset_s is None:
+            return None
+        return onset_step(self.damage_onset_s, self.dt_s)
 
     @property
     def condition(self) -> str:

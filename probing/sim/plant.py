@@ -19,7 +19,6 @@ os.environ.setdefault("JSBSIM_DEBUG", "0")  # no banner on stdout
 import jsbsim
 import numpy as np
 
-from probing.core.faults import onset_step
 from probing.core.forked import can_fork, forked_map
 from probing.sim import aircraft as aircraft_files
 from probing.sim.aircraft import alpha_range_rad, sanitised_root, stock_root
@@ -275,8 +274,8 @@ class Plant:
         the onset is the first damaged)."""
         self._steps = 0
         self._fault = None
-        if flight.damage_onset_s is not None:
-            self._fault = (flight.damage_case, onset_step(flight.damage_onset_s, self.dt_s))
+        if flight.damage_onset_step is not None:
+            self._fault = (flight.damage_case, flight.damage_onset_step)
 
     @property
     def steps_run(self) -> int:

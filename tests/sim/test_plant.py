@@ -285,3 +285,16 @@ def test_a_scheduled_damage_is_switched_on_at_the_step_that_starts_at_its_onset(
         JSBSimWorld(plant).fly_commands(None, [node], out[start : start + n])
         start += n
     assert np.array_equal(out[:, 0], np.where(np.arange(60) >= 30, 5.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    ("onset_s", "step"), [(None, None), (0.0, 0), (0.5, 50), (0.504, 50), (0.506, 51)]
+)
+def test_the_damage_onset_is_the_step_that_starts_there(onset_s, step):
+    """The first damaged step of a damage in flight, counted from the trim in steps of
+    0.01 s: the step that starts at (the nearest to) the onset; none without one.  Both
+    JSBSim worlds switch the damage on at it (the plant's schedule, the live world's frame)."""
+    flight = Flight(
+        "gtm_t2", 800.0, "speed_kcas", 75.0, 0.01, damage_case=2, damage_onset_s=onset_s
+    )
+    assert flight.damage_onset_step == step

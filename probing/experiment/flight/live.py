@@ -226,8 +226,8 @@ class SocketWorld:
         self.held: float | None = None
         flight = scn.flight
         self.damage = None
-        if flight.damage_onset_s is not None:
-            self.damage = (onset_step(flight.damage_onset_s, scn.dt_s), float(flight.damage_case))
+        if flight.damage_onset_step is not None:
+            self.damage = (flight.damage_onset_step, float(flight.damage_case))
         self.first_frame = (
             disturbance_properties(flight.turbulence, flight.seed)
             if flight.turbulence != "none"
