@@ -192,11 +192,6 @@ class _Rig:
         return cls(scn, scn.probe, plant, world, autopilot, nodes, y_trim)
 
     @property
-    def period_steps(self) -> int:
-        """Simulation steps of one probe period."""
-        return self.scn.period_steps
-
-    @property
     def lag_s(self) -> np.ndarray:
         """The estimates' lags: one per bit of a period, s."""
         return np.arange(self.probe.length) * self.probe.bit_duration_s
@@ -274,7 +269,7 @@ def _reader(
     source = reference_source(scn, twin, follower)
     autopilot = rig.autopilot if scn is rig.scn else None
     computer = FlightComputer(
-        scn, autopilot, rig.y_trim, source, chunk_periods(rig.period_steps), companion.observer
+        scn, autopilot, rig.y_trim, source, chunk_periods(rig.scn.period_steps), companion.observer
     )
     return _Reader(scn, companion.folder, computer, twin, follower, nominal_twin)
 
@@ -310,7 +305,7 @@ def _chunks(rig: _Rig, computer: FlightComputer) -> Iterator[_Chunk]:
     """Fly the flight computer against the world period by period, checking the state after
     each; yield the periods in chunks of about
     :data:`CHUNK_STEPS` steps with what the flight computer recorded."""
-    scn, n_steps = rig.scn, rig.period_steps
+    scn, n_steps = rig.scn, rig.scn.period_steps
     noise = ChannelNoise(
         scn.channels,
         [scn.sensor_noise.get(c, 0.0) for c in scn.channels],
@@ -318,7 +313,7 @@ def _chunks(rig: _Rig, computer: FlightComputer) -> Iterator[_Chunk]:
         scn.build_fault("sensor"),
         scn.dt_s,
     )
-    chunk = chunk_periods(n_steps)
+    chunk = computer.chunk_periods  # the periods the flight computer estimates together
     out, surface, nl_out, control, commands, sensed = _buffers(rig, chunk * n_steps)
     for first in range(0, scn.periods, chunk):
         k = min(chunk, scn.periods - first)
@@ -560,8 +555,8 @@ def _run_result(rig: _Rig, reader: _Reader, t_start: float, flown: bool) -> RunR
     assert estimates is not None
     settled = estimates.settled
     twin = reader.twin
-    steps = rig.periods_flown * rig.period_steps if flown else 0
-    steps += reader.periods * rig.period_steps if reader.follower else 0
+    steps = rig.periods_flown * rig.scn.period_steps if flown else 0
+    steps += reader.periods * rig.scn.period_steps if reader.follower else 0
     return RunResult(
         out_dir=reader.folder,
         trim=rig.plant.trim_result,

@@ -314,7 +314,8 @@ class AtomicParquetWriter:
         otherwise wrap a numpy array without copying, and buffered rows would change).  A
         column the schema lacks is a ValueError (Arrow would drop it silently).
         """
-        if unknown := [k for k in columns if k not in self.schema.names]:
+        names = self.schema.names  # a new list at every look-up
+        if unknown := [k for k in columns if k not in names]:
             raise ValueError(f"{self.path.name} has no column {', '.join(map(repr, unknown))}")
         columns = {k: np.array(v) if isinstance(v, np.ndarray) else v for k, v in columns.items()}
         table = pa.table(columns, schema=self.schema)
